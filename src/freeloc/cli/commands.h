@@ -1,0 +1,26 @@
+// The `freeloc` command line: one file per subcommand, each registering itself on the CLI11 app.
+// Exit codes: 0 success, 1 input/runtime error, 2 usage error.
+#pragma once
+
+#include <functional>
+#include <string>
+
+namespace CLI {
+class App;
+}
+
+namespace freeloc::cli {
+
+struct GlobalOptions {
+  int threads = 0;             // 0 = library default
+  std::string device = "cpu";  // cpu | cuda
+  bool quiet = false;
+  bool verbose = false;
+};
+
+// Each Register* adds a subcommand whose callback stores the function to run in `*run`.
+using RunFn = std::function<int()>;
+void RegisterInspect(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
+
+}  // namespace freeloc::cli

@@ -1,0 +1,94 @@
+// `freeloc inspect FILE`: a checkpoint's tensors (name, dtype, shape), its metadata and, for DUSt3R .pth files,
+// the model constructor string (args.model).
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <string>
+
+#include "freeloc/cli/commands.h"
+#include "freeloc/io/checkpoint.h"
+
+namespace freeloc::cli {
+
+namespace {
+
+struct InspectOptions {
+  std::string path;
+  std::string filter;
+  bool names_only = false;
+};
+
+std::string HumanBytes(double b) {
+  const char* units[] = {"B", "KB", "MB", "GB", "TB"};
+  int u = 0;
+  while (b >= 1000 && u < 4) {
+    b /= 1000;
+    ++u;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), u == 0 ? "%.0f %s" : "%.2f %s", b, units[u]);
+  return buf;
+}
+
+std::string OneLine(std::string s, size_t max_len = 400) {
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  if (s.size() > max_len) s = s.substr(0, max_len) + "…";
+  return s;
+}
+
+int RunInspect(const InspectOptions& o) {
+  const Checkpoint ckpt = Checkpoint::Open(o.path);
+  size_t total_bytes = 0;
+  int64_t total_elems = 0;
+  size_t name_w = 4, dtype_w = 5;
+  std::vector<std::string> shown;
+  for (const auto& n : ckpt.names()) {
+    const TensorView& t = ckpt.Get(n);
+    total_bytes += t.nbytes;
+    total_elems += t.numel();
+    if (!o.filter.empty() && n.find(o.filter) == std::string::npos) continue;
+    shown.push_back(n);
+    name_w = std::max(name_w, n.size());
+    dtype_w = std::max(dtype_w, std::string(DTypeTorchName(t.dtype)).size());
+  }
+  std::printf("file:     %s\n", o.path.c_str());
+  std::printf("format:   %s\n", ckpt.format_name());
+  std::printf("tensors:  %zu (%lld elements, %s)\n", ckpt.size(), static_cast<long long>(total_elems),
+              HumanBytes(static_cast<double>(total_bytes)).c_str());
+  if (ckpt.format() == Checkpoint::Format::kPth && !ckpt.StateDictRoot().empty()) {
+    std::printf("state dict under: '%s'\n", ckpt.StateDictRoot().c_str());
+  }
+  const std::string model = ckpt.MetadataOr("args.model", "");
+  if (!model.empty()) std::printf("model constructor (args.model): %s\n", model.c_str());
+  if (!ckpt.metadata().empty() && !o.names_only) {
+    std::printf("\nmetadata (%zu):\n", ckpt.metadata().size());
+    for (const auto& [k, v] : ckpt.metadata()) std::printf("  %s = %s\n", k.c_str(), OneLine(v).c_str());
+  }
+  std::printf("\n%-*s  %-*s  %s\n", static_cast<int>(name_w), "name", static_cast<int>(dtype_w), "dtype", "shape");
+  for (const auto& n : shown) {
+    if (o.names_only) {
+      std::printf("%s\n", n.c_str());
+      continue;
+    }
+    const TensorView& t = ckpt.Get(n);
+    std::printf("%-*s  %-*s  %s\n", static_cast<int>(name_w), n.c_str(), static_cast<int>(dtype_w),
+                DTypeTorchName(t.dtype), t.ShapeString().c_str());
+  }
+  if (!o.filter.empty()) std::printf("(%zu of %zu tensors match '%s')\n", shown.size(), ckpt.size(), o.filter.c_str());
+  return 0;
+}
+
+}  // namespace
+
+void RegisterInspect(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
+  auto opts = std::make_shared<InspectOptions>();
+  auto* sub = app.add_subcommand("inspect",
+                                 "List a checkpoint's tensors (name, dtype, shape) and metadata "
+                                 "(.pth or .safetensors)");
+  sub->add_option("FILE", opts->path, "checkpoint file (.pth zip checkpoint or .safetensors)")->required();
+  sub->add_option("--filter", opts->filter, "only tensors whose name contains this text");
+  sub->add_flag("--names", opts->names_only, "print tensor names only");
+  sub->callback([opts, run] { *run = [opts] { return RunInspect(*opts); }; });
+}
+
+}  // namespace freeloc::cli

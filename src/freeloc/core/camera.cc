@@ -1,0 +1,62 @@
+#include "freeloc/core/camera.h"
+
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+#include "freeloc/core/error.h"
+
+namespace freeloc {
+
+Eigen::Matrix3d Camera::K() const {
+  Eigen::Matrix3d k;
+  k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
+  return k;
+}
+
+Camera Camera::Scaled(int new_width, int new_height) const {
+  FREELOC_CHECK(width > 0 && height > 0, "Camera::Scaled: the camera has no image size; set width and height");
+  const double sx = static_cast<double>(new_width) / width;
+  const double sy = static_cast<double>(new_height) / height;
+  Camera c;
+  c.fx = fx * sx;
+  c.fy = fy * sy;
+  c.cx = (cx + 0.5) * sx - 0.5;
+  c.cy = (cy + 0.5) * sy - 0.5;
+  c.width = new_width;
+  c.height = new_height;
+  return c;
+}
+
+void Camera::Validate(const std::string& what) const {
+  FREELOC_CHECK(std::isfinite(fx) && std::isfinite(fy) && fx > 0 && fy > 0,
+                what << ": focal lengths must be positive and finite (got fx=" << fx << ", fy=" << fy
+                     << "); check the intrinsics");
+  FREELOC_CHECK(std::isfinite(cx) && std::isfinite(cy),
+                what << ": principal point must be finite; check the intrinsics");
+}
+
+Camera Camera::FromString(const std::string& text, const std::string& what) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      size_t used = 0;
+      v.push_back(std::stod(item, &used));
+      FREELOC_CHECK(used == item.size(), "");
+    } catch (...) {
+      FREELOC_THROW(what << ": '" << item << "' is not a number; give intrinsics as fx,fy,cx,cy");
+    }
+  }
+  FREELOC_CHECK(v.size() == 4, what << ": expected 4 comma-separated values fx,fy,cx,cy, got " << v.size());
+  Camera c;
+  c.fx = v[0];
+  c.fy = v[1];
+  c.cx = v[2];
+  c.cy = v[3];
+  c.Validate(what);
+  return c;
+}
+
+}  // namespace freeloc

@@ -1,0 +1,52 @@
+// freeloc's one error policy (DESIGN §2): the library throws freeloc::Error whose message says which input,
+// what is wrong and what to do; expected estimator failures are results, not exceptions.
+#pragma once
+
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace freeloc {
+
+class Error : public std::runtime_error {
+ public:
+  explicit Error(const std::string& message) : std::runtime_error(message) {}
+};
+
+// Formats "<input>: <what is wrong>; <what to do>" — the shape every user-facing error takes.
+std::string FormatError(const std::string& input, const std::string& what, const std::string& todo = "");
+
+namespace internal {
+[[noreturn]] void ThrowCheckFailure(const char* file, int line, const char* condition, const std::string& message);
+}  // namespace internal
+
+}  // namespace freeloc
+
+// FREELOC_CHECK(cond, msg): throws freeloc::Error with `msg` (a stream expression) when `cond` is false.
+// The message should name the input, say what is wrong and what to do, e.g.
+//   FREELOC_CHECK(w > 0, path << ": image has zero width; re-export the file");
+#define FREELOC_CHECK(cond, msg)                                                                  \
+  do {                                                                                            \
+    if (!(cond)) {                                                                                \
+      std::ostringstream freeloc_check_os_;                                                       \
+      freeloc_check_os_ << msg;                                                                   \
+      ::freeloc::internal::ThrowCheckFailure(__FILE__, __LINE__, #cond, freeloc_check_os_.str()); \
+    }                                                                                             \
+  } while (0)
+
+#define FREELOC_CHECK_OP_(a, b, op, msg) \
+  FREELOC_CHECK((a)op(b), msg << " (expected " #a " " #op " " #b ", got " << (a) << " vs " << (b) << ")")
+#define FREELOC_CHECK_EQ(a, b, msg) FREELOC_CHECK_OP_(a, b, ==, msg)
+#define FREELOC_CHECK_NE(a, b, msg) FREELOC_CHECK_OP_(a, b, !=, msg)
+#define FREELOC_CHECK_LT(a, b, msg) FREELOC_CHECK_OP_(a, b, <, msg)
+#define FREELOC_CHECK_LE(a, b, msg) FREELOC_CHECK_OP_(a, b, <=, msg)
+#define FREELOC_CHECK_GT(a, b, msg) FREELOC_CHECK_OP_(a, b, >, msg)
+#define FREELOC_CHECK_GE(a, b, msg) FREELOC_CHECK_OP_(a, b, >=, msg)
+
+// FREELOC_THROW(msg): unconditional error with the same formatting.
+#define FREELOC_THROW(msg)                           \
+  do {                                               \
+    std::ostringstream freeloc_throw_os_;            \
+    freeloc_throw_os_ << msg;                        \
+    throw ::freeloc::Error(freeloc_throw_os_.str()); \
+  } while (0)

@@ -1,0 +1,36 @@
+// Progress bar for long loops: "label [#####.....] 12/40 3.1/s ETA 9s" on stderr, redrawn in place.
+// Silent when stderr is not a terminal or the log level is below info (--quiet).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace freeloc {
+
+class ProgressBar {
+ public:
+  // `enabled`: -1 = auto (stderr is a TTY and logging at info or more), 0 = never, 1 = always.
+  ProgressBar(std::string label, int64_t total, int enabled = -1);
+  ~ProgressBar();
+
+  void Update(int64_t done);  // absolute progress
+  void Increment(int64_t n = 1) { Update(done_ + n); }
+  void Finish();
+  bool enabled() const { return enabled_; }
+
+  // The line drawn for `done` of `total` after `elapsed_s` seconds, `width` characters for the bar.
+  static std::string Render(const std::string& label, int64_t done, int64_t total, double elapsed_s, int width = 30);
+  static std::string FormatDuration(double seconds);
+
+ private:
+  std::string label_;
+  int64_t total_;
+  int64_t done_ = 0;
+  bool enabled_;
+  bool finished_ = false;
+  std::chrono::steady_clock::time_point start_;
+  std::chrono::steady_clock::time_point last_draw_;
+};
+
+}  // namespace freeloc

@@ -1,0 +1,98 @@
+#include "freeloc/io/file_util.h"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "freeloc/core/error.h"
+
+namespace freeloc {
+
+std::vector<uint8_t> ReadFileBytes(const std::string& path) {
+  std::error_code ec;
+  FREELOC_CHECK(std::filesystem::exists(path, ec), path << ": file not found; check the path");
+  FREELOC_CHECK(!std::filesystem::is_directory(path, ec), path << ": is a folder, expected a file");
+  std::ifstream f(path, std::ios::binary);
+  FREELOC_CHECK(f.good(), path << ": cannot open for reading (" << std::strerror(errno) << ")");
+  f.seekg(0, std::ios::end);
+  const std::streamoff n = f.tellg();
+  f.seekg(0);
+  std::vector<uint8_t> bytes(static_cast<size_t>(n));
+  if (n > 0) f.read(reinterpret_cast<char*>(bytes.data()), n);
+  FREELOC_CHECK(f.good() || n == 0, path << ": read error");
+  return bytes;
+}
+
+std::shared_ptr<MappedFile> MappedFile::Open(const std::string& path) {
+  std::shared_ptr<MappedFile> m(new MappedFile());
+  m->path_ = path;
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  FREELOC_CHECK(fd >= 0, path << ": cannot open (" << std::strerror(errno) << "); check the path");
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    FREELOC_THROW(path << ": not a regular file");
+  }
+  m->size_ = static_cast<size_t>(st.st_size);
+  if (m->size_ > 0) {
+    void* p = ::mmap(nullptr, m->size_, PROT_READ, MAP_PRIVATE, fd, 0);
+    if (p == MAP_FAILED) {
+      ::close(fd);
+      FREELOC_THROW(path << ": cannot memory-map (" << std::strerror(errno) << ")");
+    }
+    m->data_ = static_cast<uint8_t*>(p);
+  }
+  ::close(fd);
+  return m;
+}
+
+MappedFile::~MappedFile() {
+  if (data_) ::munmap(data_, size_);
+}
+
+void WriteFileAtomicWith(const std::string& path, const std::function<void(const std::string&)>& writer) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::error_code ec;
+  FREELOC_CHECK(fs::is_directory(dir, ec),
+                path << ": the folder " << dir.string() << " does not exist; create it first");
+  std::random_device rd;
+  const std::string tmp =
+      (dir / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()) + "_" + std::to_string(rd())))
+          .string();
+  try {
+    writer(tmp);
+    const int fd = ::open(tmp.c_str(), O_RDONLY);
+    if (fd >= 0) {
+      ::fsync(fd);
+      ::close(fd);
+    }
+    fs::rename(tmp, target, ec);
+    FREELOC_CHECK(!ec, path << ": cannot move the finished file into place (" << ec.message() << ")");
+  } catch (...) {
+    fs::remove(tmp, ec);
+    throw;
+  }
+}
+
+void WriteFileAtomic(const std::string& path, const void* bytes, size_t size) {
+  WriteFileAtomicWith(path, [&](const std::string& tmp) {
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    FREELOC_CHECK(f != nullptr, path << ": cannot write (" << std::strerror(errno) << ")");
+    const size_t n = size ? std::fwrite(bytes, 1, size, f) : 0;
+    const bool ok = (n == size) && std::fflush(f) == 0;
+    std::fclose(f);
+    FREELOC_CHECK(ok, path << ": write failed (disk full?)");
+  });
+}
+
+}  // namespace freeloc

@@ -1,0 +1,36 @@
+// File helpers: whole-file reads, read-only memory maps, atomic writes (temp file in the same folder + rename).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace freeloc {
+
+std::vector<uint8_t> ReadFileBytes(const std::string& path);
+
+// A read-only (copy-on-write) memory map of a whole file. Empty files map to size 0.
+class MappedFile {
+ public:
+  static std::shared_ptr<MappedFile> Open(const std::string& path);
+  ~MappedFile();
+  const uint8_t* data() const { return data_; }
+  size_t size() const { return size_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  MappedFile() = default;
+  std::string path_;
+  uint8_t* data_ = nullptr;
+  size_t size_ = 0;
+};
+
+// Writes `bytes` to `path` atomically: a temporary file in the same folder, fsync, rename.
+// A crash leaves either the old file or the new one, never a truncated file.
+void WriteFileAtomic(const std::string& path, const void* bytes, size_t size);
+// Same, but the content is produced by `writer`, which gets the temporary file's path.
+void WriteFileAtomicWith(const std::string& path, const std::function<void(const std::string& tmp_path)>& writer);
+
+}  // namespace freeloc

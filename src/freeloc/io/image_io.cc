@@ -1,0 +1,149 @@
+#include "freeloc/io/image_io.h"
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/logging.h"
+#include "freeloc/io/file_util.h"
+
+namespace freeloc {
+
+ImageFormat SniffImageFormat(const uint8_t* b, size_t n) {
+  if (n >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) return ImageFormat::kJpeg;
+  if (n >= 8 && std::memcmp(b, "\x89PNG\r\n\x1a\n", 8) == 0) return ImageFormat::kPng;
+  if (n >= 2 && b[0] == 'B' && b[1] == 'M') return ImageFormat::kBmp;
+  if (n >= 4 && (std::memcmp(b, "II*\0", 4) == 0 || std::memcmp(b, "MM\0*", 4) == 0)) return ImageFormat::kTiff;
+  if (n >= 12 && std::memcmp(b, "RIFF", 4) == 0 && std::memcmp(b + 8, "WEBP", 4) == 0) return ImageFormat::kWebp;
+  return ImageFormat::kUnknown;
+}
+
+const char* ImageFormatName(ImageFormat f) {
+  switch (f) {
+    case ImageFormat::kJpeg: return "JPEG";
+    case ImageFormat::kPng: return "PNG";
+    case ImageFormat::kBmp: return "BMP";
+    case ImageFormat::kTiff: return "TIFF";
+    case ImageFormat::kWebp: return "WebP";
+    default: return "unknown";
+  }
+}
+
+namespace {
+
+ImageFormat FormatFromExtension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".jpg" || ext == ".jpeg") return ImageFormat::kJpeg;
+  if (ext == ".png") return ImageFormat::kPng;
+  if (ext == ".bmp") return ImageFormat::kBmp;
+  if (ext == ".tif" || ext == ".tiff") return ImageFormat::kTiff;
+  if (ext == ".webp") return ImageFormat::kWebp;
+  return ImageFormat::kUnknown;
+}
+
+// libjpeg and libpng "recover" from truncation by padding with grey; we refuse such files instead.
+void CheckComplete(ImageFormat f, const std::vector<uint8_t>& b, const std::string& what) {
+  const std::string fix = "; the file is truncated or damaged — copy or download it again";
+  if (f == ImageFormat::kJpeg) {
+    // The end-of-image marker FF D9 must appear at the end (a little trailing padding is tolerated).
+    const size_t tail = std::min<size_t>(b.size(), 1024);
+    bool found = false;
+    for (size_t k = b.size() - tail; k + 1 < b.size(); ++k) {
+      if (b[k] == 0xFF && b[k + 1] == 0xD9) found = true;
+    }
+    FREELOC_CHECK(found, what << ": JPEG has no end-of-image marker" << fix);
+  } else if (f == ImageFormat::kPng) {
+    const size_t tail = std::min<size_t>(b.size(), 64);
+    bool found = false;
+    for (size_t k = b.size() - tail; k + 4 <= b.size(); ++k) {
+      if (std::memcmp(&b[k], "IEND", 4) == 0) found = true;
+    }
+    FREELOC_CHECK(found, what << ": PNG has no IEND chunk" << fix);
+  }
+}
+
+Image FromMat(const cv::Mat& bgr) {
+  Image img(bgr.cols, bgr.rows);
+  cv::Mat rgb(bgr.rows, bgr.cols, CV_8UC3, img.data.data());
+  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  return img;
+}
+
+}  // namespace
+
+Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
+  FREELOC_CHECK(!bytes.empty(), what << ": file is empty; expected a JPEG or PNG image");
+  const ImageFormat f = SniffImageFormat(bytes.data(), bytes.size());
+  FREELOC_CHECK(f != ImageFormat::kUnknown,
+                what << ": not a supported image (expected JPEG, PNG, BMP, TIFF or WebP content); check the file");
+  CheckComplete(f, bytes, what);
+  cv::Mat m;
+  try {
+    // IMREAD_COLOR applies the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
+    m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<uint8_t*>(bytes.data())),
+                     cv::IMREAD_COLOR);
+  } catch (const cv::Exception& e) {
+    FREELOC_THROW(what << ": cannot decode " << ImageFormatName(f) << " (" << e.what() << ")");
+  }
+  FREELOC_CHECK(!m.empty() && m.cols > 0 && m.rows > 0,
+                what << ": cannot decode the " << ImageFormatName(f) << " data; the file is damaged");
+  FREELOC_CHECK(m.type() == CV_8UC3, what << ": unexpected decoded pixel type");
+  return FromMat(m);
+}
+
+Image ReadImage(const std::string& path) {
+  const std::vector<uint8_t> bytes = ReadFileBytes(path);
+  if (!bytes.empty()) {
+    const ImageFormat content = SniffImageFormat(bytes.data(), bytes.size());
+    const ImageFormat ext = FormatFromExtension(path);
+    if (content != ImageFormat::kUnknown && ext != ImageFormat::kUnknown && content != ext) {
+      FREELOC_LOG(WARNING) << path << ": extension says " << ImageFormatName(ext) << " but the content is "
+                           << ImageFormatName(content) << "; decoding it as " << ImageFormatName(content);
+    }
+  }
+  return DecodeImage(bytes, path);
+}
+
+void WriteImagePng(const std::string& path, const Image& image) {
+  FREELOC_CHECK(!image.empty(), path << ": refusing to write an empty image");
+  cv::Mat rgb(image.height, image.width, CV_8UC3, const_cast<uint8_t*>(image.data.data()));
+  cv::Mat bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  std::vector<uint8_t> buf;
+  FREELOC_CHECK(cv::imencode(".png", bgr, buf), path << ": PNG encoding failed");
+  WriteFileAtomic(path, buf.data(), buf.size());
+}
+
+void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values) {
+  FREELOC_CHECK(width > 0 && height > 0 && values.size() == static_cast<size_t>(width) * height,
+                path << ": 16-bit PNG size does not match its data");
+  cv::Mat m(height, width, CV_16UC1, const_cast<uint16_t*>(values.data()));
+  std::vector<uint8_t> buf;
+  FREELOC_CHECK(cv::imencode(".png", m, buf), path << ": PNG encoding failed");
+  WriteFileAtomic(path, buf.data(), buf.size());
+}
+
+std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height) {
+  const std::vector<uint8_t> bytes = ReadFileBytes(path);
+  FREELOC_CHECK(SniffImageFormat(bytes.data(), bytes.size()) == ImageFormat::kPng,
+                path << ": not a PNG file; depth maps must be 16-bit PNGs");
+  CheckComplete(ImageFormat::kPng, bytes, path);
+  cv::Mat m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<uint8_t*>(bytes.data())),
+                           cv::IMREAD_UNCHANGED);
+  FREELOC_CHECK(!m.empty(), path << ": cannot decode the PNG; the file is damaged");
+  FREELOC_CHECK(m.channels() == 1, path << ": expected a single-channel PNG, got " << m.channels() << " channels");
+  if (m.depth() == CV_8U) m.convertTo(m, CV_16U);
+  FREELOC_CHECK(m.depth() == CV_16U, path << ": expected an 8- or 16-bit PNG");
+  *width = m.cols;
+  *height = m.rows;
+  std::vector<uint16_t> out(static_cast<size_t>(m.cols) * m.rows);
+  for (int y = 0; y < m.rows; ++y) std::memcpy(&out[static_cast<size_t>(y) * m.cols], m.ptr<uint16_t>(y), m.cols * 2);
+  return out;
+}
+
+}  // namespace freeloc

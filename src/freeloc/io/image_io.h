@@ -1,0 +1,30 @@
+// Image decoding (OpenCV) honouring the EXIF orientation, as Pillow's ImageOps.exif_transpose does.
+// The format is detected from the content, not the extension; truncated files are refused.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "freeloc/core/image.h"
+
+namespace freeloc {
+
+enum class ImageFormat { kUnknown, kJpeg, kPng, kBmp, kTiff, kWebp };
+ImageFormat SniffImageFormat(const uint8_t* bytes, size_t size);
+const char* ImageFormatName(ImageFormat f);
+
+// Decodes to RGB8 (grey is replicated, alpha dropped). Throws freeloc::Error naming `what` when the bytes are not
+// a supported image, are truncated or cannot be decoded.
+Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what);
+Image ReadImage(const std::string& path);
+
+// Lossless PNG, written atomically.
+void WriteImagePng(const std::string& path, const Image& image);
+
+// Single-channel 16-bit PNG (e.g. depth in millimetres); values row-major. Written atomically.
+void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values);
+// Reads a single-channel 8- or 16-bit PNG without any conversion.
+std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height);
+
+}  // namespace freeloc

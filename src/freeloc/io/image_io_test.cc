@@ -1,0 +1,162 @@
+#include "freeloc/io/image_io.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "freeloc/core/error.h"
+#include "freeloc/io/file_util.h"
+#include "freeloc/io/safetensors.h"
+#include "testing/testing.h"
+
+namespace freeloc {
+namespace {
+
+// 64×32 (W×H): left half red, right half blue (RGB).
+cv::Mat TwoColourBgr() {
+  cv::Mat m(32, 64, CV_8UC3, cv::Scalar(0, 0, 255));  // BGR red
+  m(cv::Rect(32, 0, 32, 32)).setTo(cv::Scalar(255, 0, 0));
+  return m;
+}
+
+std::string Encode(const cv::Mat& m, const char* ext) {
+  std::vector<uint8_t> buf;
+  cv::imencode(ext, m, buf);
+  return std::string(buf.begin(), buf.end());
+}
+
+// Inserts an APP1 Exif segment carrying only an Orientation tag right after the JPEG SOI marker.
+std::string WithExifOrientation(const std::string& jpeg, int orientation) {
+  const char tiff[] = {'M',  'M',
+                       0,    42,
+                       0,    0,
+                       0,    8,  // big-endian TIFF header, IFD at 8
+                       0,    1,  // one entry
+                       0x01, 0x12,
+                       0,    3,
+                       0,    0,
+                       0,    1,  // tag 0x0112 SHORT count 1
+                       0,    static_cast<char>(orientation),
+                       0,    0,  // value
+                       0,    0,
+                       0,    0};  // no next IFD
+  std::string seg = "\xFF\xE1";
+  const int len = 2 + 6 + static_cast<int>(sizeof(tiff));
+  seg += static_cast<char>(len >> 8);
+  seg += static_cast<char>(len & 0xFF);
+  seg += std::string("Exif\0\0", 6);
+  seg += std::string(tiff, sizeof(tiff));
+  return jpeg.substr(0, 2) + seg + jpeg.substr(2);
+}
+
+Image DecodeString(const std::string& s, const std::string& what = "mem") {
+  return DecodeImage(std::vector<uint8_t>(s.begin(), s.end()), what);
+}
+
+bool IsRed(const Image& im, int x, int y) { return im.at(x, y, 0) > 200 && im.at(x, y, 2) < 60; }
+bool IsBlue(const Image& im, int x, int y) { return im.at(x, y, 2) > 200 && im.at(x, y, 0) < 60; }
+
+TEST(ImageIo, DecodesRgbOrder) {
+  const Image im = DecodeString(Encode(TwoColourBgr(), ".png"));
+  ASSERT_EQ(im.width, 64);
+  ASSERT_EQ(im.height, 32);
+  EXPECT_EQ(im.at(0, 0, 0), 255);
+  EXPECT_EQ(im.at(0, 0, 2), 0);
+  EXPECT_EQ(im.at(63, 31, 2), 255);
+}
+
+TEST(ImageIo, HonoursExifOrientation) {
+  const std::string jpeg = Encode(TwoColourBgr(), ".jpg");
+  {  // no tag: as stored
+    const Image im = DecodeString(jpeg);
+    EXPECT_EQ(im.width, 64);
+    EXPECT_TRUE(IsRed(im, 4, 16));
+  }
+  {  // 6: rotate 90° clockwise to display → 32×64, red on top
+    const Image im = DecodeString(WithExifOrientation(jpeg, 6));
+    ASSERT_EQ(im.width, 32);
+    ASSERT_EQ(im.height, 64);
+    EXPECT_TRUE(IsRed(im, 16, 4));
+    EXPECT_TRUE(IsBlue(im, 16, 60));
+  }
+  {  // 3: rotate 180° → blue on the left
+    const Image im = DecodeString(WithExifOrientation(jpeg, 3));
+    ASSERT_EQ(im.width, 64);
+    EXPECT_TRUE(IsBlue(im, 4, 16));
+    EXPECT_TRUE(IsRed(im, 60, 16));
+  }
+  {  // 8: rotate 90° counter-clockwise → red at the bottom
+    const Image im = DecodeString(WithExifOrientation(jpeg, 8));
+    ASSERT_EQ(im.width, 32);
+    EXPECT_TRUE(IsBlue(im, 16, 4));
+    EXPECT_TRUE(IsRed(im, 16, 60));
+  }
+}
+
+TEST(ImageIo, TruncatedFilesAreErrors) {
+  const std::string png = Encode(TwoColourBgr(), ".png");
+  const std::string jpg = Encode(TwoColourBgr(), ".jpg");
+  try {
+    DecodeString(png.substr(0, png.size() / 2), "cut.png");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.png: PNG has no IEND chunk"), std::string::npos) << e.what();
+  }
+  try {
+    DecodeString(jpg.substr(0, jpg.size() - 40), "cut.jpg");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.jpg: JPEG has no end-of-image marker"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(DecodeString(png.substr(0, 10)), Error);
+  EXPECT_THROW(DecodeString(""), Error);
+}
+
+TEST(ImageIo, ContentDecidesNotTheExtension) {
+  testing::TempDir tmp;
+  const std::string png = Encode(TwoColourBgr(), ".png");
+  testing::WriteBytes(tmp.File("a.png"), png);
+  testing::WriteBytes(tmp.File("really_png.jpg"), png);
+  EXPECT_EQ(ReadImage(tmp.File("a.png")), ReadImage(tmp.File("really_png.jpg")));
+  testing::WriteText(tmp.File("notes.png"), "these are not pixels");
+  try {
+    ReadImage(tmp.File("notes.png"));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("notes.png: not a supported image"), std::string::npos) << e.what();
+  }
+  testing::WriteText(tmp.File("anim.gif"), "GIF89a\x01\x00\x01\x00");
+  EXPECT_THROW(ReadImage(tmp.File("anim.gif")), Error);
+  EXPECT_THROW(ReadImage(tmp.File("missing.png")), Error);
+}
+
+TEST(ImageIo, PngRoundTripAndSixteenBit) {
+  testing::TempDir tmp;
+  Image im(5, 3);
+  for (size_t i = 0; i < im.data.size(); ++i) im.data[i] = static_cast<uint8_t>(i * 7);
+  WriteImagePng(tmp.File("x.png"), im);
+  EXPECT_EQ(ReadImage(tmp.File("x.png")), im);
+  std::vector<uint16_t> d = {0, 1, 1000, 65535, 5000, 42};
+  WritePng16(tmp.File("d.png"), 3, 2, d);
+  int w, h;
+  EXPECT_EQ(ReadPng16(tmp.File("d.png"), &w, &h), d);
+  EXPECT_EQ(w, 3);
+  EXPECT_EQ(h, 2);
+}
+
+TEST(ImageIo, FixturePngsDecodeExactly) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/preprocess.safetensors");
+  const SafetensorsFile pre = SafetensorsFile::Open(testing::SharedPath("fixtures/dust3r/preprocess.safetensors"));
+  for (const char* k : {"img_a", "img_b", "img_c", "img_d"}) {
+    SCOPED_TRACE(k);
+    const Image im = ReadImage(testing::SharedPath(std::string("fixtures/dust3r/images/") + k + ".png"));
+    const TensorView& ref = pre.Get(std::string(k) + ".orig_u8");
+    ASSERT_EQ(ref.shape, (std::vector<int64_t>{im.height, im.width, 3}));
+    EXPECT_EQ(std::memcmp(ref.data, im.data.data(), ref.nbytes), 0);
+  }
+}
+
+}  // namespace
+}  // namespace freeloc

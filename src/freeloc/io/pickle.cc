@@ -1,0 +1,701 @@
+#include "freeloc/io/pickle.h"
+
+#include <cstring>
+#include <sstream>
+#include <unordered_map>
+
+#include "freeloc/core/error.h"
+
+namespace freeloc {
+
+PyRef PyObject::None() { return std::make_shared<PyObject>(); }
+PyRef PyObject::Bool(bool v) {
+  auto o = std::make_shared<PyObject>();
+  o->kind = Kind::kBool;
+  o->b = v;
+  return o;
+}
+PyRef PyObject::Int(int64_t v) {
+  auto o = std::make_shared<PyObject>();
+  o->kind = Kind::kInt;
+  o->i = v;
+  return o;
+}
+PyRef PyObject::Float(double v) {
+  auto o = std::make_shared<PyObject>();
+  o->kind = Kind::kFloat;
+  o->f = v;
+  return o;
+}
+PyRef PyObject::Str(std::string v) {
+  auto o = std::make_shared<PyObject>();
+  o->kind = Kind::kStr;
+  o->s = std::move(v);
+  return o;
+}
+
+std::string PyObject::KindName() const {
+  switch (kind) {
+    case Kind::kNone: return "None";
+    case Kind::kBool: return "bool";
+    case Kind::kInt:
+    case Kind::kBigInt: return "int";
+    case Kind::kFloat: return "float";
+    case Kind::kStr: return "str";
+    case Kind::kBytes: return "bytes";
+    case Kind::kList: return "list";
+    case Kind::kTuple: return "tuple";
+    case Kind::kDict: return "dict";
+    case Kind::kSet: return "set";
+    case Kind::kGlobal: return "global " + module + "." + name;
+    case Kind::kObject: return module + "." + name;
+    case Kind::kTensor: return "tensor";
+  }
+  return "?";
+}
+
+PyRef PyObject::Get(const std::string& key) const {
+  const std::vector<std::pair<PyRef, PyRef>>* d = nullptr;
+  if (kind == Kind::kDict) d = &dict;
+  if (kind == Kind::kObject) {
+    if (state && state->kind == Kind::kDict) {
+      for (const auto& [k, v] : state->dict)
+        if (k->kind == Kind::kStr && k->s == key) return v;
+    }
+    d = &dict;
+  }
+  if (!d) return nullptr;
+  for (const auto& [k, v] : *d)
+    if (k->kind == Kind::kStr && k->s == key) return v;
+  return nullptr;
+}
+
+PyRef PyObject::Find(const std::string& dotted) const {
+  // Keys may themselves contain dots (state_dict names); try the longest key prefix first.
+  if (kind == Kind::kDict || kind == Kind::kObject) {
+    std::vector<size_t> ends = {dotted.size()};
+    for (size_t k = dotted.size(); k-- > 0;)
+      if (dotted[k] == '.') ends.push_back(k);
+    for (size_t end : ends) {
+      PyRef v = Get(dotted.substr(0, end));
+      if (!v) continue;
+      if (end == dotted.size()) return v;
+      PyRef r = v->Find(dotted.substr(end + 1));
+      if (r) return r;
+    }
+    return nullptr;
+  }
+  if (kind == Kind::kList || kind == Kind::kTuple) {
+    const size_t dot = dotted.find('.');
+    const std::string head = dotted.substr(0, dot);
+    char* endp = nullptr;
+    const long idx = std::strtol(head.c_str(), &endp, 10);
+    if (head.empty() || *endp != '\0' || idx < 0 || static_cast<size_t>(idx) >= items.size()) return nullptr;
+    if (dot == std::string::npos) return items[idx];
+    return items[idx]->Find(dotted.substr(dot + 1));
+  }
+  return nullptr;
+}
+
+namespace {
+std::string ReprString(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "'";
+}
+}  // namespace
+
+std::string PyObject::Repr(size_t max_len) const {
+  std::ostringstream os;
+  switch (kind) {
+    case Kind::kNone: os << "None"; break;
+    case Kind::kBool: os << (b ? "True" : "False"); break;
+    case Kind::kInt: os << i; break;
+    case Kind::kBigInt: os << s; break;
+    case Kind::kFloat: {
+      // Shortest text that reads back to the same double, like Python's repr.
+      std::string t;
+      for (int prec = 1; prec <= 17; ++prec) {
+        std::ostringstream f;
+        f.precision(prec);
+        f << this->f;
+        t = f.str();
+        if (std::strtod(t.c_str(), nullptr) == this->f) break;
+      }
+      if (t.find_first_of(".einn") == std::string::npos) t += ".0";
+      os << t;
+      break;
+    }
+    case Kind::kStr: os << ReprString(s); break;
+    case Kind::kBytes: os << "b<" << s.size() << " bytes>"; break;
+    case Kind::kList:
+    case Kind::kTuple:
+    case Kind::kSet: {
+      os << (kind == Kind::kList ? "[" : kind == Kind::kTuple ? "(" : "{");
+      for (size_t k = 0; k < items.size(); ++k) os << (k ? ", " : "") << items[k]->Repr(max_len);
+      if (kind == Kind::kTuple && items.size() == 1) os << ",";
+      os << (kind == Kind::kList ? "]" : kind == Kind::kTuple ? ")" : "}");
+      break;
+    }
+    case Kind::kDict: {
+      os << "{";
+      for (size_t k = 0; k < dict.size(); ++k)
+        os << (k ? ", " : "") << dict[k].first->Repr(max_len) << ": " << dict[k].second->Repr(max_len);
+      os << "}";
+      break;
+    }
+    case Kind::kGlobal: os << module << "." << name; break;
+    case Kind::kObject: {
+      os << module << "." << name << "(";
+      bool first = true;
+      if (state && state->kind == Kind::kDict) {
+        for (const auto& [k, v] : state->dict) {
+          os << (first ? "" : ", ") << (k->kind == Kind::kStr ? k->s : k->Repr(max_len)) << "=" << v->Repr(max_len);
+          first = false;
+        }
+      } else if (args && !args->items.empty()) {
+        for (const auto& a : args->items) {
+          os << (first ? "" : ", ") << a->Repr(max_len);
+          first = false;
+        }
+      }
+      os << ")";
+      break;
+    }
+    case Kind::kTensor: os << "<tensor #" << i << ">"; break;
+  }
+  std::string r = os.str();
+  if (r.size() > max_len) r = r.substr(0, max_len) + "…";
+  return r;
+}
+
+namespace {
+
+const char* OpcodeName(uint8_t op) {
+  switch (op) {
+    case '(': return "MARK";
+    case '.': return "STOP";
+    case '0': return "POP";
+    case '1': return "POP_MARK";
+    case '2': return "DUP";
+    case 'F': return "FLOAT";
+    case 'I': return "INT";
+    case 'J': return "BININT";
+    case 'K': return "BININT1";
+    case 'L': return "LONG";
+    case 'M': return "BININT2";
+    case 'N': return "NONE";
+    case 'P': return "PERSID";
+    case 'Q': return "BINPERSID";
+    case 'R': return "REDUCE";
+    case 'S': return "STRING";
+    case 'T': return "BINSTRING";
+    case 'U': return "SHORT_BINSTRING";
+    case 'V': return "UNICODE";
+    case 'X': return "BINUNICODE";
+    case 'a': return "APPEND";
+    case 'b': return "BUILD";
+    case 'c': return "GLOBAL";
+    case 'd': return "DICT";
+    case '}': return "EMPTY_DICT";
+    case 'e': return "APPENDS";
+    case 'g': return "GET";
+    case 'h': return "BINGET";
+    case 'i': return "INST";
+    case 'j': return "LONG_BINGET";
+    case 'l': return "LIST";
+    case ']': return "EMPTY_LIST";
+    case 'o': return "OBJ";
+    case 'p': return "PUT";
+    case 'q': return "BINPUT";
+    case 'r': return "LONG_BINPUT";
+    case 's': return "SETITEM";
+    case 't': return "TUPLE";
+    case ')': return "EMPTY_TUPLE";
+    case 'u': return "SETITEMS";
+    case 'G': return "BINFLOAT";
+    case 0x80: return "PROTO";
+    case 0x81: return "NEWOBJ";
+    case 0x82: return "EXT1";
+    case 0x83: return "EXT2";
+    case 0x84: return "EXT4";
+    case 0x85: return "TUPLE1";
+    case 0x86: return "TUPLE2";
+    case 0x87: return "TUPLE3";
+    case 0x88: return "NEWTRUE";
+    case 0x89: return "NEWFALSE";
+    case 0x8a: return "LONG1";
+    case 0x8b: return "LONG4";
+    case 'B': return "BINBYTES";
+    case 'C': return "SHORT_BINBYTES";
+    case 0x8c: return "SHORT_BINUNICODE";
+    case 0x8d: return "BINUNICODE8";
+    case 0x8e: return "BINBYTES8";
+    case 0x8f: return "EMPTY_SET";
+    case 0x90: return "ADDITEMS";
+    case 0x91: return "FROZENSET";
+    case 0x92: return "NEWOBJ_EX";
+    case 0x93: return "STACK_GLOBAL";
+    case 0x94: return "MEMOIZE";
+    case 0x95: return "FRAME";
+    case 0x96: return "BYTEARRAY8";
+    case 0x97: return "NEXT_BUFFER";
+    case 0x98: return "READONLY_BUFFER";
+  }
+  return "unknown";
+}
+
+// Little-endian two's-complement integer of n bytes → decimal string (for ints beyond int64).
+std::string BigIntToDecimal(const uint8_t* p, size_t n) {
+  std::vector<uint8_t> mag(p, p + n);
+  const bool negative = n > 0 && (mag[n - 1] & 0x80);
+  if (negative) {  // two's complement → magnitude
+    int carry = 1;
+    for (size_t k = 0; k < n; ++k) {
+      const int v = static_cast<uint8_t>(~mag[k]) + carry;
+      mag[k] = static_cast<uint8_t>(v & 0xff);
+      carry = v >> 8;
+    }
+  }
+  std::string digits;
+  while (true) {
+    bool zero = true;
+    int rem = 0;
+    for (size_t k = n; k-- > 0;) {
+      const int cur = rem * 256 + mag[k];
+      mag[k] = static_cast<uint8_t>(cur / 10);
+      rem = cur % 10;
+      if (mag[k]) zero = false;
+    }
+    digits.push_back(static_cast<char>('0' + rem));
+    if (zero) break;
+  }
+  if (negative) digits.push_back('-');
+  return std::string(digits.rbegin(), digits.rend());
+}
+
+class Unpickler {
+ public:
+  Unpickler(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& pl, const ReduceHook& rh)
+      : p_(data), end_(data + size), begin_(data), what_(what), persistent_load_(pl), reduce_hook_(rh) {}
+
+  PyRef Run() {
+    while (true) {
+      FREELOC_CHECK(p_ < end_, what_ << ": pickle stream ends without STOP; the file is truncated");
+      const size_t pos = static_cast<size_t>(p_ - begin_);
+      const uint8_t op = *p_++;
+      switch (op) {
+        case 0x80:
+          Need(1);
+          p_ += 1;
+          break;  // PROTO
+        case 0x95:
+          Need(8);
+          p_ += 8;
+          break;  // FRAME: framing is transparent here
+        case '.': {
+          FREELOC_CHECK(!stack_.empty(), what_ << ": pickle STOP with an empty stack; the file is damaged");
+          return stack_.back();
+        }
+        case '(': marks_.push_back(stack_.size()); break;
+        case '0': Pop(); break;
+        case '1': PopMark(); break;
+        case '2': Push(Top()); break;
+        case 'N': Push(PyObject::None()); break;
+        case 0x88: Push(PyObject::Bool(true)); break;
+        case 0x89: Push(PyObject::Bool(false)); break;
+        case 'J': {
+          Need(4);
+          int32_t v;
+          std::memcpy(&v, p_, 4);
+          p_ += 4;
+          Push(PyObject::Int(v));
+          break;
+        }
+        case 'K': {
+          Need(1);
+          Push(PyObject::Int(*p_++));
+          break;
+        }
+        case 'M': {
+          Need(2);
+          Push(PyObject::Int(p_[0] | (p_[1] << 8)));
+          p_ += 2;
+          break;
+        }
+        case 0x8a: {
+          Need(1);
+          const size_t n = *p_++;
+          PushLong(n);
+          break;
+        }
+        case 0x8b: {
+          const size_t n = ReadU32();
+          PushLong(n);
+          break;
+        }
+        case 'G': {
+          Need(8);
+          uint64_t bits = 0;
+          for (int k = 0; k < 8; ++k) bits = (bits << 8) | p_[k];  // big-endian
+          p_ += 8;
+          double v;
+          std::memcpy(&v, &bits, 8);
+          Push(PyObject::Float(v));
+          break;
+        }
+        case 'X': PushStr(ReadU32(), PyObject::Kind::kStr); break;
+        case 0x8c: {
+          Need(1);
+          const size_t n = *p_++;
+          PushStr(n, PyObject::Kind::kStr);
+          break;
+        }
+        case 0x8d: PushStr(ReadU64(), PyObject::Kind::kStr); break;
+        case 'T': PushStr(ReadU32(), PyObject::Kind::kStr); break;  // py2 str, decoded as text
+        case 'U': {
+          Need(1);
+          const size_t n = *p_++;
+          PushStr(n, PyObject::Kind::kStr);
+          break;
+        }
+        case 'B': PushStr(ReadU32(), PyObject::Kind::kBytes); break;
+        case 'C': {
+          Need(1);
+          const size_t n = *p_++;
+          PushStr(n, PyObject::Kind::kBytes);
+          break;
+        }
+        case 0x8e: PushStr(ReadU64(), PyObject::Kind::kBytes); break;
+        case 0x96: PushStr(ReadU64(), PyObject::Kind::kBytes); break;
+        case ')': Push(NewSeq(PyObject::Kind::kTuple, {})); break;
+        case 't': Push(NewSeq(PyObject::Kind::kTuple, PopMark())); break;
+        case 0x85: {
+          auto a = Pop();
+          Push(NewSeq(PyObject::Kind::kTuple, {a}));
+          break;
+        }
+        case 0x86: {
+          auto b = Pop();
+          auto a = Pop();
+          Push(NewSeq(PyObject::Kind::kTuple, {a, b}));
+          break;
+        }
+        case 0x87: {
+          auto c = Pop();
+          auto b = Pop();
+          auto a = Pop();
+          Push(NewSeq(PyObject::Kind::kTuple, {a, b, c}));
+          break;
+        }
+        case ']': Push(NewSeq(PyObject::Kind::kList, {})); break;
+        case 'l': Push(NewSeq(PyObject::Kind::kList, PopMark())); break;
+        case 'a': {
+          auto v = Pop();
+          Append(Top(), {v}, pos);
+          break;
+        }
+        case 'e': {
+          auto items = PopMark();
+          Append(Top(), items, pos);
+          break;
+        }
+        case 0x8f: Push(NewSeq(PyObject::Kind::kSet, {})); break;
+        case 0x90: {
+          auto items = PopMark();
+          Append(Top(), items, pos);
+          break;
+        }
+        case 0x91: Push(NewSeq(PyObject::Kind::kSet, PopMark())); break;
+        case '}': {
+          auto d = std::make_shared<PyObject>();
+          d->kind = PyObject::Kind::kDict;
+          Push(d);
+          break;
+        }
+        case 'd': {
+          auto items = PopMark();
+          auto d = std::make_shared<PyObject>();
+          d->kind = PyObject::Kind::kDict;
+          SetItems(d, items, pos);
+          Push(d);
+          break;
+        }
+        case 's': {
+          auto v = Pop();
+          auto k = Pop();
+          SetItems(Top(), {k, v}, pos);
+          break;
+        }
+        case 'u': {
+          auto items = PopMark();
+          SetItems(Top(), items, pos);
+          break;
+        }
+        case 'c': {
+          const std::string module = ReadLine();
+          const std::string name = ReadLine();
+          Push(NewGlobal(module, name));
+          break;
+        }
+        case 0x93: {
+          auto name = Pop();
+          auto module = Pop();
+          FREELOC_CHECK(module->is(PyObject::Kind::kStr) && name->is(PyObject::Kind::kStr),
+                        what_ << ": STACK_GLOBAL at byte " << pos << " needs two strings; the file is damaged");
+          Push(NewGlobal(module->s, name->s));
+          break;
+        }
+        case 'R': {
+          auto args = Pop();
+          auto callable = Pop();
+          Push(Call(callable, args, pos));
+          break;
+        }
+        case 0x81: {
+          auto args = Pop();
+          auto cls = Pop();
+          Push(Call(cls, args, pos));
+          break;
+        }
+        case 0x92: {
+          Pop();
+          auto args = Pop();
+          auto cls = Pop();
+          Push(Call(cls, args, pos));
+          break;
+        }  // kwargs dropped
+        case 'b': {
+          auto state = Pop();
+          auto obj = Top();
+          if (obj->is(PyObject::Kind::kObject) || obj->is(PyObject::Kind::kDict)) {
+            obj->state = state;
+          }  // BUILD on a tensor (e.g. python-level attributes) or other value: nothing to keep.
+          break;
+        }
+        case 'q': {
+          Need(1);
+          memo_[*p_++] = Top();
+          break;
+        }
+        case 'r': {
+          const size_t k = ReadU32();
+          memo_[k] = Top();
+          break;
+        }
+        case 0x94: {
+          const size_t k = memo_.size();
+          memo_[k] = Top();
+          break;
+        }
+        case 'h': {
+          Need(1);
+          Push(MemoGet(*p_++, pos));
+          break;
+        }
+        case 'j': Push(MemoGet(ReadU32(), pos)); break;
+        case 'Q': {
+          auto pid = Pop();
+          FREELOC_CHECK(persistent_load_, what_ << ": persistent id at byte " << pos << " but no loader is set");
+          Push(persistent_load_(pid));
+          break;
+        }
+        default:
+          FREELOC_THROW(what_ << ": pickle opcode 0x" << std::hex << static_cast<int>(op) << std::dec << " ("
+                              << OpcodeName(op) << ") at byte " << pos
+                              << " is outside the subset freeloc reads; re-save the checkpoint with a current "
+                                 "torch.save (which writes protocol 2)");
+      }
+    }
+  }
+
+ private:
+  void Need(size_t n) {
+    FREELOC_CHECK(static_cast<size_t>(end_ - p_) >= n, what_ << ": pickle stream truncated at byte " << (p_ - begin_));
+  }
+  size_t ReadU32() {
+    Need(4);
+    uint32_t v;
+    std::memcpy(&v, p_, 4);
+    p_ += 4;
+    return v;
+  }
+  size_t ReadU64() {
+    Need(8);
+    uint64_t v;
+    std::memcpy(&v, p_, 8);
+    p_ += 8;
+    FREELOC_CHECK(v <= static_cast<uint64_t>(end_ - p_), what_ << ": pickle length field runs past the end");
+    return static_cast<size_t>(v);
+  }
+  std::string ReadLine() {
+    const uint8_t* nl = static_cast<const uint8_t*>(std::memchr(p_, '\n', end_ - p_));
+    FREELOC_CHECK(nl != nullptr, what_ << ": GLOBAL name not terminated; the file is damaged");
+    std::string s(reinterpret_cast<const char*>(p_), nl - p_);
+    p_ = nl + 1;
+    return s;
+  }
+  void PushStr(size_t n, PyObject::Kind kind) {
+    Need(n);
+    auto o = std::make_shared<PyObject>();
+    o->kind = kind;
+    o->s.assign(reinterpret_cast<const char*>(p_), n);
+    p_ += n;
+    Push(o);
+  }
+  void PushLong(size_t n) {
+    Need(n);
+    if (n <= 8) {
+      uint64_t u = 0;
+      for (size_t k = 0; k < n; ++k) u |= static_cast<uint64_t>(p_[k]) << (8 * k);
+      if (n > 0 && n < 8 && (p_[n - 1] & 0x80)) u |= ~0ull << (8 * n);  // sign-extend
+      p_ += n;
+      int64_t v;
+      std::memcpy(&v, &u, 8);
+      Push(PyObject::Int(v));
+      return;
+    }
+    auto o = std::make_shared<PyObject>();
+    o->kind = PyObject::Kind::kBigInt;
+    o->s = BigIntToDecimal(p_, n);
+    p_ += n;
+    Push(o);
+  }
+  void Push(PyRef v) { stack_.push_back(std::move(v)); }
+  PyRef Pop() {
+    FREELOC_CHECK(!stack_.empty() && (marks_.empty() || stack_.size() > marks_.back()),
+                  what_ << ": pickle stack underflow at byte " << (p_ - begin_ - 1) << "; the file is damaged");
+    PyRef v = stack_.back();
+    stack_.pop_back();
+    return v;
+  }
+  PyRef Top() {
+    FREELOC_CHECK(!stack_.empty(), what_ << ": pickle stack underflow at byte " << (p_ - begin_ - 1));
+    return stack_.back();
+  }
+  std::vector<PyRef> PopMark() {
+    FREELOC_CHECK(!marks_.empty(),
+                  what_ << ": pickle MARK missing at byte " << (p_ - begin_ - 1) << "; the file is damaged");
+    const size_t m = marks_.back();
+    marks_.pop_back();
+    std::vector<PyRef> items(stack_.begin() + m, stack_.end());
+    stack_.resize(m);
+    return items;
+  }
+  PyRef MemoGet(size_t k, size_t pos) {
+    auto it = memo_.find(k);
+    FREELOC_CHECK(it != memo_.end(),
+                  what_ << ": pickle memo entry " << k << " read at byte " << pos << " was never stored");
+    return it->second;
+  }
+  static PyRef NewSeq(PyObject::Kind kind, std::vector<PyRef> items) {
+    auto o = std::make_shared<PyObject>();
+    o->kind = kind;
+    o->items = std::move(items);
+    return o;
+  }
+  static PyRef NewGlobal(const std::string& module, const std::string& name) {
+    auto o = std::make_shared<PyObject>();
+    o->kind = PyObject::Kind::kGlobal;
+    o->module = module;
+    o->name = name;
+    return o;
+  }
+  void Append(const PyRef& target, const std::vector<PyRef>& items, size_t pos) {
+    if (target->is(PyObject::Kind::kList) || target->is(PyObject::Kind::kSet) || target->is(PyObject::Kind::kObject)) {
+      target->items.insert(target->items.end(), items.begin(), items.end());
+      return;
+    }
+    FREELOC_THROW(what_ << ": APPEND to a " << target->KindName() << " at byte " << pos << "; the file is damaged");
+  }
+  void SetItems(const PyRef& target, const std::vector<PyRef>& kv, size_t pos) {
+    FREELOC_CHECK(kv.size() % 2 == 0, what_ << ": odd number of SETITEMS values at byte " << pos);
+    FREELOC_CHECK(target->is(PyObject::Kind::kDict) || target->is(PyObject::Kind::kObject),
+                  what_ << ": SETITEM on a " << target->KindName() << " at byte " << pos << "; the file is damaged");
+    for (size_t k = 0; k < kv.size(); k += 2) {
+      bool replaced = false;
+      if (kv[k]->is(PyObject::Kind::kStr)) {
+        for (auto& [key, value] : target->dict) {
+          if (key->is(PyObject::Kind::kStr) && key->s == kv[k]->s) {
+            value = kv[k + 1];
+            replaced = true;
+            break;
+          }
+        }
+      }
+      if (!replaced) target->dict.emplace_back(kv[k], kv[k + 1]);
+    }
+  }
+  PyRef Call(const PyRef& callable, const PyRef& args, size_t pos) {
+    FREELOC_CHECK(callable->is(PyObject::Kind::kGlobal),
+                  what_ << ": REDUCE/NEWOBJ on a " << callable->KindName() << " at byte " << pos
+                        << " (only classes and functions named by GLOBAL can be called)");
+    if (reduce_hook_) {
+      PyRef r = reduce_hook_(callable->module, callable->name, args);
+      if (r) return r;
+    }
+    const std::string& m = callable->module;
+    const std::string& n = callable->name;
+    if (m == "collections" && n == "OrderedDict") {
+      auto d = std::make_shared<PyObject>();
+      d->kind = PyObject::Kind::kDict;
+      return d;
+    }
+    if ((m == "builtins" || m == "__builtin__") && (n == "set" || n == "frozenset" || n == "list" || n == "tuple")) {
+      auto o = NewSeq(n == "list"    ? PyObject::Kind::kList
+                      : n == "tuple" ? PyObject::Kind::kTuple
+                                     : PyObject::Kind::kSet,
+                      {});
+      if (args && !args->items.empty()) o->items = args->items[0]->items;
+      return o;
+    }
+    if (m == "_codecs" && n == "encode" && args && !args->items.empty() && args->items[0]->is(PyObject::Kind::kStr)) {
+      // Protocol-2 bytes: _codecs.encode(text, 'latin1'). Undo the UTF-8 of the latin-1 text.
+      const std::string& t = args->items[0]->s;
+      std::string bytes;
+      for (size_t k = 0; k < t.size(); ++k) {
+        const unsigned char c = t[k];
+        if (c < 0x80) {
+          bytes.push_back(static_cast<char>(c));
+        } else if (k + 1 < t.size()) {
+          bytes.push_back(static_cast<char>(((c & 0x1f) << 6) | (static_cast<unsigned char>(t[k + 1]) & 0x3f)));
+          ++k;
+        }
+      }
+      auto o = std::make_shared<PyObject>();
+      o->kind = PyObject::Kind::kBytes;
+      o->s = bytes;
+      return o;
+    }
+    // Anything else: an opaque object that remembers its class, arguments and (later) BUILD state.
+    auto o = std::make_shared<PyObject>();
+    o->kind = PyObject::Kind::kObject;
+    o->module = m;
+    o->name = n;
+    o->args = args;
+    return o;
+  }
+
+  const uint8_t* p_;
+  const uint8_t* end_;
+  const uint8_t* begin_;
+  std::string what_;
+  const PersistentLoad& persistent_load_;
+  const ReduceHook& reduce_hook_;
+  std::vector<PyRef> stack_;
+  std::vector<size_t> marks_;
+  std::unordered_map<size_t, PyRef> memo_;
+};
+
+}  // namespace
+
+PyRef ParsePickle(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& persistent_load,
+                  const ReduceHook& reduce_hook) {
+  Unpickler u(data, size, what, persistent_load, reduce_hook);
+  return u.Run();
+}
+
+}  // namespace freeloc

@@ -1,0 +1,19 @@
+// Pillow-compatible image resampling (Pillow 9.x `Image.resize`, libImaging/Resample.c semantics): separable,
+// horizontal pass first, fixed-point coefficients with 22 fractional bits, a uint8 intermediate. Bit-exact with
+// Pillow for BICUBIC and LANCZOS (spec/dust3r.md §3), and BILINEAR.
+#pragma once
+
+#include "freeloc/core/image.h"
+
+namespace freeloc {
+
+enum class ResampleFilter { kBilinear, kBicubic, kLanczos };
+
+// Resizes an RGB8 image to (out_width, out_height) exactly as PIL.Image.resize(size, filter) does.
+Image PillowResize(const Image& in, int out_width, int out_height, ResampleFilter filter);
+
+// Same for a single-channel uint8 plane (masks), row-major.
+std::vector<uint8_t> PillowResizePlane(const std::vector<uint8_t>& in, int width, int height, int out_width,
+                                       int out_height, ResampleFilter filter);
+
+}  // namespace freeloc

@@ -1,0 +1,43 @@
+// Helpers shared by freeloc's tests: where ../shared is, skipping when optional data is absent, temp folders.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+namespace freeloc::testing {
+
+// The `shared/` folder beside the checkout (fixtures, specs, data). FREELOC_SHARED_DIR overrides it.
+std::string SharedDir();
+std::string SharedPath(const std::string& relative);
+bool SharedExists(const std::string& relative);
+// The repository root.
+std::string SourceDir();
+
+// A fresh empty folder under the system temp dir, removed when the object dies.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::string& path() const { return path_; }
+  std::string File(const std::string& name) const { return path_ + "/" + name; }
+
+ private:
+  std::string path_;
+};
+
+void WriteText(const std::string& path, const std::string& text);
+void WriteBytes(const std::string& path, const std::string& bytes);
+std::string ReadText(const std::string& path);
+
+}  // namespace freeloc::testing
+
+// Skips the current test with a clear message when a file of ../shared is absent.
+#define FREELOC_REQUIRE_SHARED(relative)                                                          \
+  do {                                                                                            \
+    if (!::freeloc::testing::SharedExists(relative)) {                                            \
+      GTEST_SKIP() << "skipped: " << ::freeloc::testing::SharedPath(relative)                     \
+                   << " is absent (non-commercial data is read from ../shared, never committed)"; \
+    }                                                                                             \
+  } while (0)
