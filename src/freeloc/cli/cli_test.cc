@@ -5,8 +5,13 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
+#include "freeloc/io/submission.h"
 #include "testing/testing.h"
 
 namespace {
@@ -83,6 +88,52 @@ TEST(Cli, InspectSafetensorsWithFilter) {
   EXPECT_TRUE(Contains(r.out, "format:   safetensors")) << r.out;
   EXPECT_TRUE(Contains(r.out, "enc_norm.weight")) << r.out;
   EXPECT_TRUE(Contains(r.out, "(2 of 745 tensors match 'enc_norm')")) << r.out;
+}
+
+// A perfect submission made from the GT of the real TUM scenes: zero errors, precision 1 (issue acceptance).
+TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/poses.txt");
+  freeloc::testing::TempDir tmp;
+  std::map<std::string, std::vector<freeloc::SubmissionEntry>> sub;
+  for (const char* s : {"s00001", "s00002", "s00003"}) {
+    std::istringstream in(freeloc::testing::ReadText(
+        freeloc::testing::SharedPath(std::string("data/tum_mapfree/val/") + s + "/poses.txt")));
+    std::string l;
+    while (std::getline(in, l)) {
+      std::istringstream ls(l);
+      std::string name;
+      double q[4], t[3];
+      ls >> name >> q[0] >> q[1] >> q[2] >> q[3] >> t[0] >> t[1] >> t[2];
+      if (name.rfind("seq1/", 0) == 0)
+        sub[s].push_back(
+            {name, freeloc::Rigid3d::FromWxyz({q[0], q[1], q[2], q[3]}, Eigen::Vector3d(t[0], t[1], t[2])), 1});
+    }
+  }
+  freeloc::WriteSubmission(tmp.File("gt.zip"), sub);
+  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  Result r = RunFreeloc("eval --data " + data + " --split val --submission " + tmp.File("gt.zip") +
+                        " --json - --report " + tmp.File("rep"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_LT(j["Average Median Translation Error"].get<double>(), 1e-9);
+  EXPECT_LT(j["Average Median Reprojection Error"].get<double>(), 1e-6);
+  EXPECT_EQ(j["Precision @ Pose Error < (25.0cm, 5deg)"].get<double>(), 1.0);
+  EXPECT_EQ(j["Precision @ VCRE < 90px"].get<double>(), 1.0);
+  EXPECT_EQ(j["counts"]["failures"], 0);
+  EXPECT_TRUE(std::filesystem::exists(tmp.File("rep/cdf_vcre.svg")));
+  // Markdown table on stdout; --data may point at the split folder.
+  r = RunFreeloc("eval --data " + data + "/val --scenes s00002 --submission " + tmp.File("gt.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "| Precision @ VCRE < 90px | 1.0000 |")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "| s00002 | 1 | 0 |")) << r.out;
+  // Bad input: not a ZIP, unknown scene, no submission → exit 1, 1, 2.
+  freeloc::testing::WriteText(tmp.File("bad.zip"), "not a zip");
+  r = RunFreeloc("eval --data " + data + " --submission " + tmp.File("bad.zip"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "bad.zip: not a ZIP file")) << r.out;
+  EXPECT_EQ(RunFreeloc("eval --data " + data + " --scenes s09999 --submission " + tmp.File("gt.zip")).code, 1);
+  EXPECT_EQ(RunFreeloc("eval --data " + data).code, 2);
+  EXPECT_EQ(RunFreeloc("eval --data " + tmp.File("nowhere") + " --submission " + tmp.File("gt.zip")).code, 1);
 }
 
 TEST(Cli, DemoPlaceholderSaysSo) {

@@ -21,6 +21,7 @@ struct GlobalOptions {
 // Each Register* adds a subcommand whose callback stores the function to run in `*run`.
 using RunFn = std::function<int()>;
 void RegisterInspect(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterEval(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli

@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   app.fallthrough();
 
   cli::RegisterInspect(app, global, &run);
+  cli::RegisterEval(app, global, &run);
   cli::RegisterDemo(app, global, &run);
 
   try {

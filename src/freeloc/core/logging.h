@@ -37,7 +37,8 @@ class LogLine {
 #define FREELOC_LOG_LEVEL_WARNING ::freeloc::LogLevel::kWarning
 #define FREELOC_LOG_LEVEL_INFO ::freeloc::LogLevel::kInfo
 #define FREELOC_LOG_LEVEL_DEBUG ::freeloc::LogLevel::kDebug
-#define FREELOC_LOG(level)                                 \
-  if (!::freeloc::LogEnabled(FREELOC_LOG_LEVEL_##level)) { \
-  } else                                                   \
-    ::freeloc::internal::LogLine(FREELOC_LOG_LEVEL_##level)
+// (A one-shot `for` rather than `if`/`else`, so the macro nests safely under an unbraced `if`.)
+#define FREELOC_LOG(level)                                                                           \
+  for (bool freeloc_log_once_ = ::freeloc::LogEnabled(FREELOC_LOG_LEVEL_##level); freeloc_log_once_; \
+       freeloc_log_once_ = false)                                                                    \
+  ::freeloc::internal::LogLine(FREELOC_LOG_LEVEL_##level)

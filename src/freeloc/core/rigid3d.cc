@@ -31,9 +31,13 @@ Eigen::Quaterniond CanonicalQuaternion(const Eigen::Quaterniond& q_in) {
   Eigen::Quaterniond q = q_in.normalized();
   const double c[4] = {q.w(), q.x(), q.y(), q.z()};
   for (double v : c) {
-    if (v > 0) return q;
-    if (v < 0) return Eigen::Quaterniond(-q.w(), -q.x(), -q.y(), -q.z());
+    if (v < 0) {
+      q = Eigen::Quaterniond(-q.w(), -q.x(), -q.y(), -q.z());
+      break;
+    }
+    if (v > 0) break;
   }
+  q.coeffs().array() += 0.0;  // −0.0 + 0.0 = +0.0: no negative zeros in written files
   return q;
 }
 

@@ -1,0 +1,208 @@
+#include "freeloc/io/mapfree.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/logging.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/npz.h"
+#include "freeloc/io/pyparse.h"
+
+namespace freeloc {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string ReadText(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  FREELOC_CHECK(f.good(), path << ": cannot read; check that the scene folder is complete");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+double Number(const std::string& s, const std::string& where) {
+  double v;
+  FREELOC_CHECK(py::ParseFloat(s, &v) && std::isfinite(v), where << ": '" << s << "' is not a finite number");
+  return v;
+}
+
+}  // namespace
+
+std::string MapfreeScene::DepthPath(const MapfreeFrame& f, const std::string& suffix) const {
+  fs::path p = fs::path(dir) / f.name;
+  return (p.parent_path() / (p.stem().string() + "." + suffix + ".png")).string();
+}
+
+Image MapfreeScene::LoadImage(const MapfreeFrame& f) const { return ReadImage(FramePath(f)); }
+
+DepthMap MapfreeScene::LoadDepth(const MapfreeFrame& f, const std::string& suffix) const {
+  const std::string path = DepthPath(f, suffix);
+  std::error_code ec;
+  FREELOC_CHECK(fs::exists(path, ec), path << ": provided depth '" << suffix << "' not found for " << f.name
+                                           << " in scene " << name << "; check the --depth suffix");
+  DepthMap d = ReadDepthPng(path);
+  if (f.camera.width > 0) {
+    FREELOC_CHECK(d.width == f.camera.width && d.height == f.camera.height,
+                  path << ": depth is " << d.width << "x" << d.height << " but the image is " << f.camera.width << "x"
+                       << f.camera.height << "; depth maps must have the image's resolution");
+  }
+  return d;
+}
+
+std::vector<std::vector<Eigen::Vector4d>> MapfreeScene::LoadCorrespondences(const std::string& cname) const {
+  const std::string path = dir + "/correspondences_" + cname + ".npz";
+  std::error_code ec;
+  FREELOC_CHECK(fs::exists(path, ec), path << ": precomputed correspondences '" << cname << "' not found in scene "
+                                           << name << " (expected correspondences_{SIFT,SG,LoFTR}.npz)");
+  const auto arrays = ReadNpz(path);
+  auto it = arrays.find("correspondences");
+  FREELOC_CHECK(it != arrays.end(), path << ": has no array named 'correspondences'");
+  const NpyArray& a = it->second;
+  FREELOC_CHECK(a.shape.size() == 3 && a.shape[2] == 4,
+                path << ": 'correspondences' must be [N_queries, max_pts, 4], got " << a.shape.size() << " dims");
+  FREELOC_CHECK(a.shape[0] == static_cast<int64_t>(queries.size()),
+                path << ": holds " << a.shape[0] << " query rows but the scene has " << queries.size() << " queries");
+  std::vector<std::vector<Eigen::Vector4d>> out(static_cast<size_t>(a.shape[0]));
+  const int64_t m = a.shape[1];
+  for (int64_t q = 0; q < a.shape[0]; ++q) {
+    for (int64_t k = 0; k < m; ++k) {
+      const double* r = &a.data[static_cast<size_t>((q * m + k) * 4)];
+      if (std::isnan(r[0]) || std::isnan(r[1]) || std::isnan(r[2]) || std::isnan(r[3])) continue;
+      out[q].emplace_back(r[0], r[1], r[2], r[3]);
+    }
+  }
+  return out;
+}
+
+MapfreeScene MapfreeScene::Load(const std::string& dir) {
+  MapfreeScene s;
+  s.dir = dir;
+  s.name = fs::path(dir).filename().string();
+  if (s.name.empty()) s.name = fs::path(dir).parent_path().filename().string();
+  const std::string ipath = dir + "/intrinsics.txt";
+  std::error_code ec;
+  FREELOC_CHECK(fs::is_directory(dir, ec), dir << ": scene folder not found");
+  FREELOC_CHECK(fs::exists(ipath, ec), ipath << ": missing; every scene needs intrinsics.txt (path fx fy cx cy W H)");
+  std::map<std::string, MapfreeFrame> frames;
+  std::vector<std::string> order;
+  const auto lines = py::SplitLines(ReadText(ipath));
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const std::string where = ipath + " line " + std::to_string(i + 1);
+    if (lines[i].find('#') != std::string::npos || py::Strip(lines[i]).empty()) continue;
+    const auto parts = py::SplitSpace(py::Strip(lines[i]));
+    FREELOC_CHECK(parts.size() == 7,
+                  where << ": expected 7 fields 'path fx fy cx cy width height', got " << parts.size());
+    MapfreeFrame f;
+    f.name = parts[0];
+    f.camera.fx = Number(parts[1], where);
+    f.camera.fy = Number(parts[2], where);
+    f.camera.cx = Number(parts[3], where);
+    f.camera.cy = Number(parts[4], where);
+    f.camera.width = static_cast<int>(Number(parts[5], where));
+    f.camera.height = static_cast<int>(Number(parts[6], where));
+    f.camera.Validate(where);
+    FREELOC_CHECK(f.camera.width > 0 && f.camera.height > 0, where << ": width and height must be positive");
+    if (!frames.count(f.name)) order.push_back(f.name);
+    frames[f.name] = f;
+  }
+  bool have_ref = false;
+  for (const auto& n : order) {
+    if (n.rfind("seq0/", 0) == 0) {
+      FREELOC_CHECK(!have_ref, ipath << ": more than one reference frame (seq0/…); a map-free scene has exactly one");
+      s.reference = frames[n];
+      have_ref = true;
+    }
+  }
+  FREELOC_CHECK(have_ref, ipath << ": no reference frame (a line for seq0/frame_00000.*)");
+
+  // Ground truth and query order from poses.txt when present.
+  const std::string ppath = dir + "/poses.txt";
+  std::vector<std::string> query_order;
+  bool all_zero = true;
+  std::map<std::string, Rigid3d> gt;
+  if (fs::exists(ppath, ec)) {
+    const auto plines = py::SplitLines(ReadText(ppath));
+    for (size_t i = 0; i < plines.size(); ++i) {
+      const std::string where = ppath + " line " + std::to_string(i + 1);
+      const auto parts = py::SplitSpace(py::Strip(plines[i]));
+      if (parts[0].find('#') != std::string::npos || py::Strip(plines[i]).empty()) continue;
+      FREELOC_CHECK(parts.size() == 8,
+                    where << ": expected 8 fields 'path qw qx qy qz tx ty tz', got " << parts.size());
+      double v[7];
+      for (int k = 0; k < 7; ++k) {
+        FREELOC_CHECK(py::ParseFloat(parts[k + 1], &v[k]) && std::isfinite(v[k]),
+                      where << ": '" << parts[k + 1] << "' is not a finite number; fix or remove the line");
+        if (v[k] != 0) all_zero = false;
+      }
+      const std::string& n = parts[0];
+      FREELOC_CHECK(frames.count(n), where << ": frame " << n << " is not listed in intrinsics.txt");
+      if (n.rfind("seq1/", 0) == 0 && std::find(query_order.begin(), query_order.end(), n) == query_order.end())
+        query_order.push_back(n);
+      const double qn = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
+      if (qn > 1e-8) gt[n] = Rigid3d::FromWxyz({v[0], v[1], v[2], v[3]}, Eigen::Vector3d(v[4], v[5], v[6]));
+    }
+  }
+  if (!all_zero) s.gt = std::move(gt);
+  if (query_order.empty()) {
+    for (const auto& n : order)
+      if (n.rfind("seq0/", 0) != 0) query_order.push_back(n);
+  }
+  for (const auto& n : query_order) s.queries.push_back(frames[n]);
+  return s;
+}
+
+std::string ResolveSplitDir(const std::string& root, const std::string& split) {
+  std::error_code ec;
+  FREELOC_CHECK(fs::is_directory(root, ec), root << ": dataset folder not found; give --data the map-free root "
+                                                 << "(holding train/ val/ test/) or a split folder");
+  const fs::path with_split = fs::path(root) / split;
+  if (fs::is_directory(with_split, ec)) return with_split.string();
+  // `root` may already be the split folder: it then holds scene folders directly.
+  for (const auto& e : fs::directory_iterator(root, ec)) {
+    if (e.is_directory() && fs::exists(e.path() / "intrinsics.txt")) return root;
+  }
+  FREELOC_THROW(root << ": has no '" << split << "' folder and no scene folders; give --data the dataset root or "
+                     << "the split folder");
+}
+
+std::vector<std::string> ListScenes(const std::string& split_dir, const std::vector<std::string>& only) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(split_dir, ec))
+    if (e.is_directory()) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  if (only.empty()) return names;
+  for (const auto& n : only) {
+    FREELOC_CHECK(std::binary_search(names.begin(), names.end(), n),
+                  split_dir << ": scene '" << n << "' from --scenes is not in this split");
+  }
+  std::vector<std::string> out = only;
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+DepthMap ReadDepthPng(const std::string& path) {
+  int w, h;
+  const std::vector<uint16_t> mm = ReadPng16(path, &w, &h);
+  DepthMap d(w, h);
+  for (size_t i = 0; i < mm.size(); ++i) d.data[i] = mm[i] / 1000.0f;
+  return d;
+}
+
+void WriteDepthPng(const std::string& path, const DepthMap& depth) {
+  std::vector<uint16_t> mm(depth.data.size());
+  for (size_t i = 0; i < mm.size(); ++i) {
+    const float v = depth.data[i];
+    mm[i] = (v > 0 && std::isfinite(v)) ? static_cast<uint16_t>(std::min(65535.0f, std::round(v * 1000.0f))) : 0;
+  }
+  WritePng16(path, depth.width, depth.height, mm);
+}
+
+}  // namespace freeloc

@@ -1,0 +1,58 @@
+// The Map-free Relocalization dataset layout (spec/mapfree-protocol.md §1):
+//   <root>/<split>/sNNNNN/{intrinsics.txt, poses.txt, seq0/frame_00000.jpg, seq1/frame_XXXXX.jpg, …}
+// plus provided depth maps `frame_XXXXX.<suffix>.png` (uint16 mm, 0 invalid) and precomputed correspondences
+// `correspondences_<name>.npz`. This is the reader the pipeline uses; the evaluator parses the GT files with the
+// official evaluator's own rules (eval/).
+#pragma once
+
+#include <Eigen/Core>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "freeloc/core/camera.h"
+#include "freeloc/core/depth_map.h"
+#include "freeloc/core/image.h"
+#include "freeloc/core/rigid3d.h"
+
+namespace freeloc {
+
+struct MapfreeFrame {
+  std::string name;  // as written in intrinsics.txt, e.g. "seq1/frame_00012.jpg"
+  Camera camera;     // this frame's own K and image size
+};
+
+struct MapfreeScene {
+  std::string name;  // "s00460"
+  std::string dir;
+  MapfreeFrame reference;
+  std::vector<MapfreeFrame> queries;  // poses.txt order (intrinsics.txt order when poses.txt is absent)
+  // Ground truth query_from_ref per frame name; empty for test scenes (all-zero poses) or without poses.txt.
+  std::map<std::string, Rigid3d> gt;
+
+  bool has_gt() const { return !gt.empty(); }
+  std::string FramePath(const MapfreeFrame& f) const { return dir + "/" + f.name; }
+  // `frame_XXXXX.<suffix>.png` next to the frame's image.
+  std::string DepthPath(const MapfreeFrame& f, const std::string& suffix) const;
+  Image LoadImage(const MapfreeFrame& f) const;
+  // Provided depth in metres (mm / 1000), 0 = invalid. Throws naming the file when absent or of the wrong size.
+  DepthMap LoadDepth(const MapfreeFrame& f, const std::string& suffix) const;
+  // Precomputed correspondences (x_ref, y_ref, x_query, y_query) per query, rows in `queries` order, NaN padding
+  // dropped. `name` is SIFT, SG, LoFTR or any other suffix of correspondences_<name>.npz.
+  std::vector<std::vector<Eigen::Vector4d>> LoadCorrespondences(const std::string& name) const;
+
+  // Reads intrinsics.txt and poses.txt of one scene folder. Throws freeloc::Error naming the file and line.
+  static MapfreeScene Load(const std::string& dir);
+};
+
+// The folder holding the scenes: `<root>/<split>` or `root` itself when it is already the split folder.
+std::string ResolveSplitDir(const std::string& root, const std::string& split);
+// Scene folder names (sNNNNN…) in sorted order; `only` restricts to the listed names (error if one is absent).
+std::vector<std::string> ListScenes(const std::string& split_dir, const std::vector<std::string>& only = {});
+
+// Provided-depth PNG I/O in the map-free convention (uint16 millimetres, 0 invalid).
+DepthMap ReadDepthPng(const std::string& path);
+void WriteDepthPng(const std::string& path, const DepthMap& depth);
+
+}  // namespace freeloc

@@ -1,0 +1,186 @@
+#include "freeloc/io/npz.h"
+
+#include <zip.h>
+
+#include <cstring>
+#include <memory>
+
+#include "freeloc/core/error.h"
+#include "freeloc/io/file_util.h"
+#include "freeloc/io/tensor.h"
+
+namespace freeloc {
+
+int64_t NpyArray::numel() const {
+  int64_t n = 1;
+  for (int64_t s : shape) n *= s;
+  return n;
+}
+
+double NpyArray::at(std::initializer_list<int64_t> index) const {
+  FREELOC_CHECK(index.size() == shape.size(),
+                "NpyArray::at: " << index.size() << " indices for " << shape.size() << " dims");
+  int64_t off = 0;
+  size_t d = 0;
+  for (int64_t i : index) {
+    FREELOC_CHECK(i >= 0 && i < shape[d], "NpyArray::at: index out of range");
+    off = off * shape[d] + i;
+    ++d;
+  }
+  return data[static_cast<size_t>(off)];
+}
+
+namespace {
+
+// Value of `key` in the header dict literal, as raw text up to the next top-level comma/brace.
+std::string DictValue(const std::string& h, const std::string& key, const std::string& what) {
+  size_t p = h.find("'" + key + "'");
+  if (p == std::string::npos) p = h.find("\"" + key + "\"");
+  FREELOC_CHECK(p != std::string::npos, what << ": .npy header has no '" << key << "'");
+  p = h.find(':', p);
+  FREELOC_CHECK(p != std::string::npos, what << ": malformed .npy header");
+  ++p;
+  while (p < h.size() && h[p] == ' ') ++p;
+  int depth = 0;
+  size_t e = p;
+  for (; e < h.size(); ++e) {
+    const char c = h[e];
+    if (c == '(' || c == '[') ++depth;
+    if (c == ')' || c == ']') --depth;
+    if (depth == 0 && (c == ',' || c == '}')) break;
+    if (depth < 0) break;
+  }
+  std::string v = h.substr(p, e - p + (h[e] == ')' ? 1 : 0));
+  while (!v.empty() && v.back() == ' ') v.pop_back();
+  return v;
+}
+
+}  // namespace
+
+NpyArray ParseNpy(const uint8_t* b, size_t n, const std::string& what) {
+  FREELOC_CHECK(n >= 10 && std::memcmp(b, "\x93NUMPY", 6) == 0, what << ": not a .npy array (bad magic)");
+  const int major = b[6];
+  size_t hlen, hstart;
+  if (major == 1) {
+    hlen = b[8] | (b[9] << 8);
+    hstart = 10;
+  } else {
+    FREELOC_CHECK(major == 2 || major == 3, what << ": .npy format version " << major << " is not supported");
+    FREELOC_CHECK(n >= 12, what << ": truncated .npy header");
+    hlen = b[8] | (b[9] << 8) | (b[10] << 16) | (static_cast<size_t>(b[11]) << 24);
+    hstart = 12;
+  }
+  FREELOC_CHECK(hstart + hlen <= n, what << ": .npy header runs past the end");
+  const std::string h(reinterpret_cast<const char*>(b + hstart), hlen);
+  NpyArray a;
+  std::string descr = DictValue(h, "descr", what);
+  FREELOC_CHECK(descr.size() >= 3 && (descr.front() == '\'' || descr.front() == '"'),
+                what << ": .npy descr " << descr << " is not a simple dtype (structured arrays are not supported)");
+  a.descr = descr.substr(1, descr.size() - 2);
+  a.fortran_order = DictValue(h, "fortran_order", what) == "True";
+  const std::string shape = DictValue(h, "shape", what);
+  FREELOC_CHECK(shape.size() >= 2 && shape.front() == '(', what << ": malformed .npy shape " << shape);
+  {
+    std::string num;
+    for (size_t i = 1; i < shape.size(); ++i) {
+      const char c = shape[i];
+      if (std::isdigit(static_cast<unsigned char>(c))) {
+        num.push_back(c);
+      } else if (c == ',' || c == ')') {
+        if (!num.empty()) a.shape.push_back(std::stoll(num));
+        num.clear();
+      } else if (c != ' ' && c != 'L') {
+        FREELOC_THROW(what << ": malformed .npy shape " << shape);
+      }
+    }
+  }
+  const char order = a.descr[0];
+  FREELOC_CHECK(order == '<' || order == '|' || order == '=',
+                what << ": .npy dtype " << a.descr << " is big-endian; only little-endian arrays are supported");
+  const std::string t = a.descr.substr(1);
+  DType dt;
+  if (t == "f4")
+    dt = DType::kF32;
+  else if (t == "f8")
+    dt = DType::kF64;
+  else if (t == "f2")
+    dt = DType::kF16;
+  else if (t == "i8")
+    dt = DType::kI64;
+  else if (t == "i4")
+    dt = DType::kI32;
+  else if (t == "i2")
+    dt = DType::kI16;
+  else if (t == "i1")
+    dt = DType::kI8;
+  else if (t == "u1")
+    dt = DType::kU8;
+  else if (t == "b1")
+    dt = DType::kBool;
+  else
+    FREELOC_THROW(what << ": .npy dtype " << a.descr << " is not supported (float16/32/64, int8–64, uint8, bool)");
+  const int64_t numel = a.numel();
+  const size_t es = DTypeSize(dt);
+  const size_t data_start = hstart + hlen;
+  FREELOC_CHECK(n - data_start >= static_cast<size_t>(numel) * es, what << ": .npy data holds " << (n - data_start)
+                                                                        << " bytes, shape needs " << numel * es
+                                                                        << "; the file is truncated");
+  TensorView view;
+  view.dtype = dt;
+  view.shape = a.shape;
+  view.data = b + data_start;
+  view.nbytes = static_cast<size_t>(numel) * es;
+  std::vector<double> raw = view.ToDouble();
+  if (!a.fortran_order || a.shape.size() <= 1) {
+    a.data = std::move(raw);
+  } else {
+    // Fortran order: the first index varies fastest. Re-order to C order.
+    a.data.resize(raw.size());
+    const size_t nd = a.shape.size();
+    std::vector<int64_t> idx(nd, 0);
+    for (size_t c = 0; c < raw.size(); ++c) {  // c walks C order
+      int64_t f = 0;
+      for (size_t d = nd; d-- > 0;) f = f * a.shape[d] + idx[d];
+      a.data[c] = raw[static_cast<size_t>(f)];
+      for (size_t d = nd; d-- > 0;) {
+        if (++idx[d] < a.shape[d]) break;
+        idx[d] = 0;
+      }
+    }
+  }
+  return a;
+}
+
+std::map<std::string, NpyArray> ReadNpz(const std::string& path) {
+  const auto file = MappedFile::Open(path);
+  FREELOC_CHECK(file->size() >= 4 && file->data()[0] == 'P' && file->data()[1] == 'K',
+                path << ": not an .npz archive (expected a zip of .npy arrays)");
+  zip_error_t zerr;
+  zip_error_init(&zerr);
+  zip_source_t* src = zip_source_buffer_create(file->data(), file->size(), 0, &zerr);
+  FREELOC_CHECK(src, path << ": cannot read as zip");
+  zip_t* z = zip_open_from_source(src, ZIP_RDONLY, &zerr);
+  if (!z) {
+    zip_source_free(src);
+    zip_error_fini(&zerr);
+    FREELOC_THROW(path << ": damaged .npz archive");
+  }
+  std::unique_ptr<zip_t, void (*)(zip_t*)> guard(z, [](zip_t* p) { zip_discard(p); });
+  std::map<std::string, NpyArray> out;
+  for (zip_int64_t i = 0; i < zip_get_num_entries(z, 0); ++i) {
+    std::string name = zip_get_name(z, i, 0);
+    zip_stat_t st;
+    zip_stat_index(z, i, 0, &st);
+    std::vector<uint8_t> buf(st.size);
+    zip_file_t* f = zip_fopen_index(z, i, 0);
+    FREELOC_CHECK(f, path << ": cannot open member " << name);
+    const zip_int64_t got = st.size ? zip_fread(f, buf.data(), st.size) : 0;
+    zip_fclose(f);
+    FREELOC_CHECK(got == static_cast<zip_int64_t>(st.size), path << ": member " << name << " is truncated");
+    if (name.size() > 4 && name.compare(name.size() - 4, 4, ".npy") == 0) name.resize(name.size() - 4);
+    out[name] = ParseNpy(buf.data(), buf.size(), path + ":" + name);
+  }
+  return out;
+}
+
+}  // namespace freeloc
