@@ -30,7 +30,8 @@ function(freeloc_test)
   target_compile_options(${T_NAME} PRIVATE -Wall -Wextra)
   target_compile_definitions(${T_NAME} PRIVATE
     FREELOC_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared"
-    FREELOC_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+    FREELOC_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    FREELOC_BINARY_DIR="${PROJECT_BINARY_DIR}")
   target_link_libraries(${T_NAME} PRIVATE ${T_DEPS} freeloc_testing GTest::gtest_main)
   gtest_discover_tests(${T_NAME} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 600)
 endfunction()

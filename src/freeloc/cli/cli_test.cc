@@ -136,6 +136,60 @@ TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
   EXPECT_EQ(RunFreeloc("eval --data " + tmp.File("nowhere") + " --submission " + tmp.File("gt.zip")).code, 1);
 }
 
+// `freeloc pose` on the committed SIFT correspondences of the real TUM pair s00003 with its sensor depth.
+TEST(Cli, PoseFromCorrespondenceFile) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00003/seq0/frame_00000.sensor.png");
+  const std::string scene = freeloc::testing::SharedPath("data/tum_mapfree/val/s00003");
+  const std::string matches = freeloc::testing::SourceDir() + "/tests/data/tum_sift/s00003_sift_matches.txt";
+  const std::string k = "535.4,539.2,320.1,247.6";
+  const std::string base = "pose --matches " + matches + " --ref-intrinsics " + k + " --query-intrinsics " + k;
+  Result r = RunFreeloc(base + " --ref-depth " + scene + "/seq0/frame_00000.sensor.png --query-depth " + scene +
+                        "/seq1/frame_00000.sensor.png --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["status"], "ok");
+  const freeloc::Rigid3d est = freeloc::Rigid3d::FromWxyz({j["qvec"][0], j["qvec"][1], j["qvec"][2], j["qvec"][3]},
+                                                          Eigen::Vector3d(j["tvec"][0], j["tvec"][1], j["tvec"][2]));
+  // GT of s00003 (poses.txt): compare rotation and camera centre.
+  std::istringstream gt(freeloc::testing::ReadText(scene + "/poses.txt"));
+  std::string l, name;
+  double q[4], t[3];
+  while (std::getline(gt, l)) {
+    std::istringstream ls(l);
+    ls >> name >> q[0] >> q[1] >> q[2] >> q[3] >> t[0] >> t[1] >> t[2];
+    if (name.rfind("seq1/", 0) == 0) break;
+  }
+  const freeloc::Rigid3d truth =
+      freeloc::Rigid3d::FromWxyz({q[0], q[1], q[2], q[3]}, Eigen::Vector3d(t[0], t[1], t[2]));
+  EXPECT_LT(freeloc::RotationAngleDeg(est.rotation, truth.rotation), 0.5);
+  EXPECT_LT((est.Center() - truth.Center()).norm(), 0.02);
+  EXPECT_GT(j["num_inliers"].get<int>(), 300);
+  // Without depth: unit translation, and the text output says so.
+  r = RunFreeloc(base);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "unit norm: no depth given")) << r.out;
+  // PnP and Procrustes run on the same data.
+  r = RunFreeloc(base + " --solver pnp --ref-depth " + scene + "/seq0/frame_00000.sensor.png --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "ok");
+  // Bad input: a NaN row, too few fields, missing file, bad intrinsics.
+  freeloc::testing::TempDir tmp;
+  freeloc::testing::WriteText(tmp.File("m.txt"), "1 2 3 4\n5 nan 7 8\n");
+  r = RunFreeloc("pose --matches " + tmp.File("m.txt") + " --ref-intrinsics " + k + " --query-intrinsics " + k);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "m.txt line 2: non-finite coordinate")) << r.out;
+  freeloc::testing::WriteText(tmp.File("m3.txt"), "1 2 3\n");
+  EXPECT_EQ(
+      RunFreeloc("pose --matches " + tmp.File("m3.txt") + " --ref-intrinsics " + k + " --query-intrinsics " + k).code,
+      1);
+  EXPECT_EQ(RunFreeloc("pose --matches " + matches + " --ref-intrinsics 1,2,3 --query-intrinsics " + k).code, 1);
+  // Four matches: a status (too-few-matches), exit 1, no crash.
+  freeloc::testing::WriteText(tmp.File("m4.txt"), "1 2 3 4\n5 6 7 8\n9 10 11 12\n13 14 15 16\n");
+  r = RunFreeloc("pose --matches " + tmp.File("m4.txt") + " --ref-intrinsics " + k + " --query-intrinsics " + k);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "too-few-matches")) << r.out;
+}
+
 TEST(Cli, DemoPlaceholderSaysSo) {
   Result r = RunFreeloc("demo");
   EXPECT_EQ(r.code, 0);

@@ -22,6 +22,7 @@ struct GlobalOptions {
 using RunFn = std::function<int()>;
 void RegisterInspect(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterEval(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli

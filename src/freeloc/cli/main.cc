@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
 
   cli::RegisterInspect(app, global, &run);
   cli::RegisterEval(app, global, &run);
+  cli::RegisterPose(app, global, &run);
   cli::RegisterDemo(app, global, &run);
 
   try {

@@ -1,0 +1,235 @@
+#include "freeloc/geometry/five_point.h"
+
+#include <Eigen/Dense>
+#include <array>
+#include <cmath>
+#include <utility>
+
+#include "freeloc/geometry/polynomial.h"
+
+namespace freeloc::geometry {
+
+namespace {
+
+// Monomials in (x, y, z). Linear: [x, y, z, 1]. Quadratic: the 10 monomials of degree ≤ 2. Cubic: the 20 monomials
+// of degree ≤ 3 in Nistér's column order, so that Gauss–Jordan on the first 10 columns leaves the pairs
+// (x²z, x²), (y²z, y²), (xyz, xy) whose z-differences eliminate x and y.
+using Lin = std::array<double, 4>;
+using Quad = std::array<double, 10>;
+using Cubic = std::array<double, 20>;
+
+struct Exp {
+  int a, b, c;
+};
+constexpr Exp kLinExp[4] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
+constexpr Exp kQuadExp[10] = {{2, 0, 0}, {1, 1, 0}, {1, 0, 1}, {0, 2, 0}, {0, 1, 1},
+                              {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
+constexpr Exp kCubicExp[20] = {{3, 0, 0}, {0, 3, 0}, {2, 1, 0}, {1, 2, 0}, {2, 0, 1}, {2, 0, 0}, {0, 2, 1},
+                               {0, 2, 0}, {1, 1, 1}, {1, 1, 0}, {1, 0, 2}, {1, 0, 1}, {1, 0, 0}, {0, 1, 2},
+                               {0, 1, 1}, {0, 1, 0}, {0, 0, 3}, {0, 0, 2}, {0, 0, 1}, {0, 0, 0}};
+
+struct Tables {
+  int lin_lin[4][4];    // → quad index
+  int quad_lin[10][4];  // → cubic index
+  Tables() {
+    auto find_q = [](int a, int b, int c) {
+      for (int i = 0; i < 10; ++i)
+        if (kQuadExp[i].a == a && kQuadExp[i].b == b && kQuadExp[i].c == c) return i;
+      return -1;
+    };
+    auto find_c = [](int a, int b, int c) {
+      for (int i = 0; i < 20; ++i)
+        if (kCubicExp[i].a == a && kCubicExp[i].b == b && kCubicExp[i].c == c) return i;
+      return -1;
+    };
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j)
+        lin_lin[i][j] = find_q(kLinExp[i].a + kLinExp[j].a, kLinExp[i].b + kLinExp[j].b, kLinExp[i].c + kLinExp[j].c);
+    for (int i = 0; i < 10; ++i)
+      for (int j = 0; j < 4; ++j)
+        quad_lin[i][j] =
+            find_c(kQuadExp[i].a + kLinExp[j].a, kQuadExp[i].b + kLinExp[j].b, kQuadExp[i].c + kLinExp[j].c);
+  }
+};
+const Tables& T() {
+  static const Tables t;
+  return t;
+}
+
+void MulAdd(const Lin& a, const Lin& b, double s, Quad* out) {
+  const Tables& t = T();
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) (*out)[t.lin_lin[i][j]] += s * a[i] * b[j];
+}
+
+void MulAdd(const Quad& a, const Lin& b, double s, Cubic* out) {
+  const Tables& t = T();
+  for (int i = 0; i < 10; ++i) {
+    if (a[i] == 0) continue;
+    for (int j = 0; j < 4; ++j) (*out)[t.quad_lin[i][j]] += s * a[i] * b[j];
+  }
+}
+
+}  // namespace
+
+int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5], std::vector<Eigen::Matrix3d>* out) {
+  // Epipolar constraints x2ᵀ·E·x1 = 0 as rows over vec(E) (row-major). The null space is spanned by the last 4
+  // columns of the orthogonal factor of a QR of Qᵀ (numerically the most accurate choice; Gauss–Jordan is faster
+  // but loses digits on near-degenerate samples).
+  Eigen::Matrix<double, 9, 5> Qt;
+  for (int i = 0; i < 5; ++i) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) Qt(3 * r + c, i) = x2[i](r) * x1[i](c);
+  }
+  const Eigen::HouseholderQR<Eigen::Matrix<double, 9, 5>> qr(Qt);
+  Eigen::Matrix<double, 9, 4> N = Eigen::Matrix<double, 9, 4>::Zero();
+  N.bottomRows<4>().setIdentity();
+  N.applyOnTheLeft(qr.householderQ());  // columns: X, Y, Z, W → E = x·X + y·Y + z·Z + W
+
+  // E entries as linear polynomials in (x, y, z).
+  Lin e[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) e[r][c] = {N(3 * r + c, 0), N(3 * r + c, 1), N(3 * r + c, 2), N(3 * r + c, 3)};
+
+  // 10 cubic constraints: det(E) = 0 and 2·E·Eᵀ·E − tr(E·Eᵀ)·E = 0.
+  Eigen::Matrix<double, 10, 20> A = Eigen::Matrix<double, 10, 20>::Zero();
+  {
+    Cubic det{};
+    const int p[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {1, 0, 2}, {2, 1, 0}};
+    const double sgn[6] = {1, 1, 1, -1, -1, -1};
+    for (int k = 0; k < 6; ++k) {
+      Quad q{};
+      MulAdd(e[0][p[k][0]], e[1][p[k][1]], 1.0, &q);
+      MulAdd(q, e[2][p[k][2]], sgn[k], &det);
+    }
+    for (int j = 0; j < 20; ++j) A(0, j) = det[j];
+  }
+  Quad eet[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      eet[r][c] = Quad{};
+      for (int k = 0; k < 3; ++k) MulAdd(e[r][k], e[c][k], 1.0, &eet[r][c]);
+    }
+  Quad tr{};
+  for (int j = 0; j < 10; ++j) tr[j] = eet[0][0][j] + eet[1][1][j] + eet[2][2][j];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      Cubic v{};
+      for (int k = 0; k < 3; ++k) MulAdd(eet[r][k], e[k][c], 2.0, &v);
+      MulAdd(tr, e[r][c], -1.0, &v);
+      for (int j = 0; j < 20; ++j) A(1 + 3 * r + c, j) = v[j];
+    }
+
+  const Eigen::Matrix<double, 10, 20> A0 = A;  // the constraints before elimination, for polishing roots
+  // Gauss–Jordan elimination on the first 10 columns (partial pivoting).
+  for (int col = 0; col < 10; ++col) {
+    int piv = col;
+    for (int r = col + 1; r < 10; ++r)
+      if (std::abs(A(r, col)) > std::abs(A(piv, col))) piv = r;
+    if (std::abs(A(piv, col)) < 1e-12) return 0;  // degenerate sample
+    if (piv != col) A.row(piv).swap(A.row(col));
+    A.row(col) /= A(col, col);
+    for (int r = 0; r < 10; ++r)
+      if (r != col && A(r, col) != 0) A.row(r) -= A(r, col) * A.row(col);
+  }
+  // Rows after elimination: row i = leading monomial i + Σ b_ij·rest_j, rest = [xz², xz, x, yz², yz, y, z³, z², z, 1].
+  auto row_polys = [&](int r, Poly* px, Poly* py, Poly* pc) {
+    const auto b = [&](int j) { return A(r, 10 + j); };
+    *px = {b(2), b(1), b(0)};
+    *py = {b(5), b(4), b(3)};
+    *pc = {b(9), b(8), b(7), b(6)};
+  };
+  Poly M[3][3];  // rows k, l, m; columns: coefficient of x, of y, constant — polynomials in z
+  const int pairs[3][2] = {{4, 5}, {6, 7}, {8, 9}};
+  for (int i = 0; i < 3; ++i) {
+    Poly ax, ay, ac, bx, by, bc;
+    row_polys(pairs[i][0], &ax, &ay, &ac);
+    row_polys(pairs[i][1], &bx, &by, &bc);
+    const Poly z = {0.0, 1.0};
+    M[i][0] = PolySub(ax, PolyMul(z, bx));
+    M[i][1] = PolySub(ay, PolyMul(z, by));
+    M[i][2] = PolySub(ac, PolyMul(z, bc));
+  }
+  const Poly det = PolyAdd(PolySub(PolyMul(M[0][0], PolySub(PolyMul(M[1][1], M[2][2]), PolyMul(M[1][2], M[2][1]))),
+                                   PolyMul(M[0][1], PolySub(PolyMul(M[1][0], M[2][2]), PolyMul(M[1][2], M[2][0])))),
+                           PolyMul(M[0][2], PolySub(PolyMul(M[1][0], M[2][1]), PolyMul(M[1][1], M[2][0]))));
+  const std::vector<double> zs = RealRoots(det);
+  int found = 0;
+  for (double z : zs) {
+    Eigen::Vector3d rows[3];
+    for (int i = 0; i < 3; ++i) rows[i] = {PolyEval(M[i][0], z), PolyEval(M[i][1], z), PolyEval(M[i][2], z)};
+    // (x, y, 1) is the null vector of the 3×3 matrix: the best-conditioned cross product of two rows.
+    Eigen::Vector3d best = rows[0].cross(rows[1]);
+    for (const auto& v : {rows[0].cross(rows[2]), rows[1].cross(rows[2])})
+      if (std::abs(v(2)) > std::abs(best(2))) best = v;
+    if (std::abs(best(2)) < 1e-300) continue;
+    double x = best(0) / best(2), y = best(1) / best(2), zz = z;
+    // Polish (x, y, z) with Gauss–Newton steps on the 10 original cubic constraints: the degree-10 polynomial can
+    // be ill-conditioned near close roots, the cubic system much less so.
+    for (int it = 0; it < 3; ++it) {
+      // Powers up to 3 of x, y, z and the monomials with their partial derivatives.
+      const double px[4] = {1, x, x * x, x * x * x}, py[4] = {1, y, y * y, y * y * y},
+                   pz[4] = {1, zz, zz * zz, zz * zz * zz};
+      Eigen::Matrix<double, 20, 1> m;
+      Eigen::Matrix<double, 20, 3> dm;
+      for (int j = 0; j < 20; ++j) {
+        const Exp& e = kCubicExp[j];
+        m(j) = px[e.a] * py[e.b] * pz[e.c];
+        dm(j, 0) = e.a ? e.a * px[e.a - 1] * py[e.b] * pz[e.c] : 0.0;
+        dm(j, 1) = e.b ? e.b * px[e.a] * py[e.b - 1] * pz[e.c] : 0.0;
+        dm(j, 2) = e.c ? e.c * px[e.a] * py[e.b] * pz[e.c - 1] : 0.0;
+      }
+      Eigen::Matrix<double, 10, 1> r;
+      Eigen::Matrix<double, 10, 3> J;
+      for (int i = 0; i < 10; ++i) {
+        double ri = 0, j0 = 0, j1 = 0, j2 = 0;
+        for (int j = 0; j < 20; ++j) {
+          const double a = A0(i, j);
+          ri += a * m(j);
+          j0 += a * dm(j, 0);
+          j1 += a * dm(j, 1);
+          j2 += a * dm(j, 2);
+        }
+        r(i) = ri;
+        J(i, 0) = j0;
+        J(i, 1) = j1;
+        J(i, 2) = j2;
+      }
+      const Eigen::Vector3d step = (J.transpose() * J).ldlt().solve(-J.transpose() * r);
+      if (!step.allFinite()) break;
+      x += step(0);
+      y += step(1);
+      zz += step(2);
+      if (step.norm() < 1e-15 * (1 + std::abs(x) + std::abs(y) + std::abs(zz))) break;
+    }
+    const double z_final = zz;
+    const Eigen::Matrix<double, 9, 1> ev = x * N.col(0) + y * N.col(1) + z_final * N.col(2) + N.col(3);
+    Eigen::Matrix3d E;
+    E << ev(0), ev(1), ev(2), ev(3), ev(4), ev(5), ev(6), ev(7), ev(8);
+    if (!E.allFinite()) continue;
+    out->push_back(E / E.norm());
+    ++found;
+  }
+  return found;
+}
+
+int FivePointRelativePose(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5], std::vector<PoseRt>* poses) {
+  std::vector<Eigen::Matrix3d> es;
+  FivePointEssential(x1, x2, &es);
+  int n = 0;
+  for (const auto& E : es) {
+    PoseRt cand[4];
+    DecomposeEssential(E, cand);
+    for (const auto& c : cand) {
+      bool ok = true;
+      for (int i = 0; i < 5 && ok; ++i) ok = InFront(c, x1[i], x2[i]);
+      if (ok) {
+        poses->push_back(c);
+        ++n;
+      }
+    }
+  }
+  return n;
+}
+
+}  // namespace freeloc::geometry

@@ -1,0 +1,147 @@
+#include "freeloc/geometry/metric_scale.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "freeloc/core/error.h"
+
+namespace freeloc::geometry {
+
+const char* ScaleMethodName(ScaleMethod m) { return m == ScaleMethod::kOfficial ? "official" : "robust"; }
+
+ScaleMethod ParseScaleMethod(const std::string& s) {
+  if (s == "official") return ScaleMethod::kOfficial;
+  if (s == "robust") return ScaleMethod::kRobust;
+  FREELOC_THROW("--scale '" << s << "' is not a scale method; use official or robust");
+}
+
+void ScaleOptions::Validate() const {
+  FREELOC_CHECK(official_threshold_m > 0 && relative_threshold > 0 && min_threshold_m >= 0,
+                "metric scale: thresholds must be positive");
+  FREELOC_CHECK(refit_iterations >= 0, "metric scale: refit_iterations must be >= 0");
+}
+
+float BilinearDepth(const DepthMap& d, double x, double y) {
+  if (!(x >= 0 && y >= 0 && x <= d.width - 1 && y <= d.height - 1)) return 0.f;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const int x1 = std::min(x0 + 1, d.width - 1), y1 = std::min(y0 + 1, d.height - 1);
+  const float a = d.at(x0, y0), b = d.at(x1, y0), c = d.at(x0, y1), e = d.at(x1, y1);
+  if (!(a > 0 && b > 0 && c > 0 && e > 0)) return 0.f;
+  const double fx = x - x0, fy = y - y0;
+  return static_cast<float>((1 - fy) * ((1 - fx) * a + fx * b) + fy * ((1 - fx) * c + fx * e));
+}
+
+ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
+                                const std::vector<Eigen::Vector2d>& px_query, const Rigid3d& query_from_ref,
+                                const DepthMap& depth_ref, const DepthMap& depth_query, const Camera& ref,
+                                const Camera& query, const ScaleOptions& opt) {
+  opt.Validate();
+  FREELOC_CHECK(px_ref.size() == px_query.size(), "metric scale: point lists differ in length");
+  FREELOC_CHECK(!depth_ref.empty() && !depth_query.empty(), "metric scale: both depth maps are needed");
+  ScaleResult res;
+  const Eigen::Matrix3d R = query_from_ref.R();
+  const Eigen::Vector3d t = query_from_ref.translation.normalized();
+  std::vector<double> s, tau;
+  s.reserve(px_ref.size());
+  for (size_t i = 0; i < px_ref.size(); ++i) {
+    double ur = px_ref[i].x(), vr = px_ref[i].y(), uq = px_query[i].x(), vq = px_query[i].y();
+    double dr, dq;
+    if (opt.method == ScaleMethod::kOfficial) {
+      // np.int32: truncation toward zero; the truncated pixel is also what gets back-projected.
+      ur = std::trunc(ur);
+      vr = std::trunc(vr);
+      uq = std::trunc(uq);
+      vq = std::trunc(vq);
+      const bool in_r = ur >= 0 && vr >= 0 && ur < depth_ref.width && vr < depth_ref.height;
+      const bool in_q = uq >= 0 && vq >= 0 && uq < depth_query.width && vq < depth_query.height;
+      dr = in_r ? depth_ref.at(static_cast<int>(ur), static_cast<int>(vr)) : 0.0;
+      dq = in_q ? depth_query.at(static_cast<int>(uq), static_cast<int>(vq)) : 0.0;
+    } else {
+      dr = BilinearDepth(depth_ref, ur, vr);
+      dq = BilinearDepth(depth_query, uq, vq);
+    }
+    if (!(dr > 0 && dq > 0)) continue;
+    const Eigen::Vector3d pr = dr * ref.Unproject(ur, vr);
+    const Eigen::Vector3d pq = dq * query.Unproject(uq, vq);
+    s.push_back((pq - R * pr).dot(t));
+    tau.push_back(std::max(opt.min_threshold_m, opt.relative_threshold * 0.5 * (pr.norm() + pq.norm())));
+  }
+  res.num_candidates = static_cast<int>(s.size());
+  if (s.empty()) {
+    res.reason = "no-valid-depth";
+    return res;
+  }
+  if (opt.method == ScaleMethod::kOfficial) {
+    int best = 0;
+    double best_s = 0;
+    for (double h : s) {
+      int n = 0;
+      for (double v : s) n += std::abs(v - h) < opt.official_threshold_m;
+      if (n > best) {
+        best = n;
+        best_s = h;
+      }
+    }
+    res.success = true;
+    res.reason = "ok";
+    res.scale = best_s;
+    res.num_inliers = best;
+    res.confidence = best;
+    return res;
+  }
+  // Robust: hypotheses = candidates (a subset when there are many); support = Σ [|s_j − h| < τ_j].
+  const size_t n = s.size();
+  const size_t stride = std::max<size_t>(1, n / 2000);
+  int best = -1;
+  double best_h = 0;
+  for (size_t i = 0; i < n; i += stride) {
+    int c = 0;
+    for (size_t j = 0; j < n; ++j) c += std::abs(s[j] - s[i]) < tau[j];
+    if (c > best || (c == best && s[i] < best_h)) {
+      best = c;
+      best_h = s[i];
+    }
+  }
+  // Inverse-variance weighted refit on the consensus, iterated with the window re-centred.
+  double est = best_h, sw = 0;
+  int in = 0;
+  for (int it = 0; it <= opt.refit_iterations; ++it) {
+    double swx = 0;
+    sw = 0;
+    in = 0;
+    for (size_t j = 0; j < n; ++j) {
+      if (std::abs(s[j] - est) >= tau[j]) continue;
+      const double w = 1.0 / (tau[j] * tau[j]);
+      swx += w * s[j];
+      sw += w;
+      ++in;
+    }
+    if (in == 0) break;
+    est = swx / sw;
+  }
+  if (in < 1) {
+    res.reason = "no-consensus";
+    return res;
+  }
+  // Standard error of the weighted mean from the residual scatter (in units of the windows).
+  double chi2 = 0;
+  for (size_t j = 0; j < n; ++j) {
+    if (std::abs(s[j] - est) >= tau[j]) continue;
+    const double r = (s[j] - est) / tau[j];
+    chi2 += r * r;
+  }
+  const double dof = std::max(1, in - 1);
+  const double se = std::sqrt(std::max(chi2 / dof, 1.0 / 12.0) / sw);  // ≥ the uniform-window floor
+  const double inlier_ratio = static_cast<double>(in) / static_cast<double>(n);
+  res.success = true;
+  res.reason = "ok";
+  res.scale = est;
+  res.num_inliers = in;
+  res.relative_std_error = se / std::max(std::abs(est), 1e-9);
+  // Higher = more accurate: small relative standard error, large agreeing fraction.
+  res.confidence = inlier_ratio / (res.relative_std_error + 1e-3);
+  return res;
+}
+
+}  // namespace freeloc::geometry

@@ -1,0 +1,157 @@
+// LO-RANSAC (Chum, Matas, Kittler, "Locally optimized RANSAC", DAGM 2003) with the MSAC truncated-quadratic score
+// (Torr & Zisserman, CVIU 2000), a local non-linear refit whenever a hypothesis beats the best, and the stopping
+// rule from the exact (hypergeometric) probability that a sample is all inliers. One template for every estimator:
+//
+//   struct Estimator {
+//     using Model = …;
+//     static constexpr int kSampleSize = …;
+//     size_t num_data() const;
+//     void MinimalSolve(const int* sample, std::vector<Model>* models) const;
+//     double SquaredError(const Model&, size_t i) const;
+//     // Refit `model` on the points whose squared error is below `threshold_sq` (robust, a few iterations).
+//     void LocalOptimize(Model* model, double threshold_sq) const;
+//   };
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace freeloc::geometry {
+
+struct RansacOptions {
+  double threshold_sq = 1.0;     // squared inlier threshold in the estimator's error unit
+  double success_prob = 0.9999;  // probability of drawing at least one all-inlier sample
+  int min_iterations = 50;
+  int max_iterations = 100000;
+  uint64_t seed = 0;
+  bool local_optimization = true;
+};
+
+struct RansacStats {
+  int iterations = 0;
+  int num_inliers = 0;
+  int local_optimizations = 0;
+  double score = std::numeric_limits<double>::infinity();  // MSAC score of the best model (lower is better)
+  std::string stop_reason;  // "confidence" (stopping rule met), "max-iterations", "too-few-data", "no-model"
+};
+
+// splitmix64 — small, fast and seedable; sampling needs no more.
+class SplitMix64 {
+ public:
+  explicit SplitMix64(uint64_t seed) : s_(seed + 0x9E3779B97F4A7C15ull) {}
+  uint64_t Next() {
+    uint64_t z = (s_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  // Uniform in [0, n).
+  uint32_t Below(uint32_t n) { return static_cast<uint32_t>((static_cast<unsigned __int128>(Next() >> 32) * n) >> 32); }
+
+ private:
+  uint64_t s_;
+};
+
+// Iterations needed so that an all-inlier sample is drawn with probability `p`, given `inliers` of `n` points and
+// samples of size k drawn without replacement.
+inline double RequiredIterations(size_t inliers, size_t n, int k, double p) {
+  if (inliers < static_cast<size_t>(k) || n < static_cast<size_t>(k)) return std::numeric_limits<double>::infinity();
+  double all_inlier = 1.0;
+  for (int i = 0; i < k; ++i) all_inlier *= static_cast<double>(inliers - i) / static_cast<double>(n - i);
+  if (all_inlier >= 1.0) return 0.0;
+  if (all_inlier <= 0.0) return std::numeric_limits<double>::infinity();
+  return std::log(1.0 - p) / std::log1p(-all_inlier);
+}
+
+// MSAC score: Σ min(e², t²); stops early once it exceeds `bail_out`. Also counts inliers (e² < t²).
+template <class Estimator>
+double MsacScore(const Estimator& est, const typename Estimator::Model& m, double threshold_sq, double bail_out,
+                 int* num_inliers) {
+  double score = 0;
+  int n_in = 0;
+  const size_t n = est.num_data();
+  for (size_t i = 0; i < n; ++i) {
+    const double e = est.SquaredError(m, i);
+    if (e < threshold_sq) {
+      score += e;
+      ++n_in;
+    } else {
+      score += threshold_sq;
+    }
+    if (score > bail_out) {
+      *num_inliers = n_in;
+      return std::numeric_limits<double>::infinity();
+    }
+  }
+  *num_inliers = n_in;
+  return score;
+}
+
+template <class Estimator>
+RansacStats Ransac(const Estimator& est, const RansacOptions& opt, typename Estimator::Model* best_model) {
+  using Model = typename Estimator::Model;
+  constexpr int k = Estimator::kSampleSize;
+  RansacStats st;
+  const size_t n = est.num_data();
+  if (n < static_cast<size_t>(k)) {
+    st.stop_reason = "too-few-data";
+    return st;
+  }
+  SplitMix64 rng(opt.seed);
+  std::vector<Model> models;
+  int sample[k];
+  double needed = static_cast<double>(opt.max_iterations);
+  bool have = false;
+  int iter = 0;
+  for (; iter < opt.max_iterations; ++iter) {
+    if (iter >= opt.min_iterations && iter >= needed) break;
+    // Sample k distinct indices.
+    for (int i = 0; i < k; ++i) {
+      bool dup;
+      do {
+        sample[i] = static_cast<int>(rng.Below(static_cast<uint32_t>(n)));
+        dup = false;
+        for (int j = 0; j < i; ++j) dup |= sample[j] == sample[i];
+      } while (dup);
+    }
+    models.clear();
+    est.MinimalSolve(sample, &models);
+    for (Model& m : models) {
+      int n_in = 0;
+      const double score = MsacScore(est, m, opt.threshold_sq, st.score, &n_in);
+      if (!(score < st.score)) continue;
+      st.score = score;
+      st.num_inliers = n_in;
+      *best_model = m;
+      have = true;
+      if (opt.local_optimization) {
+        Model lo = m;
+        est.LocalOptimize(&lo, opt.threshold_sq);
+        ++st.local_optimizations;
+        int lo_in = 0;
+        const double lo_score = MsacScore(est, lo, opt.threshold_sq, st.score, &lo_in);
+        if (lo_score < st.score) {
+          st.score = lo_score;
+          st.num_inliers = lo_in;
+          *best_model = lo;
+        }
+      }
+      needed = std::min(static_cast<double>(opt.max_iterations),
+                        RequiredIterations(static_cast<size_t>(st.num_inliers), n, k, opt.success_prob));
+    }
+  }
+  st.iterations = iter;
+  if (!have) {
+    st.stop_reason = "no-model";
+  } else {
+    st.stop_reason = iter >= opt.max_iterations && needed >= opt.max_iterations ? "max-iterations" : "confidence";
+  }
+  return st;
+}
+
+}  // namespace freeloc::geometry

@@ -1,0 +1,245 @@
+#include "freeloc/geometry/relative_pose.h"
+
+#include <Eigen/Dense>
+#include <chrono>
+#include <cmath>
+
+#include "freeloc/core/error.h"
+#include "freeloc/geometry/five_point.h"
+
+namespace freeloc::geometry {
+
+void RelativePoseOptions::Validate() const {
+  FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px),
+                "relative pose: --threshold must be a positive number of pixels");
+  FREELOC_CHECK(success_prob > 0 && success_prob < 1, "relative pose: success probability must be in (0, 1)");
+  FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && min_iterations <= max_iterations,
+                "relative pose: need 0 <= min_iterations <= max_iterations");
+}
+
+void CheckFinite(const std::vector<Eigen::Vector2d>& pts, const std::string& what) {
+  for (size_t i = 0; i < pts.size(); ++i) {
+    FREELOC_CHECK(pts[i].allFinite(), what << ": correspondence " << i << " has a non-finite coordinate (" << pts[i].x()
+                                           << ", " << pts[i].y() << "); remove NaN/inf rows");
+  }
+}
+
+namespace {
+
+Eigen::Matrix3d ExpSO3(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-12) return Eigen::Matrix3d::Identity() + Skew(w);
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+// Orthonormal basis of the plane orthogonal to unit t.
+void TangentBasis(const Eigen::Vector3d& t, Eigen::Vector3d* b1, Eigen::Vector3d* b2) {
+  const Eigen::Vector3d a = std::abs(t.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  *b1 = t.cross(a).normalized();
+  *b2 = t.cross(*b1).normalized();
+}
+
+// Cauchy loss ρ(s) = c²·log(1 + s/c²) on squared residuals s; weight ρ'(s) = 1/(1 + s/c²).
+double CauchyCost(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                  const std::vector<int>& idx, const PoseRt& p, double c2) {
+  const Eigen::Matrix3d E = EssentialFromPose(p);
+  double cost = 0;
+  for (int i : idx) cost += c2 * std::log1p(SampsonSquared(E, x1[i], x2[i]) / c2);
+  return cost;
+}
+
+// A hypothesis carries its essential matrix so scoring never recomputes it.
+struct RelModel {
+  PoseRt pose;
+  Eigen::Matrix3d E;
+};
+
+class RelPoseEstimator {
+ public:
+  using Model = RelModel;
+  static constexpr int kSampleSize = 5;
+  RelPoseEstimator(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2, double th)
+      : x1_(x1), x2_(x2), loss_scale_(th) {}
+  size_t num_data() const { return x1_.size(); }
+  void MinimalSolve(const int* s, std::vector<Model>* models) const {
+    Eigen::Vector3d a[5], b[5];
+    for (int i = 0; i < 5; ++i) {
+      a[i] = x1_[s[i]];
+      b[i] = x2_[s[i]];
+    }
+    poses_.clear();
+    FivePointRelativePose(a, b, &poses_);
+    for (const auto& p : poses_) models->push_back({p, EssentialFromPose(p)});
+  }
+  double SquaredError(const Model& m, size_t i) const { return SampsonSquared(m.E, x1_[i], x2_[i]); }
+  void LocalOptimize(Model* m, double threshold_sq) const {
+    std::vector<int> in;
+    for (size_t i = 0; i < x1_.size(); ++i)
+      if (SampsonSquared(m->E, x1_[i], x2_[i]) < threshold_sq) in.push_back(static_cast<int>(i));
+    if (in.size() < 6) return;
+    RefineRelativePose(x1_, x2_, in, loss_scale_, 4, &m->pose);
+    m->E = EssentialFromPose(m->pose);
+  }
+
+ private:
+  const std::vector<Eigen::Vector3d>& x1_;
+  const std::vector<Eigen::Vector3d>& x2_;
+  double loss_scale_;
+  mutable std::vector<PoseRt> poses_;
+};
+
+}  // namespace
+
+double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                          const std::vector<int>& idx, double loss_scale, int max_iterations, PoseRt* pose) {
+  const double c2 = loss_scale * loss_scale;
+  double cost = CauchyCost(x1, x2, idx, *pose, c2);
+  double lambda = 1e-4;
+  for (int it = 0; it < max_iterations; ++it) {
+    const Eigen::Matrix3d& R = pose->R;
+    const Eigen::Vector3d& t = pose->t;
+    Eigen::Vector3d b1, b2;
+    TangentBasis(t, &b1, &b2);
+    const Eigen::Matrix3d E = Skew(t) * R;
+    // dE for the 5 parameters: rotation (left increment) and translation along the tangent basis.
+    Eigen::Matrix3d dE[5];
+    const Eigen::Matrix3d tx = Skew(t);
+    for (int k = 0; k < 3; ++k) dE[k] = tx * Skew(Eigen::Vector3d::Unit(k)) * R;
+    dE[3] = Skew(b1) * R;
+    dE[4] = Skew(b2) * R;
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+    for (int i : idx) {
+      const Eigen::Vector3d& a = x1[i];
+      const Eigen::Vector3d& b = x2[i];
+      const Eigen::Vector3d Ea = E * a, Etb = E.transpose() * b;
+      const double C = b.dot(Ea);
+      const double S = Ea(0) * Ea(0) + Ea(1) * Ea(1) + Etb(0) * Etb(0) + Etb(1) * Etb(1);
+      if (S <= 1e-30) continue;
+      const double inv_sqrt_s = 1.0 / std::sqrt(S);
+      const double r = C * inv_sqrt_s;
+      Eigen::Matrix<double, 5, 1> J;
+      for (int k = 0; k < 5; ++k) {
+        const Eigen::Vector3d dEa = dE[k] * a, dEtb = dE[k].transpose() * b;
+        const double dC = b.dot(dEa);
+        const double dS = 2 * (Ea(0) * dEa(0) + Ea(1) * dEa(1) + Etb(0) * dEtb(0) + Etb(1) * dEtb(1));
+        J(k) = (dC - 0.5 * C * dS / S) * inv_sqrt_s;
+      }
+      const double w = 1.0 / (1.0 + r * r / c2);
+      H.noalias() += w * J * J.transpose();
+      g.noalias() += w * r * J;
+    }
+    bool improved = false;
+    for (int tries = 0; tries < 6 && !improved; ++tries) {
+      Eigen::Matrix<double, 5, 5> A = H;
+      for (int k = 0; k < 5; ++k) A(k, k) += lambda * std::max(H(k, k), 1e-12);
+      const Eigen::Matrix<double, 5, 1> d = A.ldlt().solve(-g);
+      if (!d.allFinite()) break;
+      PoseRt cand;
+      cand.R = ExpSO3(d.head<3>()) * R;
+      cand.t = (t + d(3) * b1 + d(4) * b2).normalized();
+      const double c = CauchyCost(x1, x2, idx, cand, c2);
+      if (c < cost) {
+        const double rel = (cost - c) / std::max(cost, 1e-300);
+        *pose = cand;
+        cost = c;
+        lambda = std::max(lambda * 0.1, 1e-10);
+        improved = true;
+        if (rel < 1e-10 || d.norm() < 1e-12) return cost;
+      } else {
+        lambda *= 10;
+      }
+    }
+    if (!improved) break;
+  }
+  return cost;
+}
+
+RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_ref,
+                                        const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,
+                                        const Camera& query, const RelativePoseOptions& opt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  opt.Validate();
+  FREELOC_CHECK(px_ref.size() == px_query.size(),
+                "relative pose: " << px_ref.size() << " reference points but " << px_query.size() << " query points");
+  CheckFinite(px_ref, "relative pose (reference points)");
+  CheckFinite(px_query, "relative pose (query points)");
+  ref.Validate("reference intrinsics");
+  query.Validate("query intrinsics");
+  RelativePoseResult res;
+  res.status.num_matches = static_cast<int>(px_ref.size());
+  res.inliers.assign(px_ref.size(), 0);
+  auto finish = [&](const char* reason) {
+    res.status.reason = reason;
+    res.status.success = std::string(reason) == "ok";
+    res.status.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return res;
+  };
+  if (px_ref.size() < 5) return finish("too-few-matches");
+  std::vector<Eigen::Vector3d> x1(px_ref.size()), x2(px_ref.size());
+  for (size_t i = 0; i < px_ref.size(); ++i) {
+    x1[i] = ref.Unproject(px_ref[i].x(), px_ref[i].y());
+    x2[i] = query.Unproject(px_query[i].x(), px_query[i].y());
+  }
+  const double focal = 0.25 * (ref.fx + ref.fy + query.fx + query.fy);
+  const double th = opt.threshold_px / focal;
+  RelPoseEstimator est(x1, x2, th);
+  RansacOptions ro;
+  ro.threshold_sq = th * th;
+  ro.success_prob = opt.success_prob;
+  ro.min_iterations = opt.min_iterations;
+  ro.max_iterations = opt.max_iterations;
+  ro.seed = opt.seed;
+  ro.local_optimization = opt.local_optimization;
+  RelModel best_model;
+  const RansacStats st = Ransac(est, ro, &best_model);
+  PoseRt best = best_model.pose;
+  res.status.iterations = st.iterations;
+  res.status.local_optimizations = st.local_optimizations;
+  res.status.stop_reason = st.stop_reason;
+  if (st.stop_reason == "no-model" || st.num_inliers < 5) return finish("no-consensus");
+  std::vector<int> in;
+  auto collect = [&](const PoseRt& p) {
+    in.clear();
+    const Eigen::Matrix3d E = EssentialFromPose(p);
+    for (size_t i = 0; i < x1.size(); ++i)
+      if (SampsonSquared(E, x1[i], x2[i]) < ro.threshold_sq) in.push_back(static_cast<int>(i));
+  };
+  collect(best);
+  if (opt.final_refinement && in.size() >= 6) {
+    // Two rounds: refine on the inliers, re-select them with the refined model, refine again.
+    for (int round = 0; round < 2; ++round) {
+      res.status.refinement_cost = RefineRelativePose(x1, x2, in, th, opt.refinement_iterations, &best);
+      collect(best);
+      if (in.size() < 6) break;
+    }
+  }
+  // Keep the inliers in front of both cameras (cheirality on the refined pose).
+  int n_in = 0;
+  for (int i : in) {
+    if (InFront(best, x1[i], x2[i])) {
+      res.inliers[i] = 1;
+      ++n_in;
+    }
+  }
+  res.status.num_inliers = n_in;
+  if (n_in < 5) return finish("no-consensus");
+  // Degenerate support: the inliers cover (almost) a single pixel in either image — no geometry to speak of.
+  Eigen::Vector2d lo1 = Eigen::Vector2d::Constant(1e300), hi1 = -lo1, lo2 = lo1, hi2 = hi1;
+  for (size_t i = 0; i < px_ref.size(); ++i) {
+    if (!res.inliers[i]) continue;
+    lo1 = lo1.cwiseMin(px_ref[i]);
+    hi1 = hi1.cwiseMax(px_ref[i]);
+    lo2 = lo2.cwiseMin(px_query[i]);
+    hi2 = hi2.cwiseMax(px_query[i]);
+  }
+  if ((hi1 - lo1).maxCoeff() < 2.0 || (hi2 - lo2).maxCoeff() < 2.0) {
+    res.inliers.assign(px_ref.size(), 0);
+    res.status.num_inliers = 0;
+    return finish("degenerate");
+  }
+  res.query_from_ref = Rigid3d(best.R, best.t.normalized());
+  return finish("ok");
+}
+
+}  // namespace freeloc::geometry

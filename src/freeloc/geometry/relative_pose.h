@@ -1,0 +1,59 @@
+// Robust calibrated relative pose from pixel correspondences: the 5-point solver (five_point.h) inside LO-RANSAC
+// (ransac.h) scored with the Sampson error, a local non-linear refit whenever a hypothesis beats the best, and a
+// final robust (Cauchy) non-linear refinement on all inliers. Output: query_from_ref with a unit translation.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "freeloc/core/camera.h"
+#include "freeloc/core/rigid3d.h"
+#include "freeloc/geometry/essential.h"
+#include "freeloc/geometry/ransac.h"
+
+namespace freeloc::geometry {
+
+struct RelativePoseOptions {
+  double threshold_px = 1.0;  // inlier threshold on the Sampson error, pixels (÷ mean focal for normalised units)
+  double success_prob = 0.9999;
+  int min_iterations = 50;
+  int max_iterations = 100000;
+  uint64_t seed = 0;
+  bool local_optimization = true;
+  bool final_refinement = true;
+  int refinement_iterations = 25;
+  void Validate() const;  // throws freeloc::Error
+};
+
+struct EstimatorStatus {
+  bool success = false;
+  std::string reason;       // "ok", "too-few-matches", "no-consensus", "degenerate"
+  std::string stop_reason;  // from RANSAC: "confidence", "max-iterations", …
+  int num_matches = 0;
+  int iterations = 0;
+  int num_inliers = 0;
+  int local_optimizations = 0;
+  double refinement_cost = 0;  // robust cost after the final refinement
+  double time_ms = 0;
+};
+
+struct RelativePoseResult {
+  Rigid3d query_from_ref;  // translation of unit norm
+  std::vector<char> inliers;
+  EstimatorStatus status;
+};
+
+RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_ref,
+                                        const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,
+                                        const Camera& query, const RelativePoseOptions& options = {});
+
+// Robust (Cauchy, scale `loss_scale` in normalised units) Levenberg–Marquardt refinement of (R, unit t) on the
+// Sampson error over the correspondences `idx`. Returns the final cost.
+double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                          const std::vector<int>& idx, double loss_scale, int max_iterations, PoseRt* pose);
+
+// Throws freeloc::Error naming `what` when a coordinate is NaN or infinite.
+void CheckFinite(const std::vector<Eigen::Vector2d>& pts, const std::string& what);
+
+}  // namespace freeloc::geometry

@@ -1,0 +1,135 @@
+#include "freeloc/geometry/relative_pose.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "freeloc/core/error.h"
+
+namespace freeloc::geometry {
+namespace {
+
+struct TwoView {
+  Camera ref{600, 600, 320, 240, 640, 480}, query{580, 585, 330, 235, 640, 480};
+  Rigid3d truth;
+  std::vector<Eigen::Vector2d> p1, p2;
+  std::vector<char> is_inlier;
+};
+
+// Points 1–10 m in front of both cameras, `noise` px Gaussian noise, a fraction of uniform outliers.
+TwoView MakeTwoView(uint32_t seed, int n, double outliers, double noise = 0.5) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> g(0, noise);
+  TwoView tv;
+  const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+  tv.truth = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.25 * u(rng), axis)),
+                     Eigen::Vector3d(u(rng), 0.3 * u(rng), 0.3 * u(rng)).normalized());
+  while (static_cast<int>(tv.p1.size()) < n) {
+    const bool outlier = std::uniform_real_distribution<double>(0, 1)(rng) < outliers;
+    Eigen::Vector2d a(320 + 320 * u(rng), 240 + 240 * u(rng));
+    Eigen::Vector2d b;
+    if (outlier) {
+      b = {320 + 320 * u(rng), 240 + 240 * u(rng)};
+    } else {
+      const double depth = 1 + 9 * (0.5 + 0.5 * u(rng));
+      const Eigen::Vector3d X = tv.ref.Unproject(a.x(), a.y()) * depth;
+      const Eigen::Vector3d Y = tv.truth * X;
+      if (Y.z() < 0.1) continue;
+      b = tv.query.Project(Y);
+      if (b.x() < 0 || b.y() < 0 || b.x() > 640 || b.y() > 480) continue;
+      a += Eigen::Vector2d(g(rng), g(rng));
+      b += Eigen::Vector2d(g(rng), g(rng));
+    }
+    tv.p1.push_back(a);
+    tv.p2.push_back(b);
+    tv.is_inlier.push_back(!outlier);
+  }
+  return tv;
+}
+
+double TranslationAngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI;
+}
+
+TEST(RelativePose, NoiseFreeIsExact) {
+  const TwoView tv = MakeTwoView(1, 200, 0.0, 0.0);
+  const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query);
+  ASSERT_TRUE(r.status.success) << r.status.reason;
+  EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, tv.truth.rotation), 1e-6);
+  EXPECT_LT(TranslationAngleDeg(r.query_from_ref.translation, tv.truth.translation), 1e-6);
+  EXPECT_EQ(r.status.num_inliers, 200);
+  EXPECT_NEAR(r.query_from_ref.translation.norm(), 1.0, 1e-12);
+}
+
+// Seeded noise + outliers: error bounds per cell (0.5 px noise).
+TEST(RelativePose, RobustUnderNoiseAndOutliers) {
+  for (double outliers : {0.25, 0.5, 0.75}) {
+    int failures = 0;
+    std::vector<double> rot, tra;
+    for (uint32_t seed = 0; seed < 10; ++seed) {
+      const TwoView tv = MakeTwoView(100 + seed, 1000, outliers);
+      RelativePoseOptions o;
+      o.seed = seed;
+      const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, o);
+      ASSERT_TRUE(r.status.success);
+      const double re = RotationAngleDeg(r.query_from_ref.rotation, tv.truth.rotation);
+      failures += re > 5;
+      rot.push_back(re);
+      tra.push_back(TranslationAngleDeg(r.query_from_ref.translation, tv.truth.translation));
+      // Inlier classification: nearly all true inliers found, few outliers accepted.
+      int tp = 0, fp = 0, pos = 0;
+      for (size_t i = 0; i < tv.p1.size(); ++i) {
+        pos += tv.is_inlier[i];
+        tp += tv.is_inlier[i] && r.inliers[i];
+        fp += !tv.is_inlier[i] && r.inliers[i];
+      }
+      EXPECT_GT(tp, 0.9 * pos);
+      EXPECT_LT(fp, 0.05 * tv.p1.size());
+    }
+    std::sort(rot.begin(), rot.end());
+    std::sort(tra.begin(), tra.end());
+    EXPECT_EQ(failures, 0) << outliers;
+    EXPECT_LT(rot[5], 0.1) << outliers;  // median rotation error, degrees
+    EXPECT_LT(tra[5], 0.5) << outliers;  // median translation-direction error, degrees
+  }
+}
+
+TEST(RelativePose, DeterministicForFixedSeed) {
+  const TwoView tv = MakeTwoView(7, 500, 0.5);
+  const auto a = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query);
+  const auto b = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query);
+  EXPECT_EQ(a.inliers, b.inliers);
+  EXPECT_EQ(a.query_from_ref.translation, b.query_from_ref.translation);
+}
+
+TEST(RelativePose, DegenerateInputsAreStatusesNotExceptions) {
+  Camera c{500, 500, 320, 240, 640, 480};
+  std::vector<Eigen::Vector2d> four = {{1, 2}, {3, 4}, {5, 6}, {7, 8}};
+  auto r = EstimateRelativePose(four, four, c, c);
+  EXPECT_FALSE(r.status.success);
+  EXPECT_EQ(r.status.reason, "too-few-matches");
+  std::vector<Eigen::Vector2d> same(50, Eigen::Vector2d(100, 100));
+  r = EstimateRelativePose(same, same, c, c);
+  EXPECT_FALSE(r.status.success);
+  std::vector<Eigen::Vector2d> line1, line2;
+  for (int i = 0; i < 50; ++i) {
+    line1.emplace_back(10 + 5 * i, 20 + 2 * i);
+    line2.emplace_back(12 + 5 * i, 21 + 2 * i);
+  }
+  r = EstimateRelativePose(line1, line2, c, c);  // collinear: no reliable pose
+  EXPECT_TRUE(r.query_from_ref.translation.allFinite());
+  std::vector<Eigen::Vector2d> bad = line1;
+  bad[3].x() = std::nan("");
+  try {
+    EstimateRelativePose(bad, line2, c, c);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("correspondence 3 has a non-finite coordinate"), std::string::npos);
+  }
+  EXPECT_THROW(EstimateRelativePose(line1, four, c, c), Error);
+}
+
+}  // namespace
+}  // namespace freeloc::geometry

@@ -1,0 +1,32 @@
+// The SIFT baseline exactly as the map-free benchmark computes it (lib/models/matching/feature_matching.py
+// SIFTMatching): OpenCV SIFT with 2048 features on the grey image, RootSIFT (L1 normalisation + square root),
+// FLANN kd-tree matching (5 trees, 50 checks, k = 2) and Lowe's ratio test at 0.8. Correspondences come out in
+// original-image pixels (x = column, y = row), reference first.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "freeloc/core/image.h"
+
+namespace freeloc::matching {
+
+struct SiftOptions {
+  int num_features = 2048;
+  double ratio = 0.8;
+  int trees = 5;
+  int checks = 50;
+  bool root_sift = true;
+  uint32_t seed = 0;  // FLANN's randomised kd-trees are seeded so runs are reproducible
+  void Validate() const;
+};
+
+struct Correspondences {
+  std::vector<Eigen::Vector2d> ref, query;
+  size_t size() const { return ref.size(); }
+};
+
+Correspondences MatchSift(const Image& ref, const Image& query, const SiftOptions& options = {});
+
+}  // namespace freeloc::matching
