@@ -89,7 +89,6 @@ int main(int argc, char** argv) {
         unit.translation.normalize();
         geometry::ScaleOptions o;
         o.method = method;
-        if (const char* e = std::getenv("FREELOC_SCALE_REL")) o.relative_threshold = std::atof(e);
         const double t0 = bench::NowSeconds();
         const auto r = geometry::EstimateMetricScale(p1, p2, unit, dr, dq, sc.ref, sc.query, o);
         ms.push_back((bench::NowSeconds() - t0) * 1e3);

@@ -1,0 +1,63 @@
+// DUSt3R (AsymmetricCroCo3DStereo, naver/dust3r) inference in LibTorch: siamese ViT encoder with RoPE2D, two
+// decoders updated simultaneously with cross-attention, two DPT heads, pts3d/conf postprocessing
+// (spec/dust3r.md §4). Native portrait and mixed shapes; different token counts per view. The encoder output of
+// a view can be cached and reused against many others (`Encode` once, `Decode` per query). Torch-free interface:
+// inputs are normalised CHW floats (io/dust3r_preprocess.h), outputs float32 TensorViews.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "freeloc/io/tensor.h"
+#include "freeloc/nn/dust3r_config.h"
+#include "freeloc/nn/runtime.h"
+
+namespace freeloc::nn {
+
+struct Dust3rView {
+  const float* chw = nullptr;  // 3×H×W, (u8/255 − 0.5)/0.5
+  int height = 0, width = 0;
+};
+
+struct Dust3rPrediction {
+  TensorView pts3d_1;  // [H1, W1, 3] view 1's points in view 1's frame
+  TensorView conf_1;   // [H1, W1]
+  TensorView pts3d_2;  // [H2, W2, 3] view 2's points in view 1's frame
+  TensorView conf_2;   // [H2, W2]
+  double encode_ms = 0, decode_ms = 0, heads_ms = 0;
+};
+
+class Dust3rModel {
+ public:
+  // The encoder output of one view (tokens after enc_norm, positions, grid), opaque to callers.
+  class Encoding;
+
+  // `model_path`: the official .pth, an HF model.safetensors (config.json beside it is read when present), or any
+  // safetensors with DUSt3R key names. `config_path` (optional): a config.json with the constructor arguments
+  // (top level, or under "constructor_args"). Throws freeloc::Error naming missing/unexpected tensors.
+  static std::shared_ptr<Dust3rModel> Load(const std::string& model_path, const std::string& config_path = "",
+                                           const RuntimeOptions& runtime = {});
+  ~Dust3rModel();
+
+  const Dust3rConfig& config() const;
+  const RuntimeOptions& runtime() const;
+
+  std::shared_ptr<const Encoding> Encode(const Dust3rView& view) const;
+  Dust3rPrediction Decode(const Encoding& view1, const Encoding& view2) const;
+  // One shot: encodes both views (as one batch when their shapes agree, like upstream) and decodes.
+  Dust3rPrediction Run(const Dust3rView& view1, const Dust3rView& view2) const;
+
+  // Debugging/parity: when set, intermediate tensors are stored under the fixture names ("enc1.out",
+  // "dec2.block05", "head1.rn2", "head1.raw", …) as float32 TensorViews.
+  void SetTapSink(std::map<std::string, TensorView>* sink) const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<const Encoding> EncodeView(const Dust3rView& view, int tap_id) const;
+  explicit Dust3rModel(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace freeloc::nn

@@ -1,0 +1,189 @@
+// Parity of the DUSt3R port with the reference implementation on every fixture case (../shared/fixtures/dust3r):
+// encoder, decoder and head intermediates and the final pointmaps, from the stored network inputs and from the
+// PNGs through freeloc's preprocessing, with weights from safetensors and from the .pth.
+#include "freeloc/nn/dust3r.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "freeloc/core/error.h"
+#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/safetensors.h"
+#include "testing/testing.h"
+
+namespace freeloc::nn {
+namespace {
+
+using testing::SharedPath;
+
+// max over elements of |a − b| / (atol + rtol·|b|): ≤ 1 passes.
+double Budget(const TensorView& a, const TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
+  EXPECT_EQ(a.numel(), b.numel());
+  if (a.numel() != b.numel()) return 1e9;
+  const float* x = a.as<float>();
+  const float* y = b.as<float>();
+  double worst = 0;
+  for (int64_t i = 0; i < a.numel(); ++i)
+    worst = std::max(worst, std::abs(double(x[i]) - y[i]) / (atol + rtol * std::abs(double(y[i]))));
+  return worst;
+}
+
+std::shared_ptr<Dust3rModel> TinyModel(bool pth = false) {
+  if (pth) return Dust3rModel::Load(SharedPath("fixtures/pth/dust3r_tiny.pth"));
+  return Dust3rModel::Load(SharedPath("fixtures/dust3r/weights.safetensors"),
+                           SharedPath("fixtures/dust3r/config.json"));
+}
+
+Dust3rView ViewOf(const TensorView& img) {
+  return {img.as<float>(), static_cast<int>(img.shape[2]), static_cast<int>(img.shape[3])};
+}
+
+void CheckCase(const std::string& name, const Dust3rModel& model, bool intermediates) {
+  SCOPED_TRACE(name);
+  const SafetensorsFile f = SafetensorsFile::Open(SharedPath("fixtures/dust3r/cases/" + name + ".safetensors"));
+  std::map<std::string, TensorView> taps;
+  model.SetTapSink(intermediates ? &taps : nullptr);
+  const Dust3rPrediction p = model.Run(ViewOf(f.Get("view1.img")), ViewOf(f.Get("view2.img")));
+  model.SetTapSink(nullptr);
+  const double worst_pred =
+      std::max({Budget(p.pts3d_1, f.Get("pred1.pts3d")), Budget(p.conf_1, f.Get("pred1.conf")),
+                Budget(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")), Budget(p.conf_2, f.Get("pred2.conf"))});
+  EXPECT_LE(worst_pred, 1.0);
+  EXPECT_EQ(p.pts3d_1.shape, (std::vector<int64_t>{f.Get("view1.img").shape[2], f.Get("view1.img").shape[3], 3}));
+  if (!intermediates) return;
+  int compared = 0;
+  double worst = 0;
+  for (const auto& n : f.names) {
+    if (n.rfind("enc", 0) != 0 && n.rfind("dec", 0) != 0 && n.rfind("head", 0) != 0) continue;
+    if (n.find(".pos") != std::string::npos) continue;
+    auto it = taps.find(n);
+    if (it == taps.end()) {
+      ADD_FAILURE() << "no tap for " << n;
+      continue;
+    }
+    const double b = Budget(it->second, f.Get(n));
+    worst = std::max(worst, b);
+    EXPECT_LE(b, 1.0) << n;
+    ++compared;
+  }
+  EXPECT_GT(compared, 30);
+  std::printf("%s: %d intermediates, worst budget use %.1f %%, outputs %.1f %% (atol 1e-4, rtol 1e-3)\n", name.c_str(),
+              compared, 100 * worst, 100 * worst_pred);
+}
+
+TEST(Dust3r, ConfigFromShapesAndConstructorString) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/weights.safetensors");
+  const auto m = TinyModel();
+  const Dust3rConfig& c = m->config();
+  EXPECT_EQ(c.enc_dim, 64);
+  EXPECT_EQ(c.enc_depth, 2);
+  EXPECT_EQ(c.enc_heads, 4);
+  EXPECT_EQ(c.dec_dim, 48);
+  EXPECT_EQ(c.dec_depth, 12);
+  EXPECT_EQ(c.dpt_feature_dim, 32);
+  EXPECT_EQ(c.dpt_last_dim, 16);
+  EXPECT_EQ(c.dpt_layer_dims, (std::array<int, 4>{12, 24, 48, 96}));
+  EXPECT_EQ(c.hooks, (std::array<int, 4>{0, 6, 9, 12}));
+  const auto kw = ParseConstructorKwargs(
+      "AsymmetricCroCo3DStereo(pos_embed='RoPE100', img_size=(512, 512), depth_mode=('exp', -inf, inf), "
+      "enc_num_heads=4, dec_num_heads=4)");
+  EXPECT_EQ(kw.at("pos_embed"), "RoPE100");
+  EXPECT_EQ(kw.at("img_size"), "(512, 512)");
+  EXPECT_EQ(kw.at("depth_mode"), "('exp', -inf, inf)");
+  EXPECT_EQ(kw.at("dec_num_heads"), "4");
+}
+
+TEST(Dust3r, ParityOnEveryFixtureCase) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/cases/png_s80.safetensors");
+  const auto m = TinyModel();
+  for (const char* c : {"land_64x48", "port_48x64", "png_s80", "png_s80_mixed", "png_s128"}) CheckCase(c, *m, true);
+}
+
+TEST(Dust3r, PthWeightsGiveTheSameResults) {
+  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
+  const auto a = TinyModel(false), b = TinyModel(true);
+  EXPECT_EQ(b->config().enc_heads, 4);  // from args.model
+  const SafetensorsFile f = SafetensorsFile::Open(SharedPath("fixtures/dust3r/cases/png_s80_mixed.safetensors"));
+  const auto pa = a->Run(ViewOf(f.Get("view1.img")), ViewOf(f.Get("view2.img")));
+  const auto pb = b->Run(ViewOf(f.Get("view1.img")), ViewOf(f.Get("view2.img")));
+  EXPECT_EQ(std::memcmp(pa.pts3d_2.data, pb.pts3d_2.data, pa.pts3d_2.nbytes), 0);
+  CheckCase("png_s80", *b, false);
+}
+
+TEST(Dust3r, FromPngsThroughFreelocPreprocessing) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/images/img_a.png");
+  const auto m = TinyModel();
+  struct Pair {
+    const char* name;
+    const char* a;
+    const char* b;
+    int size;
+  };
+  for (const Pair& pr : {Pair{"png_s80", "img_a", "img_b", 80}, Pair{"png_s80_mixed", "img_a", "img_c", 80},
+                         Pair{"png_s128", "img_a", "img_b", 128}}) {
+    SCOPED_TRACE(pr.name);
+    Dust3rPreprocessOptions o;
+    o.size = pr.size;
+    const Dust3rInput ia =
+        PreprocessForDust3r(ReadImage(SharedPath(std::string("fixtures/dust3r/images/") + pr.a + ".png")), o);
+    const Dust3rInput ib =
+        PreprocessForDust3r(ReadImage(SharedPath(std::string("fixtures/dust3r/images/") + pr.b + ".png")), o);
+    const auto p =
+        m->Run({ia.normalized.data(), ia.height(), ia.width()}, {ib.normalized.data(), ib.height(), ib.width()});
+    const SafetensorsFile f =
+        SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + pr.name + ".safetensors"));
+    EXPECT_LE(Budget(p.pts3d_1, f.Get("pred1.pts3d")), 1.0);
+    EXPECT_LE(Budget(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")), 1.0);
+    EXPECT_LE(Budget(p.conf_2, f.Get("pred2.conf")), 1.0);
+  }
+}
+
+TEST(Dust3r, CachedReferenceEqualsOneShot) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/cases/png_s128.safetensors");
+  const auto m = TinyModel();
+  const SafetensorsFile f = SafetensorsFile::Open(SharedPath("fixtures/dust3r/cases/png_s128.safetensors"));
+  const auto one = m->Run(ViewOf(f.Get("view1.img")), ViewOf(f.Get("view2.img")));
+  const auto ref = m->Encode(ViewOf(f.Get("view1.img")));
+  for (int rep = 0; rep < 2; ++rep) {  // the cached encoding serves several queries
+    const auto q = m->Encode(ViewOf(f.Get("view2.img")));
+    const auto two = m->Decode(*ref, *q);
+    EXPECT_EQ(std::memcmp(one.pts3d_1.data, two.pts3d_1.data, one.pts3d_1.nbytes), 0);
+    EXPECT_EQ(std::memcmp(one.pts3d_2.data, two.pts3d_2.data, one.pts3d_2.nbytes), 0);
+    EXPECT_EQ(std::memcmp(one.conf_2.data, two.conf_2.data, one.conf_2.nbytes), 0);
+  }
+}
+
+TEST(Dust3r, BadWeightsAndInputs) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/weights.safetensors");
+  testing::TempDir tmp;
+  // Drop one tensor and add a stray one: the error lists both.
+  const SafetensorsFile w = SafetensorsFile::Open(SharedPath("fixtures/dust3r/weights.safetensors"));
+  std::vector<std::pair<std::string, TensorView>> ts;
+  for (const auto& n : w.names)
+    if (n != "dec_blocks2.3.norm_y.bias") ts.emplace_back(n, w.Get(n));
+  const float z = 0;
+  ts.emplace_back("extra.thing", MakeTensor(DType::kF32, {1}, &z, 4));
+  WriteSafetensors(tmp.File("bad.safetensors"), ts);
+  try {
+    Dust3rModel::Load(tmp.File("bad.safetensors"), SharedPath("fixtures/dust3r/config.json"));
+    FAIL();
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("dec_blocks2.3.norm_y.bias"), std::string::npos) << m;
+    EXPECT_NE(m.find("extra.thing"), std::string::npos) << m;
+  }
+  const auto m = TinyModel();
+  std::vector<float> img(3 * 50 * 64, 0.f);
+  EXPECT_THROW(m->Run({img.data(), 50, 64}, {img.data(), 50, 64}), Error);  // 50 not a multiple of 16
+  RuntimeOptions bad;
+  bad.precision = "fp8";
+  EXPECT_THROW(Dust3rModel::Load(SharedPath("fixtures/dust3r/weights.safetensors"),
+                                 SharedPath("fixtures/dust3r/config.json"), bad),
+               Error);
+}
+
+}  // namespace
+}  // namespace freeloc::nn

@@ -1,0 +1,145 @@
+#include "freeloc/nn/internal/layers.h"
+
+#include <cmath>
+
+namespace freeloc::nn::internal {
+
+void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const Precision& p) {
+  w = ws.Take(prefix + ".weight", {out, in});
+  if (bias) b = ws.Take(prefix + ".bias", {out});
+  if (p.bf16 && w.defined()) {
+    w_lp = w.to(torch::kBFloat16);
+    if (b.defined()) b_lp = b.to(torch::kBFloat16);
+  }
+}
+
+torch::Tensor Linear::operator()(const torch::Tensor& x, const Precision& p) const {
+  if (p.bf16) return torch::linear(x.to(torch::kBFloat16), w_lp, b_lp).to(torch::kFloat32);
+  return torch::linear(x, w, b);
+}
+
+void LayerNorm::Load(WeightStore& ws, const std::string& prefix, int64_t dim, double e) {
+  w = ws.Take(prefix + ".weight", {dim});
+  b = ws.Take(prefix + ".bias", {dim});
+  eps = e;
+}
+
+torch::Tensor LayerNorm::operator()(const torch::Tensor& x) const {
+  return torch::layer_norm(x, {x.size(-1)}, w, b, eps);
+}
+
+void Mlp::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t hidden, const Precision& p) {
+  fc1.Load(ws, prefix + ".fc1", hidden, dim, true, p);
+  fc2.Load(ws, prefix + ".fc2", dim, hidden, true, p);
+}
+
+torch::Tensor Mlp::operator()(const torch::Tensor& x, const Precision& p) const {
+  return fc2(torch::gelu(fc1(x, p)), p);
+}
+
+std::pair<torch::Tensor, torch::Tensor> Rope2D::Tables(int64_t h, int64_t w, int64_t dh, torch::Device device) const {
+  const auto key = std::make_tuple(h, w, dh, static_cast<int>(device.type()));
+  auto it = cache_.find(key);
+  if (it != cache_.end()) return it->second;
+  const int64_t D = dh / 2;  // per axis
+  auto f32 = torch::TensorOptions().dtype(torch::kFloat32);
+  // inv_freq = 1 / base^(arange(0, D, 2) / D), in float32 like the reference.
+  const torch::Tensor inv_freq =
+      1.0 / torch::pow(torch::full({1}, base_, f32), torch::arange(0, D, 2, f32) / static_cast<float>(D));
+  const torch::Tensor ys = torch::arange(h, f32).repeat_interleave(w);  // row-major n = y·w + x
+  const torch::Tensor xs = torch::arange(w, f32).repeat({h});
+  const torch::Tensor ay = ys.unsqueeze(1) * inv_freq.unsqueeze(0);  // [N, D/2]
+  const torch::Tensor ax = xs.unsqueeze(1) * inv_freq.unsqueeze(0);
+  const torch::Tensor cy = ay.cos(), sy = ay.sin(), cx = ax.cos(), sx = ax.sin();
+  torch::Tensor cos = torch::cat({cy, cy, cx, cx}, 1).to(device);
+  torch::Tensor sin = torch::cat({-sy, sy, -sx, sx}, 1).to(device);
+  auto r = std::make_pair(cos, sin);
+  cache_[key] = r;
+  return r;
+}
+
+torch::Tensor Rope2D::Apply(const torch::Tensor& t, const std::pair<torch::Tensor, torch::Tensor>& tables) {
+  const auto sz = t.sizes();
+  const int64_t dh = sz.back();
+  // swap(t): exchange the two quarters inside each half (the rotate_half pairing), sign carried by SIN.
+  std::vector<int64_t> v(sz.begin(), sz.end() - 1);
+  v.insert(v.end(), {2, 2, dh / 4});
+  const torch::Tensor swapped = t.reshape(v).flip({-2}).reshape(sz);
+  return t * tables.first + swapped * tables.second;
+}
+
+torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
+                               const Precision& p) {
+  if (p.bf16) {
+    const torch::Tensor a = torch::matmul(q.to(torch::kBFloat16), k.to(torch::kBFloat16).transpose(-2, -1));
+    const torch::Tensor s = torch::softmax(a.to(torch::kFloat32) * scale, -1);
+    return torch::matmul(s.to(torch::kBFloat16), v.to(torch::kBFloat16)).to(torch::kFloat32);
+  }
+  torch::Tensor a = torch::matmul(q, k.transpose(-2, -1));
+  a.mul_(scale);
+  return torch::matmul(torch::softmax(a, -1), v);
+}
+
+void SelfAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const Precision& p) {
+  qkv.Load(ws, prefix + ".qkv", 3 * dim, dim, true, p);
+  proj.Load(ws, prefix + ".proj", dim, dim, true, p);
+  heads = h;
+}
+
+torch::Tensor SelfAttention::operator()(const torch::Tensor& x, const std::pair<torch::Tensor, torch::Tensor>& rope,
+                                        const Precision& p) const {
+  const int64_t B = x.size(0), N = x.size(1), C = x.size(2), dh = C / heads;
+  const torch::Tensor t = qkv(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});  // 3,B,H,N,dh
+  const torch::Tensor q = Rope2D::Apply(t[0], rope), k = Rope2D::Apply(t[1], rope);
+  const torch::Tensor o = ScaledDotProduct(q, k, t[2], std::pow(static_cast<double>(dh), -0.5), p);
+  return proj(o.transpose(1, 2).reshape({B, N, C}), p);
+}
+
+void CrossAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const Precision& p) {
+  q.Load(ws, prefix + ".projq", dim, dim, true, p);
+  k.Load(ws, prefix + ".projk", dim, dim, true, p);
+  v.Load(ws, prefix + ".projv", dim, dim, true, p);
+  proj.Load(ws, prefix + ".proj", dim, dim, true, p);
+  heads = h;
+}
+
+torch::Tensor CrossAttention::operator()(const torch::Tensor& x, const torch::Tensor& y,
+                                         const std::pair<torch::Tensor, torch::Tensor>& rope_x,
+                                         const std::pair<torch::Tensor, torch::Tensor>& rope_y,
+                                         const Precision& p) const {
+  const int64_t B = x.size(0), Nq = x.size(1), C = x.size(2), Nk = y.size(1), dh = C / heads;
+  const torch::Tensor qq = Rope2D::Apply(q(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2), rope_x);
+  const torch::Tensor kk = Rope2D::Apply(k(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2), rope_y);
+  const torch::Tensor vv = v(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
+  const torch::Tensor o = ScaledDotProduct(qq, kk, vv, std::pow(static_cast<double>(dh), -0.5), p);
+  return proj(o.transpose(1, 2).reshape({B, Nq, C}), p);
+}
+
+void Conv::Load(WeightStore& ws, const std::string& prefix, const std::vector<int64_t>& shape, bool bias, int64_t s,
+                int64_t pad, bool tr, const Precision& p) {
+  w = ws.Take(prefix + ".weight", shape);
+  if (bias) b = ws.Take(prefix + ".bias", {tr ? shape[1] : shape[0]});
+  stride = s;
+  padding = pad;
+  transpose = tr;
+  if (p.bf16 && w.defined()) {
+    w_lp = w.to(torch::kBFloat16);
+    if (b.defined()) b_lp = b.to(torch::kBFloat16);
+  }
+}
+
+torch::Tensor Conv::operator()(const torch::Tensor& x, const Precision& p) const {
+  const bool lp = p.bf16;
+  const torch::Tensor in = lp ? x.to(torch::kBFloat16) : x;
+  const torch::Tensor& ww = lp ? w_lp : w;
+  const torch::Tensor& bb = lp ? b_lp : b;
+  torch::Tensor y =
+      transpose ? torch::conv_transpose2d(in, ww, bb, stride, padding) : torch::conv2d(in, ww, bb, stride, padding);
+  return lp ? y.to(torch::kFloat32) : y;
+}
+
+torch::Tensor Upsample2xAlignCorners(const torch::Tensor& x) {
+  return torch::upsample_bilinear2d(x, {2 * x.size(2), 2 * x.size(3)}, /*align_corners=*/true);
+}
+
+}  // namespace freeloc::nn::internal

@@ -1,0 +1,94 @@
+// ViT building blocks shared by DUSt3R, SegGPT and Metric3D (nn/ .cc files only). Each block names the upstream
+// function it reproduces. `Precision` implements the autocast-style policy: matmuls and convolutions in bf16 when
+// asked, norms, softmax and everything else in fp32.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <map>
+#include <string>
+#include <tuple>
+
+#include "freeloc/nn/internal/torch_util.h"
+
+namespace freeloc::nn::internal {
+
+struct Precision {
+  bool bf16 = false;
+};
+
+// torch.nn.Linear.
+struct Linear {
+  torch::Tensor w, b, w_lp, b_lp;  // *_lp: bf16 copies when running in bf16
+  void Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const Precision& p);
+  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const;
+};
+
+// torch.nn.LayerNorm over the last dimension (biased variance).
+struct LayerNorm {
+  torch::Tensor w, b;
+  double eps = 1e-6;
+  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, double eps);
+  torch::Tensor operator()(const torch::Tensor& x) const;
+};
+
+// croco/models/blocks.py Mlp: fc2(GELU_erf(fc1(x))).
+struct Mlp {
+  Linear fc1, fc2;
+  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t hidden, const Precision& p);
+  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const;
+};
+
+// croco/models/pos_embed.py RoPE2D (and its CUDA kernel curope): the first half of each head rotated by the y
+// position, the second half by x, rotate_half pairing (i, i + D/2), inv_freq = 1/base^(2i/D) in float32. Applied
+// as t·COS + swap(t)·SIN with the sign folded into SIN — no cat/neg chains.
+class Rope2D {
+ public:
+  explicit Rope2D(double base = 100.0) : base_(base) {}
+  // Tables for a row-major grid of h×w tokens (pos = (y, x)), head dim `dh`: COS and signed SIN, each [N, dh].
+  std::pair<torch::Tensor, torch::Tensor> Tables(int64_t h, int64_t w, int64_t dh, torch::Device device) const;
+  // t: [B, heads, N, dh].
+  static torch::Tensor Apply(const torch::Tensor& t, const std::pair<torch::Tensor, torch::Tensor>& tables);
+
+ private:
+  double base_;
+  mutable std::map<std::tuple<int64_t, int64_t, int64_t, int>, std::pair<torch::Tensor, torch::Tensor>> cache_;
+};
+
+// softmax(q·kᵀ·scale)·v for [B, heads, N, dh] tensors (croco Attention / CrossAttention core).
+torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
+                               const Precision& p);
+
+// croco/models/blocks.py Attention (self-attention with RoPE).
+struct SelfAttention {
+  Linear qkv, proj;
+  int64_t heads = 1;
+  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t heads, const Precision& p);
+  torch::Tensor operator()(const torch::Tensor& x, const std::pair<torch::Tensor, torch::Tensor>& rope,
+                           const Precision& p) const;
+};
+
+// croco/models/blocks.py CrossAttention (projq/projk/projv, RoPE on q and k with their own positions).
+struct CrossAttention {
+  Linear q, k, v, proj;
+  int64_t heads = 1;
+  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t heads, const Precision& p);
+  torch::Tensor operator()(const torch::Tensor& x, const torch::Tensor& y,
+                           const std::pair<torch::Tensor, torch::Tensor>& rope_x,
+                           const std::pair<torch::Tensor, torch::Tensor>& rope_y, const Precision& p) const;
+};
+
+// torch.nn.Conv2d / ConvTranspose2d with bf16 policy.
+struct Conv {
+  torch::Tensor w, b, w_lp, b_lp;
+  int64_t stride = 1, padding = 0;
+  bool transpose = false;
+  void Load(WeightStore& ws, const std::string& prefix, const std::vector<int64_t>& shape, bool bias, int64_t stride,
+            int64_t padding, bool transpose, const Precision& p);
+  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const;
+};
+
+// F.interpolate(x, scale_factor=2, mode='bilinear', align_corners=True).
+torch::Tensor Upsample2xAlignCorners(const torch::Tensor& x);
+
+}  // namespace freeloc::nn::internal

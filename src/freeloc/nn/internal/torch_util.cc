@@ -1,0 +1,111 @@
+#include "freeloc/nn/internal/torch_util.h"
+
+#include <sstream>
+
+#include "freeloc/core/error.h"
+
+namespace freeloc::nn {
+
+void RuntimeOptions::Validate() const {
+  FREELOC_CHECK(device == "cpu" || device == "cuda", "--device '" << device << "' is unknown; use cpu or cuda");
+  FREELOC_CHECK(precision == "fp32" || precision == "bf16",
+                "--precision '" << precision << "' is unknown; use fp32 or bf16");
+  FREELOC_CHECK(device != "cuda" || CudaAvailable(),
+                "--device cuda: this LibTorch build has no CUDA device available; run on cpu or install a CUDA "
+                "build of LibTorch");
+  FREELOC_CHECK(threads >= 0, "--threads must be >= 0");
+}
+
+bool CudaAvailable() { return torch::cuda::is_available(); }
+
+namespace internal {
+
+torch::Tensor ToTorch(const TensorView& t) {
+  torch::Dtype d;
+  switch (t.dtype) {
+    case DType::kF32: d = torch::kFloat32; break;
+    case DType::kF64: d = torch::kFloat64; break;
+    case DType::kF16: d = torch::kFloat16; break;
+    case DType::kBF16: d = torch::kBFloat16; break;
+    case DType::kI64: d = torch::kInt64; break;
+    case DType::kI32: d = torch::kInt32; break;
+    case DType::kI16: d = torch::kInt16; break;
+    case DType::kI8: d = torch::kInt8; break;
+    case DType::kU8: d = torch::kUInt8; break;
+    case DType::kBool: d = torch::kBool; break;
+    default: FREELOC_THROW("unsupported dtype");
+  }
+  auto owner = new std::shared_ptr<const void>(t.owner);
+  return torch::from_blob(
+      const_cast<uint8_t*>(t.data), t.shape, [owner](void*) { delete owner; }, torch::TensorOptions().dtype(d));
+}
+
+TensorView ToView(const torch::Tensor& t_in) {
+  torch::Tensor t = t_in.detach().to(torch::kCPU, torch::kFloat32).contiguous();
+  TensorView v;
+  v.dtype = DType::kF32;
+  v.shape = t.sizes().vec();
+  v.nbytes = static_cast<size_t>(t.numel()) * 4;
+  auto holder = std::make_shared<torch::Tensor>(t);
+  v.data = static_cast<const uint8_t*>(holder->data_ptr());
+  v.owner = holder;
+  return v;
+}
+
+torch::Device DeviceOf(const RuntimeOptions& r) {
+  return r.device == "cuda" ? torch::Device(torch::kCUDA) : torch::kCPU;
+}
+
+WeightStore::WeightStore(std::map<std::string, torch::Tensor> tensors, std::string source, torch::Device device)
+    : tensors_(std::move(tensors)), source_(std::move(source)), device_(device) {}
+
+torch::Tensor WeightStore::Take(const std::string& name, const std::vector<int64_t>& shape) {
+  auto it = tensors_.find(name);
+  if (it == tensors_.end()) {
+    missing_.push_back(name);
+    return torch::Tensor();
+  }
+  used_.insert(name);
+  torch::Tensor t = it->second;
+  if (!shape.empty()) {
+    bool ok = static_cast<int64_t>(shape.size()) == t.dim();
+    for (size_t i = 0; ok && i < shape.size(); ++i) ok = shape[i] < 0 || shape[i] == t.size(static_cast<int64_t>(i));
+    if (!ok) {
+      std::ostringstream os;
+      os << name << " " << t.sizes() << " (expected [";
+      for (size_t i = 0; i < shape.size(); ++i) os << (i ? ", " : "") << shape[i];
+      os << "])";
+      wrong_shape_.push_back(os.str());
+    }
+  }
+  if (t.scalar_type() != torch::kFloat32 || t.device() != device_) t = t.to(device_, torch::kFloat32);
+  return t;
+}
+
+void WeightStore::Alias(const std::string& name, const std::string& same_as) {
+  if (tensors_.count(name)) used_.insert(name);
+  (void)same_as;
+}
+
+void WeightStore::Finish() const {
+  std::vector<std::string> unexpected;
+  for (const auto& [name, t] : tensors_)
+    if (!used_.count(name)) unexpected.push_back(name);
+  if (missing_.empty() && unexpected.empty() && wrong_shape_.empty()) return;
+  std::ostringstream os;
+  os << source_ << ": the weights do not match the model";
+  auto list = [&](const char* what, const std::vector<std::string>& v) {
+    if (v.empty()) return;
+    os << "; " << v.size() << " " << what << ": ";
+    for (size_t i = 0; i < v.size() && i < 12; ++i) os << (i ? ", " : "") << v[i];
+    if (v.size() > 12) os << ", …";
+  };
+  list("missing", missing_);
+  list("unexpected", unexpected);
+  list("with the wrong shape", wrong_shape_);
+  os << " — check that the file is the model you meant and that the config matches it";
+  throw Error(os.str());
+}
+
+}  // namespace internal
+}  // namespace freeloc::nn
