@@ -11,6 +11,8 @@
 #include <sstream>
 #include <string>
 
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/safetensors.h"
 #include "freeloc/io/submission.h"
 #include "testing/testing.h"
 
@@ -188,6 +190,57 @@ TEST(Cli, PoseFromCorrespondenceFile) {
   r = RunFreeloc("pose --matches " + tmp.File("m4.txt") + " --ref-intrinsics " + k + " --query-intrinsics " + k);
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(Contains(r.out, "too-few-matches")) << r.out;
+}
+
+// `freeloc pointmap` (with --matches) and `freeloc match` (with instance label masks) on real TUM photos with the
+// tiny fixture weights: the numbers are meaningless, the path is real.
+TEST(Cli, PointmapAndMatchOnRealPhotos) {
+  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00003/seq0/frame_00000.png");
+  freeloc::testing::TempDir tmp;
+  const std::string model = freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+  const std::string s = freeloc::testing::SharedPath("data/tum_mapfree/val/s00003");
+  const std::string pair = s + "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png";
+  Result r = RunFreeloc("pointmap --model " + model + " --size 224,128 " + pair + " --out " +
+                        tmp.File("pm.safetensors") + " --matches --conf-thr 1.2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto f = freeloc::SafetensorsFile::Open(tmp.File("pm.safetensors"));
+  EXPECT_EQ(f.Get("pts3d_1").shape, (std::vector<int64_t>{224, 224, 3}));
+  EXPECT_EQ(f.Get("pts3d_2").shape, (std::vector<int64_t>{96, 128, 3}));
+  EXPECT_EQ(f.Get("conf_2").shape, (std::vector<int64_t>{96, 128}));
+  EXPECT_EQ(f.Get("image_1").dtype, freeloc::DType::kU8);
+  EXPECT_EQ(f.Get("matches").shape.at(1), 4);
+  EXPECT_EQ(f.Get("matches_orig").shape, f.Get("matches").shape);
+  EXPECT_EQ(f.metadata.at("size"), "224,128");
+  EXPECT_TRUE(Contains(f.metadata.at("timings"), "decode_ms")) << f.metadata.at("timings");
+  // Instance labels: one object (label 1) in both images, plus one label only in the reference (ignored).
+  std::vector<uint16_t> lr(640 * 480, 0), lq(640 * 480, 0);
+  for (int y = 100; y < 380; ++y)
+    for (int x = 150; x < 500; ++x) lr[y * 640 + x] = lq[y * 640 + x] = 1;
+  lr[0] = 2;
+  freeloc::WritePng16(tmp.File("lr.png"), 640, 480, lr);
+  freeloc::WritePng16(tmp.File("lq.png"), 640, 480, lq);
+  r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --ref-masks " + tmp.File("lr.png") +
+                 " --query-masks " + tmp.File("lq.png") + " --out " + tmp.File("m.txt"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "of 1 instances used")) << r.out;
+  const std::string text = freeloc::testing::ReadText(tmp.File("m.txt"));
+  EXPECT_GT(std::count(text.begin(), text.end(), '\n'), 10);
+  // The matches file feeds `freeloc pose` directly.
+  r = RunFreeloc("pose --matches " + tmp.File("m.txt") +
+                 " --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics 535.4,539.2,320.1,247.6 --json");
+  EXPECT_TRUE(r.code == 0 || r.code == 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "\"qvec\"")) << r.out;
+  // Masks of the wrong size: a clear error.
+  freeloc::WritePng16(tmp.File("small.png"), 10, 10, std::vector<uint16_t>(100, 1));
+  r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --ref-masks " + tmp.File("small.png") +
+                 " --query-masks " + tmp.File("lq.png") + " --out " + tmp.File("m2.txt"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "small.png: the label image is 10x10 but its photo is 640x480")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("m2.txt")));
+  // Bad model file.
+  r = RunFreeloc("pointmap --model " + tmp.File("lr.png") + " " + pair + " --out " + tmp.File("x.safetensors"));
+  EXPECT_EQ(r.code, 1);
 }
 
 TEST(Cli, DemoPlaceholderSaysSo) {

@@ -23,6 +23,8 @@ using RunFn = std::function<int()>;
 void RegisterInspect(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterEval(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterMatch(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli

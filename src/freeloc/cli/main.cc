@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   cli::RegisterInspect(app, global, &run);
   cli::RegisterEval(app, global, &run);
   cli::RegisterPose(app, global, &run);
+  cli::RegisterPointmap(app, global, &run);
+  cli::RegisterMatch(app, global, &run);
   cli::RegisterDemo(app, global, &run);
 
   try {

@@ -55,7 +55,12 @@ struct DecBlock {
 struct Rcu {
   Conv c1, c2;
   torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const {
-    return c2(torch::relu(c1(torch::relu(x), p)), p) + x;
+    // The first ReLU must not touch x (the skip connection uses it); the second may work in place.
+    torch::Tensor h = c1(torch::relu(x), p);
+    h.relu_();
+    torch::Tensor o = c2(h, p);
+    o.add_(x);
+    return o;
   }
 };
 struct Fusion {
@@ -160,7 +165,9 @@ struct Dust3rModel::Impl {
     Tap(tp + "refinenet1", path1);
     torch::Tensor o = hd.head0(path1, p);
     o = Upsample2xAlignCorners(o);
-    o = hd.head4(torch::relu(hd.head2(o, p)), p);
+    o = hd.head2(o, p);
+    o.relu_();
+    o = hd.head4(o, p);
     Tap(tp + "raw", o);
     return o;
   }
@@ -270,6 +277,15 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, co
     kw = ParseConstructorKwargs(m);
     source = model_path + " (args.model)";
   }
+  return Create(sd, kw, source, runtime);
+}
+
+std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, TensorView>& sd,
+                                                 const std::map<std::string, std::string>& kw,
+                                                 const std::string& source, const RuntimeOptions& runtime) {
+  runtime.Validate();
+  if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
+  const std::string& model_path = source;
   auto impl = std::make_unique<Impl>();
   impl->cfg = MakeDust3rConfig(sd, kw, source);
   impl->rt = runtime;

@@ -39,6 +39,10 @@ class Dust3rModel {
   // (top level, or under "constructor_args"). Throws freeloc::Error naming missing/unexpected tensors.
   static std::shared_ptr<Dust3rModel> Load(const std::string& model_path, const std::string& config_path = "",
                                            const RuntimeOptions& runtime = {});
+  // The same from a state dict already in memory (upstream key names) and constructor kwargs (may be empty).
+  static std::shared_ptr<Dust3rModel> Create(const std::map<std::string, TensorView>& state_dict,
+                                             const std::map<std::string, std::string>& kwargs,
+                                             const std::string& source, const RuntimeOptions& runtime = {});
   ~Dust3rModel();
 
   const Dust3rConfig& config() const;

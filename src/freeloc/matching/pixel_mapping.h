@@ -1,0 +1,17 @@
+// Network pixels → original-image pixels (DESIGN §2): undo DUSt3R's preprocessing (resize + centre crop) for each
+// frame, pixel-centre convention, so correspondences leave `matching` ready for the geometry engine with each
+// frame's own K.
+#pragma once
+
+#include <vector>
+
+#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/matching/reciprocal.h"
+#include "freeloc/matching/sift.h"
+
+namespace freeloc::matching {
+
+Correspondences ToOriginalPixels(const std::vector<PixelMatch>& matches, const Dust3rInput& ref,
+                                 const Dust3rInput& query);
+
+}  // namespace freeloc::matching
