@@ -171,4 +171,33 @@ std::vector<uint8_t> PillowResizePlane(const std::vector<uint8_t>& in, int width
   return Resample(in.data(), width, height, 1, out_width, out_height, filter);
 }
 
+std::vector<uint8_t> PillowResizeNearest(const uint8_t* in, int w, int h, int ch, int ow, int oh) {
+  FREELOC_CHECK(w > 0 && h > 0 && ow > 0 && oh > 0, "nearest resize: sizes must be positive");
+  auto indices = [](int n_in, int n_out) {
+    std::vector<int> idx(static_cast<size_t>(n_out));
+    const double scale = static_cast<double>(n_in) / n_out;
+    double pos = 0.5 * scale;
+    for (int o = 0; o < n_out; ++o) {
+      idx[static_cast<size_t>(o)] = std::min(static_cast<int>(pos), n_in - 1);
+      pos += scale;
+    }
+    return idx;
+  };
+  const std::vector<int> xs = indices(w, ow), ys = indices(h, oh);
+  std::vector<uint8_t> out(static_cast<size_t>(ow) * oh * ch);
+  for (int y = 0; y < oh; ++y)
+    for (int x = 0; x < ow; ++x)
+      for (int c = 0; c < ch; ++c)
+        out[(static_cast<size_t>(y) * ow + x) * ch + c] = in[(static_cast<size_t>(ys[y]) * w + xs[x]) * ch + c];
+  return out;
+}
+
+std::vector<int> TorchNearestIndices(int in_size, int out_size) {
+  std::vector<int> idx(static_cast<size_t>(out_size));
+  const float scale = static_cast<float>(in_size) / static_cast<float>(out_size);
+  for (int o = 0; o < out_size; ++o)
+    idx[static_cast<size_t>(o)] = std::min(static_cast<int>(std::floor(static_cast<float>(o) * scale)), in_size - 1);
+  return idx;
+}
+
 }  // namespace freeloc

@@ -1,0 +1,171 @@
+// Parity of the SegGPT port with the original Painter code on every fixture case (../shared/fixtures/seggpt).
+#include "freeloc/nn/seggpt.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "freeloc/core/error.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/safetensors.h"
+#include "testing/testing.h"
+
+namespace freeloc::nn {
+namespace {
+
+using testing::SharedPath;
+
+double Budget(const TensorView& a, const TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
+  EXPECT_EQ(a.numel(), b.numel());
+  if (a.numel() != b.numel()) return 1e9;
+  double w = 0;
+  for (int64_t i = 0; i < a.numel(); ++i) {
+    const double x = a.as<float>()[i], y = b.as<float>()[i];
+    w = std::max(w, std::abs(x - y) / (atol + rtol * std::abs(y)));
+  }
+  return w;
+}
+
+std::shared_ptr<SegGptModel> Tiny() {
+  return SegGptModel::Load(SharedPath("fixtures/seggpt/weights.safetensors"),
+                           SharedPath("fixtures/seggpt/config.json"));
+}
+
+std::vector<float> Vec(const TensorView& t) { return std::vector<float>(t.as<float>(), t.as<float>() + t.numel()); }
+
+TEST(SegGpt, ConfigFromShapesAndJson) {
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
+  const auto m = Tiny();
+  const SegGptConfig& c = m->config();
+  EXPECT_EQ(c.embed_dim, 64);
+  EXPECT_EQ(c.depth, 24);
+  EXPECT_EQ(c.heads, 4);
+  EXPECT_EQ(c.half, 64);
+  EXPECT_EQ(c.grid_h, 8);
+  EXPECT_EQ(c.grid_w, 4);
+  EXPECT_EQ(c.pos_grid, 14);
+  EXPECT_EQ(c.decoder_dim, 16);
+  EXPECT_EQ(c.out_indices, (std::vector<int>{5, 11, 17, 23}));
+}
+
+TEST(SegGpt, ParityOnEveryCaseFromStoredInputs) {
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/cases/a_instance.safetensors");
+  const auto m = Tiny();
+  for (const char* name : {"a_instance", "b_semantic", "c_ensemble", "d_resize_back"}) {
+    SCOPED_TRACE(name);
+    const SafetensorsFile f =
+        SafetensorsFile::Open(SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
+    const TensorView& imgs = f.Get("imgs");
+    const int k = static_cast<int>(imgs.shape[0]);
+    const SegType type = f.Get("seg_type").as<float>()[0] > 0.5f ? SegType::kInstance : SegType::kSemantic;
+    const bool ensemble = f.Get("merge_between_batch").as<int64_t>()[0] >= 0;
+    std::map<std::string, TensorView> taps;
+    m->SetTapSink(&taps);
+    const TensorView pred = m->Forward(Vec(imgs), Vec(f.Get("tgts")), k, type, ensemble);
+    m->SetTapSink(nullptr);
+    double worst = Budget(pred, f.Get("pred"));
+    EXPECT_LE(worst, 1.0) << "pred";
+    for (const char* tap :
+         {"pos_embed_resized", "embeddings", "block0_out", "merged", "decoder_input", "decoder_pixel_shuffled"}) {
+      if (!f.tensors.count(tap)) continue;
+      const double b = Budget(taps.at(tap), f.Get(tap));
+      EXPECT_LE(b, 1.0) << tap;
+      worst = std::max(worst, b);
+    }
+    std::printf("%s: worst budget use %.1f %% (atol 1e-4, rtol 1e-3)\n", name, 100 * worst);
+    if (f.tensors.count("pred_hf_rule")) {
+      // The HF ensemble schedule differs; our output must be far from it (we follow the original).
+      EXPECT_GT(Budget(pred, f.Get("pred_hf_rule")), 10.0);
+    }
+  }
+}
+
+TEST(SegGpt, FromPngsToTheBinaryMask) {
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/images/a_instance/target_image.png");
+  const auto m = Tiny();
+  for (const char* name : {"a_instance", "b_semantic", "c_ensemble", "d_resize_back"}) {
+    SCOPED_TRACE(name);
+    const std::string dir = SharedPath(std::string("fixtures/seggpt/images/") + name + "/");
+    const SafetensorsFile f =
+        SafetensorsFile::Open(SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
+    std::vector<Image> pi, pm;
+    for (int k = 0; std::filesystem::exists(dir + "prompt_image_" + std::to_string(k) + ".png"); ++k) {
+      pi.push_back(ReadImage(dir + "prompt_image_" + std::to_string(k) + ".png"));
+      pm.push_back(ReadImage(dir + "prompt_mask_" + std::to_string(k) + ".png"));
+    }
+    const Image target = ReadImage(dir + "target_image.png");
+    const SegType type = std::string(name) == "b_semantic" ? SegType::kSemantic : SegType::kInstance;
+    TensorView pred;
+    const SegGptMask out = m->Segment(pi, pm, target, type, &pred);
+    EXPECT_LE(Budget(pred, f.Get("pred")), 1.0);
+    const TensorView& gold = f.Get("mask");
+    ASSERT_EQ(out.mask.size(), static_cast<size_t>(gold.numel()));
+    int flips = 0;
+    for (size_t i = 0; i < out.mask.size(); ++i) flips += out.mask[i] != gold.as<uint8_t>()[i];
+    const int footprint = static_cast<int>(std::ceil(target.height / 64.0) * std::ceil(target.width / 64.0));
+    EXPECT_LE(flips, 4 * footprint);  // the README's allowance; 0 expected
+    const Image expected = ReadImage(dir + "expected_mask.png");
+    int png_flips = 0;
+    for (size_t i = 0; i < out.mask.size(); ++i) png_flips += (expected.data[3 * i] == 255) != (out.mask[i] == 1);
+    EXPECT_LE(png_flips, 4 * footprint);
+  }
+}
+
+TEST(SegGpt, HfNamesAreRenamedOnLoad) {
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
+  const SafetensorsFile w = SafetensorsFile::Open(SharedPath("fixtures/seggpt/weights.safetensors"));
+  auto hf = [](std::string n) {
+    const std::vector<std::pair<std::string, std::string>> m = {
+        {"patch_embed.proj.", "model.embeddings.patch_embeddings.projection."},
+        {"mask_token", "model.embeddings.mask_token"},
+        {"segment_token_x", "model.embeddings.segment_token_input"},
+        {"segment_token_y", "model.embeddings.segment_token_prompt"},
+        {"type_token_cls", "model.embeddings.type_token_semantic"},
+        {"type_token_ins", "model.embeddings.type_token_instance"},
+        {"pos_embed", "model.embeddings.position_embeddings"},
+        {"norm.", "model.encoder.layernorm."},
+        {"decoder_embed.", "decoder.decoder_embed."},
+        {"decoder_pred.0.", "decoder.decoder_pred.conv."},
+        {"decoder_pred.1.", "decoder.decoder_pred.layernorm."},
+        {"decoder_pred.3.", "decoder.decoder_pred.head."}};
+    for (const auto& [a, b] : m)
+      if (n.rfind(a, 0) == 0) return b + n.substr(a.size());
+    if (n.rfind("blocks.", 0) == 0) {
+      const size_t dot = n.find('.', 7);
+      std::string rest = n.substr(dot + 1);
+      for (const auto& [a, b] : std::vector<std::pair<std::string, std::string>>{{"attn.", "attention."},
+                                                                                 {"mlp.fc1.", "mlp.lin1."},
+                                                                                 {"mlp.fc2.", "mlp.lin2."},
+                                                                                 {"norm1.", "layernorm_before."},
+                                                                                 {"norm2.", "layernorm_after."}})
+        if (rest.rfind(a, 0) == 0) rest = b + rest.substr(a.size());
+      return "model.encoder.layers." + n.substr(7, dot - 7) + "." + rest;
+    }
+    return n;
+  };
+  std::map<std::string, TensorView> sd;
+  for (const auto& n : w.names) sd[hf(n)] = w.Get(n);
+  const std::string cfg = testing::ReadText(SharedPath("fixtures/seggpt/config.json"));
+  const auto a = Tiny();
+  const auto b = SegGptModel::Create(sd, cfg, "hf-named");
+  const SafetensorsFile f = SafetensorsFile::Open(SharedPath("fixtures/seggpt/cases/a_instance.safetensors"));
+  const TensorView pa = a->Forward(Vec(f.Get("imgs")), Vec(f.Get("tgts")), 1, SegType::kInstance, false);
+  const TensorView pb = b->Forward(Vec(f.Get("imgs")), Vec(f.Get("tgts")), 1, SegType::kInstance, false);
+  EXPECT_EQ(std::memcmp(pa.data, pb.data, pa.nbytes), 0);
+  // Missing and unexpected tensors are listed.
+  sd.erase("model.encoder.layers.7.attention.rel_pos_w");
+  const float z = 0;
+  sd["something.else"] = MakeTensor(DType::kF32, {1}, &z, 4);
+  try {
+    SegGptModel::Create(sd, cfg, "broken.safetensors");
+    FAIL();
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("blocks.7.attn.rel_pos_w"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("something.else"), std::string::npos) << msg;
+  }
+}
+
+}  // namespace
+}  // namespace freeloc::nn
