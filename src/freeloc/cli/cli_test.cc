@@ -243,6 +243,38 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   EXPECT_EQ(r.code, 1);
 }
 
+TEST(Cli, SegmentWritesTheMaskAndRawOutput) {
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/images/c_ensemble/target_image.png");
+  freeloc::testing::TempDir tmp;
+  const std::string d = freeloc::testing::SharedPath("fixtures/seggpt/images/c_ensemble/");
+  const std::string model = "--model " + freeloc::testing::SharedPath("fixtures/seggpt/weights.safetensors") +
+                            " --config " + freeloc::testing::SharedPath("fixtures/seggpt/config.json");
+  Result r = RunFreeloc("segment " + model + " --prompt-image " + d + "prompt_image_0.png --prompt-mask " + d +
+                        "prompt_mask_0.png --prompt-image " + d + "prompt_image_1.png --prompt-mask " + d +
+                        "prompt_mask_1.png --target " + d + "target_image.png --out " + tmp.File("m.png") + " --raw " +
+                        tmp.File("raw.safetensors"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const freeloc::Image got = freeloc::ReadImage(tmp.File("m.png"));
+  const freeloc::Image want = freeloc::ReadImage(d + "expected_mask.png");
+  ASSERT_EQ(got.width, want.width);
+  ASSERT_EQ(got.height, want.height);
+  int flips = 0;
+  for (size_t i = 0; i < got.data.size(); i += 3) flips += got.data[i] != want.data[i];
+  EXPECT_LE(flips, 16);
+  const auto raw = freeloc::SafetensorsFile::Open(tmp.File("raw.safetensors"));
+  EXPECT_EQ(raw.Get("pred").shape, (std::vector<int64_t>{3, 64, 64}));
+  // Mismatched prompt lists and a missing target: exit 1 with a message.
+  r = RunFreeloc("segment " + model + " --prompt-image " + d + "prompt_image_0.png --prompt-mask " + d +
+                 "prompt_mask_0.png --prompt-image " + d + "prompt_image_1.png --target " + d +
+                 "target_image.png --out " + tmp.File("x.png"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "one --prompt-mask per --prompt-image")) << r.out;
+  r = RunFreeloc("segment " + model + " --prompt-image " + d + "prompt_image_0.png --prompt-mask " + d +
+                 "prompt_mask_0.png --target " + tmp.File("nope.png") + " --out " + tmp.File("y.png"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("y.png")));
+}
+
 TEST(Cli, DemoPlaceholderSaysSo) {
   Result r = RunFreeloc("demo");
   EXPECT_EQ(r.code, 0);

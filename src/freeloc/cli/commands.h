@@ -25,6 +25,7 @@ void RegisterEval(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterMatch(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterSegment(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli

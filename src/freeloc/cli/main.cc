@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   cli::RegisterPose(app, global, &run);
   cli::RegisterPointmap(app, global, &run);
   cli::RegisterMatch(app, global, &run);
+  cli::RegisterSegment(app, global, &run);
   cli::RegisterDemo(app, global, &run);
 
   try {

@@ -119,6 +119,15 @@ void WriteImagePng(const std::string& path, const Image& image) {
   WriteFileAtomic(path, buf.data(), buf.size());
 }
 
+void WritePng8(const std::string& path, int width, int height, const std::vector<uint8_t>& values) {
+  FREELOC_CHECK(width > 0 && height > 0 && values.size() == static_cast<size_t>(width) * height,
+                path << ": 8-bit PNG size does not match its data");
+  cv::Mat m(height, width, CV_8UC1, const_cast<uint8_t*>(values.data()));
+  std::vector<uint8_t> buf;
+  FREELOC_CHECK(cv::imencode(".png", m, buf), path << ": PNG encoding failed");
+  WriteFileAtomic(path, buf.data(), buf.size());
+}
+
 void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values) {
   FREELOC_CHECK(width > 0 && height > 0 && values.size() == static_cast<size_t>(width) * height,
                 path << ": 16-bit PNG size does not match its data");

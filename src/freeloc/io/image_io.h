@@ -22,6 +22,9 @@ Image ReadImage(const std::string& path);
 // Lossless PNG, written atomically.
 void WriteImagePng(const std::string& path, const Image& image);
 
+// Single-channel 8-bit PNG (masks: 0/255), written atomically.
+void WritePng8(const std::string& path, int width, int height, const std::vector<uint8_t>& values);
+
 // Single-channel 16-bit PNG (e.g. depth in millimetres); values row-major. Written atomically.
 void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values);
 // Reads a single-channel 8- or 16-bit PNG without any conversion.

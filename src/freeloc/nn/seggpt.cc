@@ -63,15 +63,23 @@ struct Block {
     const torch::Tensor t =
         qkv(x, p).reshape({B, N, 3, heads, hd}).permute({2, 0, 3, 1, 4}).reshape({3, B * heads, N, hd});
     const torch::Tensor q = t[0], k = t[1], v = t[2];
-    torch::Tensor attn = torch::matmul(q * std::pow(static_cast<double>(hd), -0.5), k.transpose(-2, -1));
     const torch::Tensor Rh = GetRelPos(H, H, rel_h), Rw = GetRelPos(W, W, rel_w);
-    const torch::Tensor rq = q.reshape({B * heads, H, W, hd});
-    const torch::Tensor relh = torch::einsum("bhwc,hkc->bhwk", {rq, Rh});
-    const torch::Tensor relw = torch::einsum("bhwc,wkc->bhwk", {rq, Rw});
-    attn = (attn.view({B * heads, H, W, H, W}) + relh.unsqueeze(4) + relw.unsqueeze(3)).view({B * heads, N, N});
-    attn = torch::softmax(attn, -1);
-    const torch::Tensor o =
-        torch::matmul(attn, v).view({B, heads, H, W, hd}).permute({0, 2, 3, 1, 4}).reshape({B, H, W, C});
+    const double scale = std::pow(static_cast<double>(hd), -0.5);
+    // Heads in chunks whose N×N logits stay under ~16 MB: large blocks are then reused from the heap instead of
+    // being mapped and faulted in for every block (the full 16-head map is 157 MB at 1568 tokens).
+    const int64_t per = std::max<int64_t>(1, (int64_t{16} << 20) / (N * N * 4));
+    torch::Tensor o = torch::empty({B * heads, N, hd}, q.options());
+    for (int64_t h0 = 0; h0 < B * heads; h0 += per) {
+      const int64_t h1 = std::min(B * heads, h0 + per);
+      const torch::Tensor qc = q.slice(0, h0, h1), kc = k.slice(0, h0, h1), vc = v.slice(0, h0, h1);
+      torch::Tensor attn = torch::matmul(qc * scale, kc.transpose(-2, -1));
+      const torch::Tensor rq = qc.reshape({h1 - h0, H, W, hd});
+      const torch::Tensor relh = torch::einsum("bhwc,hkc->bhwk", {rq, Rh});
+      const torch::Tensor relw = torch::einsum("bhwc,wkc->bhwk", {rq, Rw});
+      attn.view({h1 - h0, H, W, H, W}).add_(relh.unsqueeze(4)).add_(relw.unsqueeze(3));
+      o.slice(0, h0, h1).copy_(torch::matmul(torch::softmax(attn, -1), vc));
+    }
+    o = o.view({B, heads, H, W, hd}).permute({0, 2, 3, 1, 4}).reshape({B, H, W, C});
     return proj(o, p);
   }
 };

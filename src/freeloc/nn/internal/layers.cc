@@ -1,5 +1,6 @@
 #include "freeloc/nn/internal/layers.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace freeloc::nn::internal {
@@ -70,14 +71,29 @@ torch::Tensor Rope2D::Apply(const torch::Tensor& t, const std::pair<torch::Tenso
 
 torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
                                const Precision& p) {
-  if (p.bf16) {
-    const torch::Tensor a = torch::matmul(q.to(torch::kBFloat16), k.to(torch::kBFloat16).transpose(-2, -1));
-    const torch::Tensor s = torch::softmax(a.to(torch::kFloat32) * scale, -1);
-    return torch::matmul(s.to(torch::kBFloat16), v.to(torch::kBFloat16)).to(torch::kFloat32);
+  // Heads are processed in chunks whose logits stay under ~16 MB, so the big blocks are reused from the heap
+  // instead of being mapped and faulted in anew for every layer.
+  const int64_t B = q.size(0), H = q.size(1), Nq = q.size(2), Nk = k.size(2);
+  const int64_t per = std::max<int64_t>(1, (int64_t{16} << 20) / (Nq * Nk * 4));
+  auto one = [&](const torch::Tensor& qq, const torch::Tensor& kk, const torch::Tensor& vv) {
+    if (p.bf16) {
+      const torch::Tensor a = torch::matmul(qq.to(torch::kBFloat16), kk.to(torch::kBFloat16).transpose(-2, -1));
+      const torch::Tensor s = torch::softmax(a.to(torch::kFloat32) * scale, -1);
+      return torch::matmul(s.to(torch::kBFloat16), vv.to(torch::kBFloat16)).to(torch::kFloat32);
+    }
+    torch::Tensor a = torch::matmul(qq, kk.transpose(-2, -1));
+    a.mul_(scale);
+    return torch::matmul(torch::softmax(a, -1), vv);
+  };
+  if (B * H <= per) return one(q, k, v);
+  const torch::Tensor qf = q.reshape({B * H, Nq, q.size(3)}), kf = k.reshape({B * H, Nk, k.size(3)}),
+                      vf = v.reshape({B * H, Nk, v.size(3)});
+  torch::Tensor o = torch::empty({B * H, Nq, v.size(3)}, q.options());
+  for (int64_t h0 = 0; h0 < B * H; h0 += per) {
+    const int64_t h1 = std::min(B * H, h0 + per);
+    o.slice(0, h0, h1).copy_(one(qf.slice(0, h0, h1), kf.slice(0, h0, h1), vf.slice(0, h0, h1)));
   }
-  torch::Tensor a = torch::matmul(q, k.transpose(-2, -1));
-  a.mul_(scale);
-  return torch::matmul(torch::softmax(a, -1), v);
+  return o.view({B, H, Nq, v.size(3)});
 }
 
 void SelfAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const Precision& p) {
