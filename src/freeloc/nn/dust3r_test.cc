@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
 #include "freeloc/core/error.h"
 #include "freeloc/io/dust3r_preprocess.h"
@@ -153,6 +154,29 @@ TEST(Dust3r, CachedReferenceEqualsOneShot) {
     EXPECT_EQ(std::memcmp(one.pts3d_1.data, two.pts3d_1.data, one.pts3d_1.nbytes), 0);
     EXPECT_EQ(std::memcmp(one.pts3d_2.data, two.pts3d_2.data, one.pts3d_2.nbytes), 0);
     EXPECT_EQ(std::memcmp(one.conf_2.data, two.conf_2.data, one.conf_2.nbytes), 0);
+  }
+}
+
+// HF layout: model.safetensors with config.json (the constructor kwargs at the top level) beside it.
+TEST(Dust3r, HfLayoutReadsTheSiblingConfig) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/weights.safetensors");
+  testing::TempDir tmp;
+  std::filesystem::copy_file(SharedPath("fixtures/dust3r/weights.safetensors"), tmp.File("model.safetensors"));
+  testing::WriteText(tmp.File("config.json"),
+                     R"({"enc_embed_dim": 64, "enc_depth": 2, "enc_num_heads": 4, "dec_embed_dim": 48, "dec_depth": 12,
+                         "dec_num_heads": 4, "pos_embed": "RoPE100", "head_type": "dpt", "output_mode": "pts3d",
+                         "depth_mode": ["exp", "-inf", "inf"], "conf_mode": ["exp", 1, "inf"]})");
+  const auto m = Dust3rModel::Load(tmp.File("model.safetensors"));
+  EXPECT_EQ(m->config().enc_heads, 4);
+  EXPECT_EQ(m->config().source, tmp.File("config.json"));
+  CheckCase("png_s80", *m, false);
+  // A config that does not belong to the weights is refused.
+  testing::WriteText(tmp.File("config.json"), R"({"enc_depth": 3, "enc_num_heads": 4, "dec_num_heads": 4})");
+  try {
+    Dust3rModel::Load(tmp.File("model.safetensors"));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("enc_depth=3 but the weights have 2"), std::string::npos) << e.what();
   }
 }
 
