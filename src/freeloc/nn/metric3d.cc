@@ -1,0 +1,555 @@
+// Metric3D v2 forward pass. Blocks cite the upstream code they reproduce (YvanYin/Metric3D eb5b6fa:
+// mono/model/backbones/ViT_DINO_reg.py, mono/model/decode_heads/RAFTDepthNormalDPTDecoder5.py, hubconf.py).
+#include "freeloc/nn/metric3d.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "freeloc/core/error.h"
+#include "freeloc/io/checkpoint.h"
+#include "freeloc/nn/internal/layers.h"
+#include "freeloc/nn/internal/torch_util.h"
+
+namespace freeloc::nn {
+
+using namespace internal;  // NOLINT
+
+std::string Metric3dConfig::Summary() const {
+  std::ostringstream os;
+  os << "Metric3D " << variant << ": ViT " << depth << "×" << embed_dim << " (" << heads << " heads, "
+     << (swiglu ? "SwiGLU " : "MLP ") << ffn_hidden << "), "
+     << (multi_output ? "intermediate features" : "final norm ×4") << ", GRU hidden " << hidden << " × " << iters
+     << " iterations, input " << input_h << "×" << input_w;
+  return os.str();
+}
+
+namespace {
+
+// LayerNorm over the channels of an NCHW tensor (RAFT LayerNorm2d).
+torch::Tensor Ln2d(const torch::Tensor& x, const torch::Tensor& w, const torch::Tensor& b, double eps) {
+  return torch::layer_norm(x.permute({0, 2, 3, 1}), {x.size(1)}, w, b, eps).permute({0, 3, 1, 2});
+}
+
+// ViT_DINO_reg.Block: x + ls1·attn(norm1 x), x + ls2·ffn(norm2 x).
+struct VitBlock {
+  LayerNorm n1, n2;
+  Linear qkv, proj, fc1, fc2;  // fc1/fc2 = w12/w3 for SwiGLU
+  torch::Tensor ls1, ls2;
+  bool swiglu = false;
+  int64_t heads = 1;
+  torch::Tensor operator()(torch::Tensor x, const Precision& p) const {
+    const int64_t B = x.size(0), T = x.size(1), C = x.size(2), hd = C / heads;
+    const torch::Tensor t = qkv(n1(x), p).reshape({B, T, 3, heads, hd}).permute({2, 0, 3, 1, 4});
+    const torch::Tensor a = ScaledDotProduct(t[0], t[1], t[2], std::pow(static_cast<double>(hd), -0.5), p);
+    x = x + ls1 * proj(a.transpose(1, 2).reshape({B, T, C}), p);
+    torch::Tensor h = fc1(n2(x), p);
+    if (swiglu) {
+      const auto ch = h.chunk(2, -1);
+      h = torch::silu(ch[0]) * ch[1];
+    } else {
+      h = torch::gelu(h);
+    }
+    return x + ls2 * fc2(h, p);
+  }
+};
+
+// Readout (project_patch on the patch tokens + project_learn on [cls, r1..r4], GELU), then the resampler.
+struct Readout {
+  Linear patch, learn;
+  Conv sample;   // read_1: ConvTranspose 2/2; read_0: 1×1 after nearest ×3.5; none for read_2/3
+  int kind = 0;  // 0: identity, 1: convT ×2, 2: nearest ×3.5 + conv1×1
+};
+
+// DPT ConvBlock with the in-place ReLU of the input: relu(x) + conv2(relu(conv1(relu(x)))).
+struct ConvBlock {
+  Conv c1, c2;
+  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const {
+    const torch::Tensor r = torch::relu(x);
+    return r + c2(torch::relu(c1(r, p)), p);
+  }
+};
+
+struct FuseBlock {
+  ConvBlock trunk, branch;
+  bool has_branch = false;
+  double scale = 0;  // 0: no upsampling
+  Conv out;
+  torch::Tensor operator()(torch::Tensor x, const torch::Tensor* skip, const Precision& p) const {
+    if (skip) x = x + branch(*skip, p);
+    x = trunk(x, p);
+    if (scale > 0) {
+      x = torch::upsample_bilinear2d(
+          x, {static_cast<int64_t>(std::floor(x.size(2) * scale)), static_cast<int64_t>(std::floor(x.size(3) * scale))},
+          true);
+    }
+    return out(x, p);
+  }
+};
+
+// RAFT ResidualBlock(norm_fn='layer') followed by a 3×3 conv: one head of the context feature encoder.
+struct ContextHead {
+  Conv c1, c2, down, post;
+  torch::Tensor n1w, n1b, n2w, n2b, ndw, ndb;
+  bool has_down = false;
+  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const {
+    constexpr double eps = 1e-5;
+    torch::Tensor y = torch::relu(Ln2d(c1(x, p), n1w, n1b, eps));
+    y = torch::relu(Ln2d(c2(y, p), n2w, n2b, eps));
+    const torch::Tensor sc = has_down ? Ln2d(down(x, p), ndw, ndb, eps) : x;
+    return post(torch::relu(sc + y), p);
+  }
+};
+
+struct ConvGru {
+  Conv z, r, q;
+  torch::Tensor operator()(const torch::Tensor& h, const std::vector<torch::Tensor>& cx,
+                           const std::vector<torch::Tensor>& xs, const Precision& p) const {
+    const torch::Tensor x = torch::cat(xs, 1);
+    const torch::Tensor hx = torch::cat({h, x}, 1);
+    const torch::Tensor zz = torch::sigmoid(z(hx, p) + cx[0]);
+    const torch::Tensor rr = torch::sigmoid(r(hx, p) + cx[1]);
+    const torch::Tensor qq = torch::tanh(q(torch::cat({rr * h, x}, 1), p) + cx[2]);
+    return (1 - zz) * h + zz * qq;
+  }
+};
+
+torch::Tensor Pool2x(const torch::Tensor& x) { return torch::avg_pool2d(x, 3, 2, 1, false, true); }
+torch::Tensor Interp(const torch::Tensor& x, const torch::Tensor& like) {
+  return torch::upsample_bilinear2d(x, {like.size(2), like.size(3)}, true);
+}
+// relu(x − min) + min, then max − relu(max − y): the upstream clamp (low values become 200 − fl(199.9)).
+torch::Tensor Clamp(const torch::Tensor& x, double lo, double hi) {
+  const torch::Tensor y = torch::relu(x - lo) + lo;
+  return hi - torch::relu(hi - y);
+}
+// norm_normalize: xyz / (‖xyz‖ + 1e-10), kappa = elu(k) + 1 + 0.01.
+torch::Tensor NormNormalize(const torch::Tensor& n) {
+  const torch::Tensor xyz = n.slice(1, 0, 3);
+  const torch::Tensor norm = torch::sqrt((xyz * xyz).sum(1, true)) + 1e-10;
+  return torch::cat({xyz / norm, torch::elu(n.slice(1, 3, 4)) + 1.0 + 0.01}, 1);
+}
+
+}  // namespace
+
+struct Metric3dModel::Impl {
+  Metric3dConfig cfg;
+  RuntimeOptions rt;
+  torch::Device device = torch::kCPU;
+  Precision prec;
+  Conv patch;
+  torch::Tensor cls, regs, pos_embed;
+  std::vector<VitBlock> blocks;
+  LayerNorm norm;
+  Readout read[4];
+  FuseBlock up3, up2, up1;
+  Conv dr0, dr2;            // depth_regressor.{0,2}
+  Conv np0, np2, np4, np6;  // normal_predictor
+  ContextHead ctx[3][2];    // levels 04, 08, 16 × (hidden, context)
+  Conv zqr[3];
+  ConvGru gru08, gru16, gru32;
+  Conv fh1d, fh2d, fh1n, fh2n, mask0, mask2;
+  torch::Tensor bins;
+  mutable std::map<std::string, TensorView>* taps = nullptr;
+  void Tap(const std::string& n, const torch::Tensor& t) const {
+    if (taps) (*taps)[n] = ToView(t);
+  }
+
+  std::vector<torch::Tensor> Encode(const torch::Tensor& img) const {
+    const int64_t C = cfg.embed_dim, H = img.size(2), W = img.size(3), h14 = H / cfg.patch, w14 = W / cfg.patch;
+    torch::Tensor x = patch(img, prec).flatten(2).transpose(1, 2);  // [1, N, C]
+    Tap("patch_embed_out", x);
+    // interpolate_pos_encoding: bicubic with the given scale factors ((h14 + 0.1)/37, (w14 + 0.1)/37).
+    const int64_t G = cfg.pos_grid;
+    const torch::Tensor grid = pos_embed.slice(1, 1, 1 + G * G).reshape({1, G, G, C}).permute({0, 3, 1, 2});
+    const double sh = (h14 + 0.1) / G, sw = (w14 + 0.1) / G;
+    const torch::Tensor pe =
+        torch::upsample_bicubic2d(grid, {h14, w14}, false, sh, sw).permute({0, 2, 3, 1}).reshape({1, h14 * w14, C});
+    const torch::Tensor pos = torch::cat({pos_embed.slice(1, 0, 1), pe}, 1);
+    Tap("pos_embed_interp", pos);
+    x = torch::cat({cls, x}, 1) + pos;
+    x = torch::cat({x.slice(1, 0, 1), regs, x.slice(1, 1, x.size(1))}, 1);
+    Tap("tokens_prepared", x);
+    std::vector<torch::Tensor> feats;
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      x = blocks[i](x, prec);
+      if (cfg.multi_output && std::find(cfg.feature_blocks.begin(), cfg.feature_blocks.end(), static_cast<int>(i)) !=
+                                  cfg.feature_blocks.end())
+        feats.push_back(x);
+    }
+    if (!cfg.multi_output) {
+      const torch::Tensor n = norm(x);
+      feats = {n, n, n, n};
+    }
+    if (taps) Tap("encoder_features", torch::stack(feats, 0));
+    return feats;
+  }
+
+  torch::Tensor RunReadout(int k, const torch::Tensor& f, int64_t h14, int64_t w14) const {
+    const Readout& r = read[k];
+    const int64_t C = cfg.embed_dim, nl = 1 + cfg.registers;
+    const torch::Tensor tokens = f.slice(1, nl, f.size(1)).reshape({f.size(0), h14, w14, C});
+    const torch::Tensor learn = f.slice(1, 0, nl).reshape({f.size(0), 1, 1, nl * C});
+    torch::Tensor o = torch::gelu(r.patch(tokens, prec) + r.learn(learn, prec)).permute({0, 3, 1, 2});
+    if (r.kind == 1) o = r.sample(o, prec);
+    if (r.kind == 2) {
+      o = torch::upsample_nearest2d(
+          o, {static_cast<int64_t>(std::floor(h14 * 3.5)), static_cast<int64_t>(std::floor(w14 * 3.5))}, 3.5, 3.5);
+      o = r.sample(o, prec);
+    }
+    return o;
+  }
+
+  void Decode(const std::vector<torch::Tensor>& feats, int64_t h14, int64_t w14, torch::Tensor* depth,
+              torch::Tensor* conf, torch::Tensor* normal) const {
+    const Precision& p = prec;
+    torch::Tensor r[4];
+    for (int k = 0; k < 4; ++k) {
+      r[k] = RunReadout(k, feats[static_cast<size_t>(k)], h14, w14);
+      Tap("readout_" + std::to_string(k), r[k]);
+    }
+    // decoder_mono: upconv_3(read_3), upconv_2(·, read_2) ×2, upconv_1(·, read_1) ×1.75.
+    torch::Tensor x = up3(r[3], nullptr, p);
+    x = up2(x, &r[2], p);
+    const torch::Tensor ref = up1(x, &r[1], p);
+    Tap("ref_feat", ref);
+    const int64_t dc1 = cfg.decoder_channels[1];
+    const torch::Tensor feat = ref.slice(1, 0, dc1);
+    // Initial depth: softmax over the 256 log-spaced bins, expectation, clamp, state = (d − 200)/100.
+    const torch::Tensor prob = torch::softmax(dr2(torch::relu(dr0(feat, p)), p), 1);
+    const torch::Tensor d = (prob * bins.view({1, -1, 1, 1})).sum(1, true);
+    Tap("init_depth_expectation", d);
+    const torch::Tensor d_state = (Clamp(d, cfg.min_depth, cfg.max_depth) - cfg.max_depth) / cfg.regress_scale;
+    const torch::Tensor nraw = np6(torch::relu(np4(torch::relu(np2(torch::relu(np0(feat, p)), p)), p)), p);
+    Tap("normal_head_raw", nraw);
+    const torch::Tensor n0 = NormNormalize(torch::cat({nraw, ref.slice(1, dc1 + 1, dc1 + 2)}, 1));
+    torch::Tensor state = torch::cat({d_state, ref.slice(1, dc1, dc1 + 1), n0}, 1);
+    Tap("depth_init", state);
+    // Context encoder on (read_0, relu(read_1), relu(read_2)) — the in-place ReLU side effect of upstream's ConvBlock.
+    const torch::Tensor levels[3] = {r[0], torch::relu(r[1]), torch::relu(r[2])};
+    const char* names[3] = {"04", "08", "16"};
+    torch::Tensor net[3];
+    std::vector<torch::Tensor> cz[3];
+    const int64_t hd = cfg.hidden;
+    for (int l = 0; l < 3; ++l) {
+      net[l] = torch::tanh(ctx[l][0](levels[l], p));
+      const torch::Tensor c = torch::relu(ctx[l][1](levels[l], p));
+      Tap(std::string("net_init_") + names[l], net[l]);
+      Tap(std::string("context_") + names[l], c);
+      const torch::Tensor zqr_out = zqr[l](c, p);
+      cz[l] = {zqr_out.slice(1, 0, hd), zqr_out.slice(1, hd, 2 * hd), zqr_out.slice(1, 2 * hd, 3 * hd)};
+    }
+    // Slow-fast multi-level GRU refinement (BasicMultiUpdateBlock, n_gru_layers 3).
+    std::vector<torch::Tensor> iter_states;
+    torch::Tensor mask;
+    for (int it = 0; it < cfg.iters; ++it) {
+      const torch::Tensor flow = state;
+      net[2] = gru32(net[2], cz[2], {Pool2x(net[1])}, p);
+      net[2] = gru32(net[2], cz[2], {Pool2x(net[1])}, p);
+      net[1] = gru16(net[1], cz[1], {Interp(Pool2x(net[0]), net[1]), Interp(net[2], net[1])}, p);
+      net[2] = gru32(net[2], cz[2], {Pool2x(net[1])}, p);
+      net[1] = gru16(net[1], cz[1], {Interp(Pool2x(net[0]), net[1]), Interp(net[2], net[1])}, p);
+      net[0] = gru08(net[0], cz[0], {flow, Interp(net[1], net[0])}, p);
+      const torch::Tensor delta =
+          torch::cat({fh2d(torch::relu(fh1d(net[0], p)), p), fh2n(torch::relu(fh1n(net[0], p)), p)}, 1);
+      mask = 0.25 * mask2(torch::relu(mask0(net[0], p)), p);
+      state = state + delta;
+      iter_states.push_back(state);
+    }
+    if (taps) {
+      Tap("iter_state", torch::stack(iter_states, 0));
+      for (int l = 0; l < 3; ++l) Tap(std::string("net_final_") + names[l], net[l]);
+      Tap("up_mask_final", mask);
+    }
+    // Convex ×4 upsampling (upsample_flow): softmax over the 9 taps, unfold with zero padding.
+    const int64_t N = state.size(0), Hq = state.size(2), Wq = state.size(3);
+    const torch::Tensor m = torch::softmax(mask.view({N, 1, 9, 4, 4, Hq, Wq}), 2);
+    const torch::Tensor uf = torch::im2col(state, {3, 3}, {1, 1}, {1, 1}, {1, 1}).view({N, 6, 9, 1, 1, Hq, Wq});
+    const torch::Tensor up = (m * uf).sum(2).permute({0, 1, 4, 2, 5, 3}).reshape({N, 6, 4 * Hq, 4 * Wq});
+    *depth = Clamp(up.slice(1, 0, 1) * cfg.regress_scale + cfg.max_depth, cfg.min_depth, cfg.max_depth);
+    *conf = up.slice(1, 1, 2);
+    *normal = NormNormalize(up.slice(1, 2, 6));
+  }
+};
+
+namespace {
+
+std::vector<int> Ints(const nlohmann::json& j) { return j.get<std::vector<int>>(); }
+
+}  // namespace
+
+Metric3dModel::Metric3dModel(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Metric3dModel::~Metric3dModel() = default;
+const Metric3dConfig& Metric3dModel::config() const { return impl_->cfg; }
+void Metric3dModel::SetTapSink(std::map<std::string, TensorView>* sink) const { impl_->taps = sink; }
+
+std::shared_ptr<Metric3dModel> Metric3dModel::Load(const std::string& model_path, const std::string& config_path,
+                                                   const RuntimeOptions& runtime) {
+  const Checkpoint ckpt = Checkpoint::Open(model_path);
+  const auto sd = ckpt.StateDict({"model_state_dict", "state_dict", "model", ""});
+  std::string json = "{}";
+  std::string cfg_file = config_path;
+  if (cfg_file.empty()) {
+    const auto sibling = std::filesystem::path(model_path).parent_path() / "config.json";
+    if (ckpt.format() == Checkpoint::Format::kSafetensors && std::filesystem::exists(sibling))
+      cfg_file = sibling.string();
+  }
+  if (!cfg_file.empty()) {
+    std::ifstream f(cfg_file);
+    FREELOC_CHECK(f.good(), cfg_file << ": cannot open the Metric3D config");
+    std::stringstream ss;
+    ss << f.rdbuf();
+    json = ss.str();
+  }
+  return Create(sd, json, model_path, runtime);
+}
+
+std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string, TensorView>& sd_in,
+                                                     const std::string& config_json, const std::string& source,
+                                                     const RuntimeOptions& runtime) {
+  runtime.Validate();
+  if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(config_json);
+  } catch (const std::exception& e) {
+    FREELOC_THROW(source << ": the Metric3D config is not valid JSON (" << e.what() << ")");
+  }
+  const nlohmann::json je = j.value("encoder", nlohmann::json::object());
+  const nlohmann::json jd = j.value("decoder", nlohmann::json::object());
+  const nlohmann::json jdata = j.value("data", nlohmann::json::object());
+  std::map<std::string, torch::Tensor> tensors;
+  for (const auto& [k, v] : sd_in) {
+    std::string n = k;
+    if (n.rfind("depth_model.", 0) == 0) n = n.substr(12);
+    tensors[n] = ToTorch(v);
+  }
+  auto shape = [&](const std::string& n) {
+    auto it = tensors.find(n);
+    FREELOC_CHECK(it != tensors.end(),
+                  source << ": tensor 'depth_model." << n << "' is missing; is this a Metric3D ViT checkpoint?");
+    return it->second.sizes().vec();
+  };
+  auto impl = std::make_unique<Impl>();
+  Metric3dConfig& c = impl->cfg;
+  const auto pe = shape("encoder.patch_embed.proj.weight");
+  c.embed_dim = static_cast<int>(pe[0]);
+  c.patch = static_cast<int>(pe[2]);
+  c.depth = 0;
+  while (tensors.count("encoder.blocks.0." + std::to_string(c.depth) + ".norm1.weight")) ++c.depth;
+  FREELOC_CHECK(c.depth > 0, source << ": no encoder.blocks.0.<i> tensors (block_chunks = 1 layout expected)");
+  c.swiglu = tensors.count("encoder.blocks.0.0.mlp.w12.weight") > 0;
+  c.ffn_hidden = static_cast<int>(
+      shape(c.swiglu ? "encoder.blocks.0.0.mlp.w3.weight" : "encoder.blocks.0.0.mlp.fc1.weight")[c.swiglu ? 1 : 0]);
+  c.registers = static_cast<int>(shape("encoder.register_tokens")[1]);
+  c.pos_grid = static_cast<int>(std::lround(std::sqrt(static_cast<double>(shape("encoder.pos_embed")[1] - 1))));
+  c.heads = je.value("num_heads", c.embed_dim / 64);
+  c.ln_eps = je.value("layernorm_eps", 1e-6);
+  c.variant = c.embed_dim == 384    ? "vit_small"
+              : c.embed_dim == 1024 ? "vit_large"
+              : c.embed_dim == 1536 ? "vit_giant2"
+                                    : "custom";
+  c.multi_output = je.value("multi_output", c.swiglu);
+  if (je.contains("intermediate_block_indices") && je["intermediate_block_indices"].is_array()) {
+    c.feature_blocks = Ints(je["intermediate_block_indices"]);
+  } else if (c.multi_output) {
+    for (int i = 0; i < c.depth && c.feature_blocks.size() < 4; ++i)
+      if ((i + 1) % std::max(1, c.depth / 4) == 0) c.feature_blocks.push_back(i);
+  }
+  c.feature_channels = {static_cast<int>(shape("decoder.token2feature.read_0.sample.0.weight")[0]),
+                        static_cast<int>(shape("decoder.token2feature.read_1.sample.weight")[1]), c.embed_dim,
+                        jd.contains("feature_channels") ? Ints(jd["feature_channels"])[3] : 2 * c.embed_dim};
+  const int dc1 = static_cast<int>(shape("decoder.decoder_mono.upconv_1.out_conv.weight")[0]) - 2;
+  const int dc2 = static_cast<int>(shape("decoder.decoder_mono.upconv_2.out_conv.weight")[0]);
+  c.decoder_channels = {jd.contains("decoder_channels") ? Ints(jd["decoder_channels"])[0] : dc1, dc1, dc2, c.embed_dim,
+                        c.embed_dim};
+  c.hidden = static_cast<int>(shape("decoder.context_zqr_convs.0.weight")[0]) / 3;
+  c.iters = jd.value("iters", c.embed_dim == 384 ? 4 : 8);
+  c.num_bins = static_cast<int>(shape("decoder.depth_regressor.2.weight")[0]);
+  if (jdata.contains("input_size")) {
+    const auto s = Ints(jdata["input_size"]);
+    c.input_h = s[0];
+    c.input_w = s[1];
+  }
+  if (jd.contains("depth_normalize")) {
+    c.min_depth = jd["depth_normalize"][0].get<double>();
+    c.max_depth = jd["depth_normalize"][1].get<double>();
+  }
+  FREELOC_CHECK(c.embed_dim % c.heads == 0,
+                source << ": embed_dim " << c.embed_dim << " not divisible by " << c.heads << " heads");
+  FREELOC_CHECK(!c.multi_output || c.feature_blocks.size() == 4, source << ": need 4 intermediate feature blocks");
+  FREELOC_CHECK(c.input_h % 28 == 0 && c.input_w % 28 == 0, source << ": input size must be multiples of 28");
+  impl->rt = runtime;
+  impl->device = DeviceOf(runtime);
+  impl->prec.bf16 = runtime.precision == "bf16";
+  WeightStore ws(std::move(tensors), source, impl->device);
+  const Precision& p = impl->prec;
+  const int64_t C = c.embed_dim, F = c.ffn_hidden, hd = c.hidden;
+  impl->patch.Load(ws, "encoder.patch_embed.proj", {C, 3, c.patch, c.patch}, true, c.patch, 0, false, p);
+  impl->cls = ws.Take("encoder.cls_token", {1, 1, C});
+  impl->regs = ws.Take("encoder.register_tokens", {1, c.registers, C});
+  impl->pos_embed = ws.Take("encoder.pos_embed", {1, static_cast<int64_t>(c.pos_grid) * c.pos_grid + 1, C});
+  ws.Ignore("encoder.mask_token");
+  impl->blocks.resize(static_cast<size_t>(c.depth));
+  for (int i = 0; i < c.depth; ++i) {
+    const std::string b = "encoder.blocks.0." + std::to_string(i) + ".";
+    VitBlock& k = impl->blocks[static_cast<size_t>(i)];
+    k.heads = c.heads;
+    k.swiglu = c.swiglu;
+    k.n1.Load(ws, b + "norm1", C, c.ln_eps);
+    k.n2.Load(ws, b + "norm2", C, c.ln_eps);
+    k.qkv.Load(ws, b + "attn.qkv", 3 * C, C, true, p);
+    k.proj.Load(ws, b + "attn.proj", C, C, true, p);
+    k.ls1 = ws.Take(b + "ls1.gamma", {C});
+    k.ls2 = ws.Take(b + "ls2.gamma", {C});
+    if (c.swiglu) {
+      k.fc1.Load(ws, b + "mlp.w12", 2 * F, C, true, p);
+      k.fc2.Load(ws, b + "mlp.w3", C, F, true, p);
+    } else {
+      k.fc1.Load(ws, b + "mlp.fc1", F, C, true, p);
+      k.fc2.Load(ws, b + "mlp.fc2", C, F, true, p);
+    }
+  }
+  if (ws.Has("encoder.norm.weight")) {
+    impl->norm.Load(ws, "encoder.norm", C, c.ln_eps);  // present (and unused) in the giant2 layout too
+  }
+  const int64_t fc0 = c.feature_channels[0], fc1 = c.feature_channels[1];
+  for (int k = 0; k < 4; ++k) {
+    const std::string r = "decoder.token2feature.read_" + std::to_string(k) + ".";
+    impl->read[k].patch.Load(ws, r + "readoper.project_patch", C, C, true, p);
+    impl->read[k].learn.Load(ws, r + "readoper.project_learn", C, (1 + c.registers) * C, false, p);
+    if (k == 1) {
+      impl->read[k].kind = 1;
+      impl->read[k].sample.Load(ws, r + "sample", {C, fc1, 2, 2}, true, 2, 0, true, p);
+    } else if (k == 0) {
+      impl->read[k].kind = 2;
+      impl->read[k].sample.Load(ws, r + "sample.0", {fc0, C, 1, 1}, true, 1, 0, false, p);
+    }
+  }
+  auto conv3 = [&](Conv& cv, const std::string& n, int64_t out, int64_t in) {
+    cv.Load(ws, n, {out, in, 3, 3}, true, 1, 1, false, p);
+  };
+  auto conv1 = [&](Conv& cv, const std::string& n, int64_t out, int64_t in) {
+    cv.Load(ws, n, {out, in, 1, 1}, true, 1, 0, false, p);
+  };
+  auto block = [&](ConvBlock& b, const std::string& n, int64_t ch) {
+    conv3(b.c1, n + ".conv1", ch, ch);
+    conv3(b.c2, n + ".conv2", ch, ch);
+  };
+  const std::string dm = "decoder.decoder_mono.";
+  block(impl->up3.trunk, dm + "upconv_3.way_trunk", C);
+  conv1(impl->up3.out, dm + "upconv_3.out_conv", C, C);
+  block(impl->up2.trunk, dm + "upconv_2.way_trunk", C);
+  block(impl->up2.branch, dm + "upconv_2.way_branch", C);
+  impl->up2.has_branch = true;
+  impl->up2.scale = 2.0;
+  conv1(impl->up2.out, dm + "upconv_2.out_conv", dc2, C);
+  block(impl->up1.trunk, dm + "upconv_1.way_trunk", fc1);
+  block(impl->up1.branch, dm + "upconv_1.way_branch", fc1);
+  impl->up1.has_branch = true;
+  impl->up1.scale = 1.75;
+  conv1(impl->up1.out, dm + "upconv_1.out_conv", dc1 + 2, fc1);
+  conv3(impl->dr0, "decoder.depth_regressor.0", 256, dc1);
+  conv1(impl->dr2, "decoder.depth_regressor.2", c.num_bins, 256);
+  conv3(impl->np0, "decoder.normal_predictor.0", 128, dc1);
+  conv1(impl->np2, "decoder.normal_predictor.2", 128, 128);
+  conv1(impl->np4, "decoder.normal_predictor.4", 128, 128);
+  conv1(impl->np6, "decoder.normal_predictor.6", 3, 128);
+  const int64_t level_in[3] = {fc0, fc1, C};
+  const char* lv[3] = {"04", "08", "16"};
+  for (int l = 0; l < 3; ++l) {
+    for (int h = 0; h < 2; ++h) {
+      const std::string b =
+          "decoder.context_feature_encoder.outputs" + std::string(lv[l]) + "." + std::to_string(h) + ".";
+      ContextHead& ch = impl->ctx[l][h];
+      conv3(ch.c1, b + "0.conv1", hd, level_in[l]);
+      conv3(ch.c2, b + "0.conv2", hd, hd);
+      ch.n1w = ws.Take(b + "0.norm1.weight", {hd});
+      ch.n1b = ws.Take(b + "0.norm1.bias", {hd});
+      ch.n2w = ws.Take(b + "0.norm2.weight", {hd});
+      ch.n2b = ws.Take(b + "0.norm2.bias", {hd});
+      ch.has_down = ws.Has(b + "0.downsample.0.weight");
+      if (ch.has_down) {
+        conv1(ch.down, b + "0.downsample.0", hd, level_in[l]);
+        ch.ndw = ws.Take(b + "0.downsample.1.weight", {hd});
+        ch.ndb = ws.Take(b + "0.downsample.1.bias", {hd});
+        ws.Ignore(b + "0.norm3.weight");  // the same module as downsample.1, registered twice
+        ws.Ignore(b + "0.norm3.bias");
+      }
+      conv3(ch.post, b + "1", hd, hd);
+    }
+    conv3(impl->zqr[l], "decoder.context_zqr_convs." + std::to_string(l), 3 * hd, hd);
+  }
+  auto gru = [&](ConvGru& g, const std::string& n, int64_t in) {
+    conv3(g.z, n + ".convz", hd, hd + in);
+    conv3(g.r, n + ".convr", hd, hd + in);
+    conv3(g.q, n + ".convq", hd, hd + in);
+  };
+  gru(impl->gru08, "decoder.update_block.gru08", 2 * hd + 6 - hd);
+  gru(impl->gru16, "decoder.update_block.gru16", 2 * hd);
+  gru(impl->gru32, "decoder.update_block.gru32", hd);
+  conv3(impl->fh1d, "decoder.update_block.flow_head.conv1d", hd, hd);
+  conv3(impl->fh2d, "decoder.update_block.flow_head.conv2d", 2, hd);
+  conv3(impl->fh1n, "decoder.update_block.flow_head.conv1n", hd, hd);
+  conv3(impl->fh2n, "decoder.update_block.flow_head.conv2n", 4, hd);
+  conv3(impl->mask0, "decoder.update_block.mask.0", hd, hd);
+  conv1(impl->mask2, "decoder.update_block.mask.2", 144, hd);
+  ws.Finish();
+  impl->bins = torch::exp(torch::linspace(std::log(c.min_depth), std::log(c.max_depth), c.num_bins, torch::kFloat32))
+                   .to(impl->device);
+  return std::shared_ptr<Metric3dModel>(new Metric3dModel(std::move(impl)));
+}
+
+void Metric3dModel::Forward(const std::vector<float>& input, TensorView* pred_depth, TensorView* confidence,
+                            TensorView* pred_normal) const {
+  torch::NoGradGuard ng;
+  const int H = impl_->cfg.input_h, W = impl_->cfg.input_w;
+  FREELOC_CHECK(input.size() == static_cast<size_t>(3) * H * W,
+                "Metric3D: input must be [3, " << H << ", " << W << "]");
+  const torch::Tensor x =
+      torch::from_blob(const_cast<float*>(input.data()), {1, 3, H, W}, torch::kFloat32).to(impl_->device).clone();
+  const auto feats = impl_->Encode(x);
+  torch::Tensor d, c, n;
+  impl_->Decode(feats, H / impl_->cfg.patch, W / impl_->cfg.patch, &d, &c, &n);
+  *pred_depth = ToView(d[0][0]);
+  *confidence = ToView(c[0][0]);
+  *pred_normal = ToView(n[0]);
+}
+
+Metric3dOutput Metric3dModel::Estimate(const Image& image, const Camera& camera) const {
+  camera.Validate("Metric3D intrinsics");
+  torch::NoGradGuard ng;
+  Metric3dOutput out;
+  out.input = PrepareMetric3dInput(image, impl_->cfg.input_h, impl_->cfg.input_w);
+  const auto t0 = std::chrono::steady_clock::now();
+  TensorView d, c, n;
+  Forward(out.input.input, &d, &c, &n);
+  out.network_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  out.canonical_depth = d;
+  const auto& pad = out.input.pad;
+  const int H = out.input.height, W = out.input.width;
+  auto unpad = [&](const TensorView& t, int ch) {
+    const torch::Tensor full = ToTorch(t).reshape({1, ch, H, W});
+    return full.slice(2, pad[0], H - pad[1]).slice(3, pad[2], W - pad[3]);
+  };
+  // hubconf: bilinear (align_corners=False) to h×w, × (fx·s/1000) in float32, clamp [0, 300].
+  const float factor = static_cast<float>(camera.fx * out.input.scale / impl_->cfg.canonical_focal);
+  const torch::Tensor dm =
+      torch::clamp(torch::upsample_bilinear2d(unpad(d, 1), {image.height, image.width}, false) * factor, 0, 300);
+  out.depth = DepthMap(image.width, image.height);
+  std::memcpy(out.depth.data.data(), dm.contiguous().data_ptr<float>(), out.depth.data.size() * 4);
+  const torch::Tensor cm = torch::upsample_bilinear2d(unpad(c, 1), {image.height, image.width}, false).contiguous();
+  out.confidence.assign(cm.data_ptr<float>(), cm.data_ptr<float>() + cm.numel());
+  // do_test.py: normals unpadded and resized with align_corners=True, not re-normalised.
+  const torch::Tensor nm =
+      torch::upsample_bilinear2d(unpad(n, 4).slice(1, 0, 3), {image.height, image.width}, true).contiguous();
+  out.normal.assign(nm.data_ptr<float>(), nm.data_ptr<float>() + nm.numel());
+  return out;
+}
+
+}  // namespace freeloc::nn
