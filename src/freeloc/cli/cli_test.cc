@@ -275,6 +275,49 @@ TEST(Cli, SegmentWritesTheMaskAndRawOutput) {
   EXPECT_FALSE(std::filesystem::exists(tmp.File("y.png")));
 }
 
+// `freeloc depth` on the real NYU and KITTI demo frames with the tiny fixture weights (numbers meaningless, the
+// path real): valid PNGs at the image's size and the raw outputs.
+TEST(Cli, DepthOnRealFrames) {
+  FREELOC_REQUIRE_SHARED("data/metric3d_depth_demo/nyu_demo/rgb/rgb_00000.jpg");
+  freeloc::testing::TempDir tmp;
+  const std::string dir = freeloc::testing::SharedPath("fixtures/metric3d/final_norm/");
+  const std::string model = "--model " + dir + "weights.safetensors --config " + dir + "config.json";
+  struct Frame {
+    std::string image, k;
+    int w, h;
+  };
+  const Frame frames[] = {{freeloc::testing::SharedPath("data/metric3d_depth_demo/nyu_demo/rgb/rgb_00000.jpg"),
+                           "518.8579,519.4696,325.5824,253.7362", 640, 480},
+                          {freeloc::testing::SharedPath("data/metric3d_depth_demo/kitti_demo/rgb/0000000005.png"),
+                           "707.0493,707.0493,604.0814,180.5066", 1242, 375}};
+  for (const Frame& f : frames) {
+    Result r = RunFreeloc("depth " + model + " --image " + f.image + " --intrinsics " + f.k + " --out " +
+                          tmp.File("d.png") + " --raw " + tmp.File("d.safetensors"));
+    ASSERT_EQ(r.code, 0) << r.out;
+    int w, h;
+    const auto mm = freeloc::ReadPng16(tmp.File("d.png"), &w, &h);
+    EXPECT_EQ(w, f.w);
+    EXPECT_EQ(h, f.h);
+    size_t valid = 0;
+    for (uint16_t v : mm) valid += v > 0;
+    EXPECT_GT(valid, mm.size() / 2);
+    const auto raw = freeloc::SafetensorsFile::Open(tmp.File("d.safetensors"));
+    EXPECT_EQ(raw.Get("depth").shape, (std::vector<int64_t>{f.h, f.w}));
+    EXPECT_EQ(raw.Get("normal").shape, (std::vector<int64_t>{3, f.h, f.w}));
+    EXPECT_EQ(raw.Get("canonical_depth").shape, (std::vector<int64_t>{112, 196}));
+    EXPECT_EQ(raw.metadata.at("variant"), "custom");
+  }
+  // Bad intrinsics and a missing image: exit 1, no output written.
+  Result r =
+      RunFreeloc("depth " + model + " --image " + frames[0].image + " --intrinsics 0,1,2,3 --out " + tmp.File("x.png"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "--intrinsics")) << r.out;
+  r = RunFreeloc("depth " + model + " --image " + tmp.File("none.jpg") + " --intrinsics 1,1,1,1 --out " +
+                 tmp.File("y.png"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("y.png")));
+}
+
 TEST(Cli, DemoPlaceholderSaysSo) {
   Result r = RunFreeloc("demo");
   EXPECT_EQ(r.code, 0);

@@ -26,6 +26,7 @@ void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterMatch(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterSegment(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterDepth(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   cli::RegisterPointmap(app, global, &run);
   cli::RegisterMatch(app, global, &run);
   cli::RegisterSegment(app, global, &run);
+  cli::RegisterDepth(app, global, &run);
   cli::RegisterDemo(app, global, &run);
 
   try {

@@ -139,6 +139,7 @@ torch::Tensor NormNormalize(const torch::Tensor& n) {
 
 struct Metric3dModel::Impl {
   Metric3dConfig cfg;
+  std::string source;
   RuntimeOptions rt;
   torch::Device device = torch::kCPU;
   Precision prec;
@@ -211,6 +212,8 @@ struct Metric3dModel::Impl {
     torch::Tensor r[4];
     for (int k = 0; k < 4; ++k) {
       r[k] = RunReadout(k, feats[static_cast<size_t>(k)], h14, w14);
+      // NHWC from here on: oneDNN runs the decoder's many narrow convolutions faster channels-last.
+      r[k] = r[k].contiguous(torch::MemoryFormat::ChannelsLast);
       Tap("readout_" + std::to_string(k), r[k]);
     }
     // decoder_mono: upconv_3(read_3), upconv_2(·, read_2) ×2, upconv_1(·, read_1) ×1.75.
@@ -385,6 +388,7 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string,
   FREELOC_CHECK(!c.multi_output || c.feature_blocks.size() == 4, source << ": need 4 intermediate feature blocks");
   FREELOC_CHECK(c.input_h % 28 == 0 && c.input_w % 28 == 0, source << ": input size must be multiples of 28");
   impl->rt = runtime;
+  impl->source = source;
   impl->device = DeviceOf(runtime);
   impl->prec.bf16 = runtime.precision == "bf16";
   WeightStore ws(std::move(tensors), source, impl->device);
@@ -549,6 +553,13 @@ Metric3dOutput Metric3dModel::Estimate(const Image& image, const Camera& camera)
   const torch::Tensor nm =
       torch::upsample_bilinear2d(unpad(n, 4).slice(1, 0, 3), {image.height, image.width}, true).contiguous();
   out.normal.assign(nm.data_ptr<float>(), nm.data_ptr<float>() + nm.numel());
+  out.metadata = {{"model", impl_->source},
+                  {"variant", impl_->cfg.variant},
+                  {"precision", impl_->rt.precision},
+                  {"input_size", std::to_string(H) + "x" + std::to_string(W)},
+                  {"scale", std::to_string(out.input.scale)},
+                  {"focal_factor", std::to_string(factor)},
+                  {"network_ms", std::to_string(out.network_ms)}};
   return out;
 }
 

@@ -41,6 +41,7 @@ struct Metric3dOutput {
   TensorView canonical_depth;     // [H, W] network-resolution canonical depth (metres at focal 1000), padded
   Metric3dInput input;            // the preprocessing that was applied
   double network_ms = 0;
+  std::map<std::string, std::string> metadata;  // model, variant, precision, input size, scale, focal factor
 };
 
 class Metric3dModel {
@@ -70,6 +71,22 @@ class Metric3dModel {
   struct Impl;
   explicit Metric3dModel(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
+};
+
+// The pipeline's depth stage: metric depth in original pixels from one image and its own intrinsics.
+class DepthEstimator {
+ public:
+  explicit DepthEstimator(std::shared_ptr<const Metric3dModel> model) : model_(std::move(model)) {}
+  DepthMap Estimate(const Image& image, const Camera& camera,
+                    std::map<std::string, std::string>* metadata = nullptr) const {
+    Metric3dOutput o = model_->Estimate(image, camera);
+    if (metadata) *metadata = o.metadata;
+    return std::move(o.depth);
+  }
+  const Metric3dModel& model() const { return *model_; }
+
+ private:
+  std::shared_ptr<const Metric3dModel> model_;
 };
 
 }  // namespace freeloc::nn

@@ -74,7 +74,10 @@ torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, c
   // Heads are processed in chunks whose logits stay under ~16 MB, so the big blocks are reused from the heap
   // instead of being mapped and faulted in anew for every layer.
   const int64_t B = q.size(0), H = q.size(1), Nq = q.size(2), Nk = k.size(2);
-  const int64_t per = std::max<int64_t>(1, (int64_t{16} << 20) / (Nq * Nk * 4));
+  // bench/seggpt, bench/dust3r and bench/metric3d chose these: 16 MB of logits per head chunk; rows split only
+  // when a single head exceeds 64 MB (splitting rows costs more than it saves below that).
+  constexpr int64_t budget = int64_t{16} << 20, row_budget = int64_t{64} << 20;
+  const int64_t per = std::max<int64_t>(1, budget / (Nq * Nk * 4));
   auto one = [&](const torch::Tensor& qq, const torch::Tensor& kk, const torch::Tensor& vv) {
     if (p.bf16) {
       const torch::Tensor a = torch::matmul(qq.to(torch::kBFloat16), kk.to(torch::kBFloat16).transpose(-2, -1));
@@ -88,10 +91,16 @@ torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, c
   if (B * H <= per) return one(q, k, v);
   const torch::Tensor qf = q.reshape({B * H, Nq, q.size(3)}), kf = k.reshape({B * H, Nk, k.size(3)}),
                       vf = v.reshape({B * H, Nk, v.size(3)});
+  // When one head's logits alone exceed the budget, split its query rows too (softmax is per row).
+  const int64_t rows = Nq * Nk * 4 <= row_budget ? Nq : std::max<int64_t>(1, row_budget / (Nk * 4));
   torch::Tensor o = torch::empty({B * H, Nq, v.size(3)}, q.options());
   for (int64_t h0 = 0; h0 < B * H; h0 += per) {
     const int64_t h1 = std::min(B * H, h0 + per);
-    o.slice(0, h0, h1).copy_(one(qf.slice(0, h0, h1), kf.slice(0, h0, h1), vf.slice(0, h0, h1)));
+    for (int64_t r0 = 0; r0 < Nq; r0 += rows) {
+      const int64_t r1 = std::min(Nq, r0 + rows);
+      o.slice(0, h0, h1).slice(1, r0, r1).copy_(
+          one(qf.slice(0, h0, h1).slice(1, r0, r1), kf.slice(0, h0, h1), vf.slice(0, h0, h1)));
+    }
   }
   return o.view({B, H, Nq, v.size(3)});
 }

@@ -1,0 +1,154 @@
+// bench/metric3d — the released vit_small and vit_large Metric3D v2 architectures (shapes from the fixture's
+// list of the released state dicts, random weights) at the canonical 616×1064 input, fp32, 2 threads: median time
+// after a warm-up, achieved GFLOP/s (0.64 / 5.77 TFLOP per image) next to the fp32 GEMM rate measured in this
+// process, peak RSS per model (each model runs in a child process so the RSS is its own), the PyTorch reference
+// measured here (vit_small 6.1 s / 1.58 GB, vit_large 34.6 s / 4.38 GB). bf16 is per-GEMM here (no AVX512-BF16).
+//
+//   metric3d [--threads N] [--reps R] [--only vit_small|vit_large]
+#include "freeloc/nn/metric3d.h"
+
+#include <sys/wait.h>
+#include <torch/torch.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "bench_util.h"
+
+using freeloc::bench::Fmt;
+using freeloc::bench::NowSeconds;
+
+namespace {
+
+std::map<std::string, freeloc::TensorView> RandomModel(const std::string& variant) {
+  std::ifstream f(std::string(FREELOC_SHARED_DIR) + "/fixtures/metric3d/released_state_dict_shapes.json");
+  if (!f.good()) {
+    std::fprintf(stderr, "bench/metric3d: released_state_dict_shapes.json not found under ../shared\n");
+    std::exit(1);
+  }
+  const nlohmann::json j = nlohmann::json::parse(f);
+  torch::manual_seed(0);
+  std::map<std::string, freeloc::TensorView> sd;
+  for (const auto& e : j[variant]) {
+    const std::string name = e[0];
+    const std::vector<int64_t> shape = e[1];
+    torch::Tensor t;
+    if (name.find("gamma") != std::string::npos)
+      t = torch::full(shape, 1e-5);
+    else if (name.find("norm") != std::string::npos && name.find(".weight") != std::string::npos && shape.size() == 1)
+      t = torch::ones(shape);
+    else if (name.find(".bias") != std::string::npos)
+      t = torch::zeros(shape);
+    else {
+      int64_t fan_in = 1;
+      for (size_t k = 1; k < shape.size(); ++k) fan_in *= shape[k];
+      t = torch::randn(shape) * (1.0 / std::sqrt(static_cast<double>(std::max<int64_t>(fan_in, 1))));
+    }
+    freeloc::TensorView v;
+    v.dtype = freeloc::DType::kF32;
+    v.shape = shape;
+    v.nbytes = static_cast<size_t>(t.numel()) * 4;
+    auto h = std::make_shared<torch::Tensor>(t);
+    v.data = static_cast<const uint8_t*>(h->data_ptr());
+    v.owner = h;
+    sd[name] = v;
+  }
+  return sd;
+}
+
+double Gemm() {
+  torch::InferenceMode g;
+  auto a = torch::randn({3349, 1024}), b = torch::randn({1024, 4096});
+  auto c = torch::matmul(a, b);
+  std::vector<double> t;
+  for (int r = 0; r < 3; ++r) {
+    const double t0 = NowSeconds();
+    c = torch::matmul(a, b);
+    t.push_back(NowSeconds() - t0);
+  }
+  return 2.0 * 3349 * 1024 * 4096 / freeloc::bench::Median(t) / 1e9;
+}
+
+// Runs one variant; writes "seconds rss_mb gemm" to fd.
+void RunOne(const std::string& variant, int threads, int reps, int fd) {
+  torch::set_num_threads(threads);
+  const double gemm = Gemm();
+  const auto sd = RandomModel(variant);
+  freeloc::nn::RuntimeOptions rt;
+  rt.threads = threads;
+  const auto m = freeloc::nn::Metric3dModel::Create(sd, "{}", variant, rt);
+  std::vector<float> in(static_cast<size_t>(3) * 616 * 1064);
+  for (size_t i = 0; i < in.size(); ++i) in[i] = static_cast<float>(((i * 7919) % 255) / 127.5 - 1.0);
+  freeloc::TensorView d, c, n;
+  m->Forward(in, &d, &c, &n);  // warm-up
+  std::vector<double> t;
+  for (int r = 0; r < reps; ++r) {
+    const double t0 = NowSeconds();
+    m->Forward(in, &d, &c, &n);
+    t.push_back(NowSeconds() - t0);
+  }
+  char buf[128];
+  const int len =
+      std::snprintf(buf, sizeof(buf), "%f %f %f\n", freeloc::bench::Median(t), freeloc::bench::PeakRssMB(), gemm);
+  if (write(fd, buf, static_cast<size_t>(len)) < 0) std::perror("write");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int threads = 2, reps = 3;
+  std::string only;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
+      threads = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--reps") && i + 1 < argc)
+      reps = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
+      only = argv[++i];
+    else {
+      std::fprintf(stderr, "usage: metric3d [--threads N] [--reps R] [--only vit_small|vit_large]\n");
+      return 2;
+    }
+  }
+  struct Ref {
+    const char* name;
+    double tflop, ref_s, ref_gb;
+  };
+  const Ref refs[] = {{"vit_small", 0.64, 6.1, 1.58}, {"vit_large", 5.77, 34.6, 4.38}};
+  freeloc::bench::MarkdownTable t({"model", "fp32 median", "GFLOP/s", "fp32 GEMM rate (same process)", "peak RSS",
+                                   "PyTorch reference here", "target"});
+  for (const Ref& r : refs) {
+    if (!only.empty() && only != r.name) continue;
+    int p[2];
+    if (pipe(p) != 0) return 1;
+    const pid_t pid = fork();
+    if (pid == 0) {
+      close(p[0]);
+      RunOne(r.name, threads, reps, p[1]);
+      _exit(0);
+    }
+    close(p[1]);
+    char buf[256] = {0};
+    const ssize_t n = read(p[0], buf, sizeof(buf) - 1);
+    close(p[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    double s = 0, rss = 0, gemm = 0;
+    if (n <= 0 || std::sscanf(buf, "%lf %lf %lf", &s, &rss, &gemm) != 3) {
+      std::fprintf(stderr, "bench/metric3d: %s failed\n", r.name);
+      return 1;
+    }
+    t.Row({r.name, Fmt("%.2f s", s), Fmt("%.1f", r.tflop * 1000 / s), Fmt("%.1f GFLOP/s", gemm),
+           Fmt("%.2f GB", rss / 1024.0), Fmt("%.1f s, ", r.ref_s) + Fmt("%.2f GB", r.ref_gb),
+           (s <= r.ref_s ? "time met" : "time missed") +
+               std::string(rss / 1024.0 <= r.ref_gb ? ", RSS met" : ", RSS missed")});
+  }
+  std::printf("## bench/metric3d — 616×1064, random weights, %d threads, median of %d after a warm-up\n\n", threads,
+              reps);
+  t.Print();
+  std::printf("\nbf16: not run — on CPUs without AVX512-BF16 LibTorch's bf16 GEMM is emulated (see bench/gemm).\n");
+  return 0;
+}
