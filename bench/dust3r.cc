@@ -15,7 +15,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "bench_util.h"
+#include "bench_torch.h"
 
 using freeloc::bench::Fmt;
 using freeloc::bench::NowSeconds;
@@ -44,29 +44,9 @@ std::map<std::string, freeloc::TensorView> RandomFullModel(const std::string& sh
     } else {
       t = torch::randn(shape) * 0.02;
     }
-    freeloc::TensorView v;
-    v.dtype = freeloc::DType::kF32;
-    v.shape = shape;
-    v.nbytes = static_cast<size_t>(t.numel()) * 4;
-    auto holder = std::make_shared<torch::Tensor>(t);
-    v.data = static_cast<const uint8_t*>(holder->data_ptr());
-    v.owner = holder;
-    sd[name] = v;
+    sd[name] = freeloc::bench::ViewOf(t);
   }
   return sd;
-}
-
-double GemmRate(torch::Dtype dt) {
-  torch::InferenceMode g;
-  auto a = torch::randn({768, 1024}).to(dt), b = torch::randn({1024, 4096}).to(dt);
-  auto c = torch::matmul(a, b);
-  std::vector<double> t;
-  for (int r = 0; r < 3; ++r) {
-    const double t0 = NowSeconds();
-    c = torch::matmul(a, b);
-    t.push_back(NowSeconds() - t0);
-  }
-  return 2.0 * 768 * 1024 * 4096 / freeloc::bench::Median(t) / 1e9;
 }
 
 // One ViT block's worth of GEMM work at N tokens (qkv, proj, fc1, fc2) in a dtype: seconds.
@@ -104,8 +84,8 @@ int main(int argc, char** argv) {
     }
   }
   torch::set_num_threads(threads);
-  const double gemm32 = GemmRate(torch::kFloat32);
-  const double gemm16 = GemmRate(torch::kBFloat16);
+  const double gemm32 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kFloat32);
+  const double gemm16 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kBFloat16);
   const auto sd =
       RandomFullModel(std::string(FREELOC_SHARED_DIR) + "/fixtures/dust3r/full_model_state_dict_shapes.json");
   freeloc::nn::RuntimeOptions rt;

@@ -16,7 +16,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "bench_util.h"
+#include "bench_torch.h"
 
 using freeloc::bench::Fmt;
 using freeloc::bench::NowSeconds;
@@ -47,35 +47,15 @@ std::map<std::string, freeloc::TensorView> RandomModel(const std::string& varian
       for (size_t k = 1; k < shape.size(); ++k) fan_in *= shape[k];
       t = torch::randn(shape) * (1.0 / std::sqrt(static_cast<double>(std::max<int64_t>(fan_in, 1))));
     }
-    freeloc::TensorView v;
-    v.dtype = freeloc::DType::kF32;
-    v.shape = shape;
-    v.nbytes = static_cast<size_t>(t.numel()) * 4;
-    auto h = std::make_shared<torch::Tensor>(t);
-    v.data = static_cast<const uint8_t*>(h->data_ptr());
-    v.owner = h;
-    sd[name] = v;
+    sd[name] = freeloc::bench::ViewOf(t);
   }
   return sd;
-}
-
-double Gemm() {
-  torch::InferenceMode g;
-  auto a = torch::randn({3349, 1024}), b = torch::randn({1024, 4096});
-  auto c = torch::matmul(a, b);
-  std::vector<double> t;
-  for (int r = 0; r < 3; ++r) {
-    const double t0 = NowSeconds();
-    c = torch::matmul(a, b);
-    t.push_back(NowSeconds() - t0);
-  }
-  return 2.0 * 3349 * 1024 * 4096 / freeloc::bench::Median(t) / 1e9;
 }
 
 // Runs one variant; writes "seconds rss_mb gemm" to fd.
 void RunOne(const std::string& variant, int threads, int reps, int fd) {
   torch::set_num_threads(threads);
-  const double gemm = Gemm();
+  const double gemm = freeloc::bench::GemmRate(3349, 1024, 4096, torch::kFloat32);
   const auto sd = RandomModel(variant);
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;

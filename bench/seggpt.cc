@@ -11,7 +11,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "bench_util.h"
+#include "bench_torch.h"
 
 using freeloc::bench::Fmt;
 using freeloc::bench::NowSeconds;
@@ -19,15 +19,7 @@ using freeloc::bench::NowSeconds;
 namespace {
 
 freeloc::TensorView Random(const std::vector<int64_t>& shape, double std, double mean = 0) {
-  const torch::Tensor t = torch::randn(shape) * std + mean;
-  freeloc::TensorView v;
-  v.dtype = freeloc::DType::kF32;
-  v.shape = shape;
-  v.nbytes = static_cast<size_t>(t.numel()) * 4;
-  auto h = std::make_shared<torch::Tensor>(t);
-  v.data = static_cast<const uint8_t*>(h->data_ptr());
-  v.owner = h;
-  return v;
+  return freeloc::bench::ViewOf(torch::randn(shape) * std + mean);
 }
 
 std::map<std::string, freeloc::TensorView> FullModel() {
@@ -69,19 +61,6 @@ std::map<std::string, freeloc::TensorView> FullModel() {
   return sd;
 }
 
-double Gemm(torch::Dtype dt) {
-  torch::InferenceMode g;
-  auto a = torch::randn({1568, 1024}).to(dt), b = torch::randn({1024, 4096}).to(dt);
-  auto c = torch::matmul(a, b);
-  std::vector<double> t;
-  for (int r = 0; r < 3; ++r) {
-    const double t0 = NowSeconds();
-    c = torch::matmul(a, b);
-    t.push_back(NowSeconds() - t0);
-  }
-  return 2.0 * 1568 * 1024 * 4096 / freeloc::bench::Median(t) / 1e9;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -100,7 +79,8 @@ int main(int argc, char** argv) {
     }
   }
   torch::set_num_threads(threads);
-  const double gemm = Gemm(torch::kFloat32), gemm16 = Gemm(torch::kBFloat16);
+  const double gemm = freeloc::bench::GemmRate(1568, 1024, 4096, torch::kFloat32),
+               gemm16 = freeloc::bench::GemmRate(1568, 1024, 4096, torch::kBFloat16);
   const auto sd = FullModel();
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;

@@ -247,8 +247,7 @@ void Dust3rModel::SetTapSink(std::map<std::string, TensorView>* sink) const { im
 
 std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, const std::string& config_path,
                                                const RuntimeOptions& runtime) {
-  runtime.Validate();
-  if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
+  ApplyRuntime(runtime);
   const Checkpoint ckpt = Checkpoint::Open(model_path);
   const auto sd = ckpt.StateDict({"model", ""});
   FREELOC_CHECK(!sd.empty(), model_path << ": no tensors found; expected DUSt3R weights");
@@ -283,8 +282,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, co
 std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, TensorView>& sd,
                                                  const std::map<std::string, std::string>& kw,
                                                  const std::string& source, const RuntimeOptions& runtime) {
-  runtime.Validate();
-  if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
+  ApplyRuntime(runtime);
   const std::string& model_path = source;
   auto impl = std::make_unique<Impl>();
   impl->cfg = MakeDust3rConfig(sd, kw, source);

@@ -13,6 +13,7 @@
 #include "freeloc/io/dust3r_preprocess.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/safetensors.h"
+#include "testing/tensor_compare.h"
 #include "testing/testing.h"
 
 namespace freeloc::nn {
@@ -20,16 +21,8 @@ namespace {
 
 using testing::SharedPath;
 
-// max over elements of |a − b| / (atol + rtol·|b|): ≤ 1 passes.
 double Budget(const TensorView& a, const TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
-  EXPECT_EQ(a.numel(), b.numel());
-  if (a.numel() != b.numel()) return 1e9;
-  const float* x = a.as<float>();
-  const float* y = b.as<float>();
-  double worst = 0;
-  for (int64_t i = 0; i < a.numel(); ++i)
-    worst = std::max(worst, std::abs(double(x[i]) - y[i]) / (atol + rtol * std::abs(double(y[i]))));
-  return worst;
+  return testing::BudgetUse(a, b, atol, rtol);
 }
 
 std::shared_ptr<Dust3rModel> TinyModel(bool pth = false) {

@@ -295,34 +295,16 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Load(const std::string& model_path
                                                    const RuntimeOptions& runtime) {
   const Checkpoint ckpt = Checkpoint::Open(model_path);
   const auto sd = ckpt.StateDict({"model_state_dict", "state_dict", "model", ""});
-  std::string json = "{}";
-  std::string cfg_file = config_path;
-  if (cfg_file.empty()) {
-    const auto sibling = std::filesystem::path(model_path).parent_path() / "config.json";
-    if (ckpt.format() == Checkpoint::Format::kSafetensors && std::filesystem::exists(sibling))
-      cfg_file = sibling.string();
-  }
-  if (!cfg_file.empty()) {
-    std::ifstream f(cfg_file);
-    FREELOC_CHECK(f.good(), cfg_file << ": cannot open the Metric3D config");
-    std::stringstream ss;
-    ss << f.rdbuf();
-    json = ss.str();
-  }
+  const std::string json =
+      ReadModelConfig(model_path, config_path, ckpt.format() == Checkpoint::Format::kSafetensors, "Metric3D");
   return Create(sd, json, model_path, runtime);
 }
 
 std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string, TensorView>& sd_in,
                                                      const std::string& config_json, const std::string& source,
                                                      const RuntimeOptions& runtime) {
-  runtime.Validate();
-  if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(config_json);
-  } catch (const std::exception& e) {
-    FREELOC_THROW(source << ": the Metric3D config is not valid JSON (" << e.what() << ")");
-  }
+  ApplyRuntime(runtime);
+  const nlohmann::json j = ParseModelConfig(config_json, source, "Metric3D");
   const nlohmann::json je = j.value("encoder", nlohmann::json::object());
   const nlohmann::json jd = j.value("decoder", nlohmann::json::object());
   const nlohmann::json jdata = j.value("data", nlohmann::json::object());

@@ -224,34 +224,16 @@ std::shared_ptr<SegGptModel> SegGptModel::Load(const std::string& model_path, co
                                                const RuntimeOptions& runtime) {
   const Checkpoint ckpt = Checkpoint::Open(model_path);
   auto sd = ckpt.StateDict({"model", ""});
-  std::string cfg_file = config_path;
-  if (cfg_file.empty()) {
-    const auto sibling = std::filesystem::path(model_path).parent_path() / "config.json";
-    if (ckpt.format() == Checkpoint::Format::kSafetensors && std::filesystem::exists(sibling))
-      cfg_file = sibling.string();
-  }
-  std::string json = "{}";
-  if (!cfg_file.empty()) {
-    std::ifstream f(cfg_file);
-    FREELOC_CHECK(f.good(), cfg_file << ": cannot open the SegGPT config");
-    std::stringstream ss;
-    ss << f.rdbuf();
-    json = ss.str();
-  }
+  const std::string json =
+      ReadModelConfig(model_path, config_path, ckpt.format() == Checkpoint::Format::kSafetensors, "SegGPT");
   return Create(sd, json, model_path, runtime);
 }
 
 std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, TensorView>& sd_in,
                                                  const std::string& config_json, const std::string& source,
                                                  const RuntimeOptions& runtime) {
-  runtime.Validate();
-  if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(config_json);
-  } catch (const std::exception& e) {
-    FREELOC_THROW(source << ": the SegGPT config is not valid JSON (" << e.what() << ")");
-  }
+  ApplyRuntime(runtime);
+  const nlohmann::json j = ParseModelConfig(config_json, source, "SegGPT");
   std::map<std::string, torch::Tensor> tensors;
   for (const auto& [k, v] : sd_in) tensors[FromHfName(k)] = ToTorch(v);
   auto shape = [&](const std::string& n) {

@@ -9,6 +9,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/safetensors.h"
+#include "testing/tensor_compare.h"
 #include "testing/testing.h"
 
 namespace freeloc::nn {
@@ -17,14 +18,7 @@ namespace {
 using testing::SharedPath;
 
 double Budget(const TensorView& a, const TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
-  EXPECT_EQ(a.numel(), b.numel());
-  if (a.numel() != b.numel()) return 1e9;
-  double w = 0;
-  for (int64_t i = 0; i < a.numel(); ++i) {
-    const double x = a.as<float>()[i], y = b.as<float>()[i];
-    w = std::max(w, std::abs(x - y) / (atol + rtol * std::abs(y)));
-  }
-  return w;
+  return testing::BudgetUse(a, b, atol, rtol);
 }
 
 std::shared_ptr<SegGptModel> Tiny() {

@@ -1,5 +1,7 @@
 #include "freeloc/nn/internal/torch_util.h"
 
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "freeloc/core/error.h"
@@ -50,6 +52,34 @@ TensorView ToView(const torch::Tensor& t_in) {
   v.data = static_cast<const uint8_t*>(holder->data_ptr());
   v.owner = holder;
   return v;
+}
+
+void ApplyRuntime(const RuntimeOptions& runtime) {
+  runtime.Validate();
+  if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
+}
+
+nlohmann::json ParseModelConfig(const std::string& text, const std::string& source, const std::string& what) {
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const std::exception& e) {
+    FREELOC_THROW(source << ": the " << what << " config is not valid JSON (" << e.what() << ")");
+  }
+}
+
+std::string ReadModelConfig(const std::string& model_path, const std::string& config_path, bool is_safetensors,
+                            const std::string& what) {
+  std::string file = config_path;
+  if (file.empty()) {
+    const auto sibling = std::filesystem::path(model_path).parent_path() / "config.json";
+    if (is_safetensors && std::filesystem::exists(sibling)) file = sibling.string();
+  }
+  if (file.empty()) return "{}";
+  std::ifstream f(file);
+  FREELOC_CHECK(f.good(), file << ": cannot open the " << what << " config");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
 }
 
 torch::Device DeviceOf(const RuntimeOptions& r) {

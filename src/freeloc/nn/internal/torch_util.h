@@ -5,6 +5,7 @@
 #include <torch/torch.h>
 
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
@@ -20,6 +21,16 @@ torch::Tensor ToTorch(const TensorView& t);
 TensorView ToView(const torch::Tensor& t);
 
 torch::Device DeviceOf(const RuntimeOptions& r);
+
+// Validates the runtime options and applies the thread count (every model's Create starts with this).
+void ApplyRuntime(const RuntimeOptions& runtime);
+// A model config's JSON; an error names `source` and the model (`what`) when it does not parse.
+nlohmann::json ParseModelConfig(const std::string& text, const std::string& source, const std::string& what);
+
+// The text of a model's config: `config_path` when given, else a config.json beside safetensors weights (the HF
+// layout), else "{}". `what` names the model in errors.
+std::string ReadModelConfig(const std::string& model_path, const std::string& config_path, bool is_safetensors,
+                            const std::string& what);
 
 // Name → tensor with bookkeeping: every Take() is recorded so that unexpected tensors can be reported, and a
 // missing tensor is an error that lists all the missing ones at once (Finish()).
