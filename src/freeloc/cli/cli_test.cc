@@ -318,10 +318,43 @@ TEST(Cli, DepthOnRealFrames) {
   EXPECT_FALSE(std::filesystem::exists(tmp.File("y.png")));
 }
 
-TEST(Cli, DemoPlaceholderSaysSo) {
+TEST(Cli, DemoRelocalizesTheBundledScenes) {
   Result r = RunFreeloc("demo");
-  EXPECT_EQ(r.code, 0);
-  EXPECT_TRUE(Contains(r.out, "PLACEHOLDER")) << r.out;
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "preset sift-essential")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "| s00002 | seq1/frame_00000.png | ok |")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "| Estimates for % of frames |")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "not wired into the pipeline yet")) << r.out;
+}
+
+// run → submission → eval, and relocalize on one pair; bad presets and missing files are clear errors.
+TEST(Cli, RunThenEvalAndRelocalize) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
+  freeloc::testing::TempDir tmp;
+  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  Result r = RunFreeloc("run --data " + data + " --preset sift-essential --out " + tmp.File("s.zip") + " --log " +
+                        tmp.File("log.jsonl"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "2 of 7 queries relocalized in 3 scenes")) << r.out;
+  const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 7);
+  EXPECT_TRUE(Contains(log, "\"status\":\"no-depth\"")) << log;
+  r = RunFreeloc("-q eval --data " + data + " --submission " + tmp.File("s.zip") + " --json -");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["counts"]["estimates"], 2);
+  EXPECT_LT(j["Average Median Translation Error"].get<double>(), 0.03);
+  const std::string s = data + "/val/s00003/";
+  r = RunFreeloc("relocalize --ref " + s + "seq0/frame_00000.png --query " + s +
+                 "seq1/frame_00000.png --ref-intrinsics "
+                 "535.4,539.2,320.1,247.6 --query-intrinsics 535.4,539.2,320.1,247.6 --ref-depth " +
+                 s + "seq0/frame_00000.sensor.png --query-depth " + s + "seq1/frame_00000.sensor.png --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "ok");
+  EXPECT_EQ(RunFreeloc("run --data " + data + " --preset seed --out " + tmp.File("x.zip")).code, 1);
+  EXPECT_EQ(RunFreeloc("run --data " + data + " --preset nope --out " + tmp.File("x.zip")).code, 1);
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
+  EXPECT_EQ(RunFreeloc("run --data " + tmp.File("none") + " --out " + tmp.File("y.zip")).code, 1);
 }
 
 }  // namespace

@@ -27,6 +27,7 @@ void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterMatch(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterSegment(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDepth(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   cli::RegisterMatch(app, global, &run);
   cli::RegisterSegment(app, global, &run);
   cli::RegisterDepth(app, global, &run);
+  cli::RegisterRun(app, global, &run);
   cli::RegisterDemo(app, global, &run);
 
   try {
