@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace CLI {
 class App;
@@ -18,7 +19,12 @@ struct GlobalOptions {
   bool verbose = false;
 };
 
-// Each Register* adds a subcommand whose callback stores the function to run in `*run`.
+// The split folder under --data (or --data itself) and the scenes to process: all of them, or the
+// comma-separated --scenes list (each must exist). Throws freeloc::Error naming what is missing.
+std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split, const std::string& scenes_csv,
+                                       std::string* split_dir);
+
+// Each Register* a subcommand whose callback stores the function to run in `*run`.
 using RunFn = std::function<int()>;
 void RegisterInspect(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterEval(CLI::App& app, const GlobalOptions& global, RunFn* run);

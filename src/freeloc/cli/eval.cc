@@ -20,19 +20,9 @@ struct EvalOptions {
   std::vector<std::string> compare;
 };
 
-std::vector<std::string> SplitComma(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ','))
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 int RunEval(const EvalOptions& o) {
-  const std::string split_dir = ResolveSplitDir(o.data, o.split);
-  const std::vector<std::string> scenes = ListScenes(split_dir, SplitComma(o.scenes));
-  FREELOC_CHECK(!scenes.empty(), split_dir << ": no scene folders to evaluate");
+  std::string split_dir;
+  const std::vector<std::string> scenes = ResolveScenes(o.data, o.split, o.scenes, &split_dir);
   std::vector<std::string> subs = o.compare;
   if (!o.submission.empty()) subs.insert(subs.begin(), o.submission);
   std::vector<eval::EvalRun> runs;

@@ -52,15 +52,6 @@ pipeline::PipelineOptions Resolve(const Overrides& ov) {
   return o;
 }
 
-std::vector<std::string> SplitComma(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ','))
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 struct RunOptions {
   Overrides ov;
   std::string data, split = "val", scenes, out, log;
@@ -97,9 +88,8 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
 
 int RunRun(const RunOptions& r) {
   const pipeline::PipelineOptions o = Resolve(r.ov);
-  const std::string split_dir = ResolveSplitDir(r.data, r.split);
-  const std::vector<std::string> scenes = ListScenes(split_dir, SplitComma(r.scenes));
-  FREELOC_CHECK(!scenes.empty(), split_dir << ": no scene folders");
+  std::string split_dir;
+  const std::vector<std::string> scenes = ResolveScenes(r.data, r.split, r.scenes, &split_dir);
   FREELOC_LOG(INFO) << o.Summary();
   const auto results = RunAll(r, o, split_dir, scenes);
   size_t ok = 0, total = 0;
@@ -164,8 +154,8 @@ int RunDemo(const std::string& data_dir) {
   std::printf("freeloc demo — preset %s on the bundled TUM RGB-D scenes (%s)\n", o.preset.c_str(), data_dir.c_str());
   std::printf("(%s; the full seed method — DUSt3R + SegGPT + Metric3D — is not wired into the pipeline yet)\n\n",
               o.Summary().c_str());
-  const std::string split_dir = ResolveSplitDir(data_dir, "val");
-  const std::vector<std::string> scenes = ListScenes(split_dir);
+  std::string split_dir;
+  const std::vector<std::string> scenes = ResolveScenes(data_dir, "val", "", &split_dir);
   const auto results = RunAll(r, o, split_dir, scenes);
   std::printf("| scene | query | status | inliers | rot err (°) | centre err (cm) |\n|---|---|---|---|---|---|\n");
   for (const auto& name : scenes) {
