@@ -357,4 +357,59 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   EXPECT_EQ(RunFreeloc("run --data " + tmp.File("none") + " --out " + tmp.File("y.zip")).code, 1);
 }
 
+// An interrupted run leaves <out>.progress.jsonl; --resume keeps its finished scenes (the planted pose below comes
+// back verbatim, so that scene was not recomputed), ignores a last line cut short, and refuses other options.
+TEST(Cli, RunResumesFromItsProgressFile) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
+  freeloc::testing::TempDir tmp;
+  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  const std::string out = tmp.File("r.zip"), progress = out + ".progress.jsonl";
+  // A complete run leaves no progress file behind; its options line is what the header must carry.
+  Result r = RunFreeloc("run --data " + data + " --scenes s00002 --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(progress));
+  const std::string s = data + "/val/s00003/";
+  r = RunFreeloc("relocalize --ref " + s + "seq0/frame_00000.png --query " + s +
+                 "seq1/frame_00000.png --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics "
+                 "535.4,539.2,320.1,247.6 --ref-depth " +
+                 s + "seq0/frame_00000.sensor.png --query-depth " + s + "seq1/frame_00000.sensor.png --json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string options = nlohmann::json::parse(r.out)["options"];
+  nlohmann::json header = {{"freeloc_progress", 1}, {"options", options}};
+  nlohmann::json planted = {{"scene", "s00003"},
+                            {"queries",
+                             {{{"frame", "seq1/frame_00000.png"},
+                               {"status", "ok"},
+                               {"ok", true},
+                               {"confidence", 0.5},
+                               {"matches", 9},
+                               {"inliers", 8},
+                               {"match_ms", 1.0},
+                               {"solve_ms", 1.0},
+                               {"qvec", {1, 0, 0, 0}},
+                               {"tvec", {1.25, 2.5, 3.75}}}}}};
+  freeloc::testing::WriteText(progress, header.dump() + "\n" + planted.dump() + "\n{\"scene\": \"s0000");
+  r = RunFreeloc("run --data " + data + " --scenes s00002,s00003 --resume --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "1 of 2 scenes already done")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(progress));
+  const auto zip = freeloc::ZipContents::Read(out).files;
+  ASSERT_TRUE(zip.count("pose_s00003.txt"));
+  EXPECT_TRUE(Contains(zip.at("pose_s00003.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 1.25 2.5 3.75 0.5\n"))
+      << zip.at("pose_s00003.txt");
+  ASSERT_TRUE(zip.count("pose_s00002.txt"));
+  EXPECT_TRUE(Contains(zip.at("pose_s00002.txt"), "seq1/frame_00000.png ")) << zip.at("pose_s00002.txt");
+  // Other options, or a damaged line before the end: a clear error and no submission.
+  std::filesystem::remove(out);
+  freeloc::testing::WriteText(progress, header.dump() + "\n" + planted.dump() + "\n");
+  r = RunFreeloc("run --data " + data + " --scenes s00002,s00003 --resume --solver pnp --out " + out);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "written with different options")) << r.out;
+  freeloc::testing::WriteText(progress, header.dump() + "\nnot json\n" + planted.dump() + "\n");
+  r = RunFreeloc("run --data " + data + " --scenes s00002,s00003 --resume --out " + out);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "line 2 is not JSON")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 }  // namespace

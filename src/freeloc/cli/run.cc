@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -55,34 +56,168 @@ pipeline::PipelineOptions Resolve(const Overrides& ov) {
 struct RunOptions {
   Overrides ov;
   std::string data, split = "val", scenes, out, log;
+  bool resume = false;
 };
 
-// Runs every scene, writes the submission (successful queries only) and the JSON-lines log.
+nlohmann::ordered_json QueryToJson(const std::string& scene, const pipeline::QueryResult& q) {
+  const auto qv = q.query_from_ref.QuaternionWxyz();
+  const auto& t = q.query_from_ref.translation;
+  return {{"scene", scene},
+          {"frame", q.frame},
+          {"status", q.status},
+          {"confidence", q.confidence},
+          {"matches", q.matches},
+          {"inliers", q.inliers},
+          {"match_ms", q.match_ms},
+          {"solve_ms", q.solve_ms},
+          {"ok", q.ok},
+          {"qvec", {qv[0], qv[1], qv[2], qv[3]}},
+          {"tvec", {t.x(), t.y(), t.z()}}};
+}
+
+pipeline::QueryResult QueryFromJson(const nlohmann::json& j) {
+  pipeline::QueryResult q;
+  q.frame = j.at("frame").get<std::string>();
+  q.status = j.at("status").get<std::string>();
+  q.ok = j.at("ok").get<bool>();
+  q.confidence = j.at("confidence").get<double>();
+  q.matches = j.at("matches").get<int>();
+  q.inliers = j.at("inliers").get<int>();
+  q.match_ms = j.at("match_ms").get<double>();
+  q.solve_ms = j.at("solve_ms").get<double>();
+  const auto qv = j.at("qvec").get<std::array<double, 4>>();
+  const auto t = j.at("tvec").get<std::array<double, 3>>();
+  q.query_from_ref = Rigid3d::FromWxyz(qv, Eigen::Vector3d(t[0], t[1], t[2]));
+  return q;
+}
+
+// Progress of a run: `<out>.progress.jsonl`, a header line with the options, then one line per finished scene
+// (appended and synced as each scene ends). `--resume` reads it back and skips those scenes; a last line cut short
+// by a crash is ignored. The file is removed once the submission is written.
+class ProgressFile {
+ public:
+  ProgressFile(const std::string& out, const std::string& options)
+      : path_(out + ".progress.jsonl"), options_(options) {}
+  const std::string& path() const { return path_; }
+
+  // Scenes already done, read when resuming; empty when there is no progress file yet.
+  std::map<std::string, std::vector<pipeline::QueryResult>> Load() const {
+    std::map<std::string, std::vector<pipeline::QueryResult>> done;
+    std::ifstream in(path_);
+    if (!in) return done;
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);)
+      if (!line.empty()) lines.push_back(line);
+    FREELOC_CHECK(!lines.empty(), path_ + ": empty progress file; delete it or run without --resume");
+    nlohmann::json header = nlohmann::json::parse(lines[0], nullptr, /*allow_exceptions=*/false);
+    FREELOC_CHECK(header.is_object() && header.contains("freeloc_progress") && header.contains("options") &&
+                      header["options"].is_string(),
+                  path_ + ": not a freeloc progress file; delete it or run without --resume");
+    FREELOC_CHECK(header["options"] == options_, path_ + ": written with different options (" +
+                                                     header["options"].get<std::string>() + " vs " + options_ +
+                                                     "); rerun with the same options, or without --resume");
+    for (size_t i = 1; i < lines.size(); ++i) {
+      const nlohmann::json j = nlohmann::json::parse(lines[i], nullptr, /*allow_exceptions=*/false);
+      if (j.is_discarded()) {
+        FREELOC_CHECK(i + 1 == lines.size(), path_ + ": line " + std::to_string(i + 1) +
+                                                 " is not JSON; delete the file or run without --resume");
+        break;  // the interrupted last write
+      }
+      std::vector<pipeline::QueryResult> qs;
+      try {
+        for (const auto& q : j.at("queries")) qs.push_back(QueryFromJson(q));
+        done[j.at("scene").get<std::string>()] = std::move(qs);
+      } catch (const nlohmann::json::exception& e) {
+        throw Error(path_ + ": line " + std::to_string(i + 1) + " is not a scene record (" + e.what() +
+                    "); delete the file or run without --resume");
+      }
+    }
+    return done;
+  }
+
+  // Starts a new file (header only) unless resuming from an existing one.
+  void Open(bool keep) {
+    const bool exists = std::filesystem::exists(path_);
+    file_ = std::fopen(path_.c_str(), keep && exists ? "a" : "w");
+    FREELOC_CHECK(file_ != nullptr, path_ + ": cannot write the progress file; check the folder of --out");
+    if (!(keep && exists)) Append(nlohmann::ordered_json{{"freeloc_progress", 1}, {"options", options_}});
+  }
+  void AppendScene(const std::string& scene, const std::vector<pipeline::QueryResult>& res) {
+    nlohmann::ordered_json j = {{"scene", scene}, {"queries", nlohmann::ordered_json::array()}};
+    for (const auto& q : res) j["queries"].push_back(QueryToJson(scene, q));
+    Append(j);
+  }
+  void Finish() {
+    Close();
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+  ~ProgressFile() { Close(); }
+
+ private:
+  void Append(const nlohmann::ordered_json& j) {
+    const std::string line = j.dump() + "\n";
+    FREELOC_CHECK(std::fwrite(line.data(), 1, line.size(), file_) == line.size() && std::fflush(file_) == 0,
+                  path_ + ": write failed; check free disk space");
+    fsync(fileno(file_));
+  }
+  void Close() {
+    if (file_) std::fclose(file_);
+    file_ = nullptr;
+  }
+  std::string path_, options_;
+  FILE* file_ = nullptr;
+};
+
+// Runs every scene (skipping those a resumed progress file already holds), writes the submission (successful
+// queries only) and the JSON-lines log.
 std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOptions& r,
                                                                  const pipeline::PipelineOptions& o,
                                                                  const std::string& split_dir,
                                                                  const std::vector<std::string>& scenes) {
+  ProgressFile progress(r.out, o.Summary());
   std::map<std::string, std::vector<pipeline::QueryResult>> results;
-  std::map<std::string, std::vector<SubmissionEntry>> sub;
-  std::string log;
+  if (r.resume) {
+    auto done = progress.Load();
+    size_t reused = 0;
+    for (const auto& name : scenes)
+      if (done.count(name)) {
+        results[name] = std::move(done[name]);
+        ++reused;
+      }
+    FREELOC_LOG(INFO) << "resuming from " << progress.path() << ": " << reused << " of " << scenes.size()
+                      << " scenes already done";
+  } else if (std::filesystem::exists(progress.path())) {
+    FREELOC_LOG(WARNING) << progress.path()
+                         << " exists from an earlier run; starting over (use --resume to continue it)";
+  }
+  progress.Open(r.resume);
   ProgressBar bar("scenes", static_cast<int64_t>(scenes.size()));
   for (const auto& name : scenes) {
-    const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
-    const auto res = pipeline::RelocalizeScene(scene, o);
-    for (const auto& q : res) {
-      if (q.ok) sub[name].push_back({q.frame, q.query_from_ref, std::max(0.0, q.confidence)});
-      nlohmann::ordered_json j = {
-          {"scene", name},        {"frame", q.frame},     {"status", q.status},     {"confidence", q.confidence},
-          {"matches", q.matches}, {"inliers", q.inliers}, {"match_ms", q.match_ms}, {"solve_ms", q.solve_ms}};
-      log += j.dump() + "\n";
+    if (!results.count(name)) {
+      const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
+      results[name] = pipeline::RelocalizeScene(scene, o);
+      progress.AppendScene(name, results[name]);
     }
-    if (!sub.count(name)) sub[name] = {};  // an empty pose file: the scene was attempted
-    results[name] = res;
     bar.Increment();
   }
   bar.Finish();
+  std::map<std::string, std::vector<SubmissionEntry>> sub;
+  std::string log;
+  for (const auto& name : scenes) {
+    sub[name];  // an empty pose file: the scene was attempted
+    for (const auto& q : results[name]) {
+      if (q.ok) sub[name].push_back({q.frame, q.query_from_ref, std::max(0.0, q.confidence)});
+      nlohmann::ordered_json j = QueryToJson(name, q);
+      j.erase("ok");
+      j.erase("qvec");
+      j.erase("tvec");
+      log += j.dump() + "\n";
+    }
+  }
   WriteSubmission(r.out, sub);
   if (!r.log.empty()) WriteFileAtomic(r.log, log.data(), log.size());
+  progress.Finish();
   return results;
 }
 
@@ -190,6 +325,8 @@ void RegisterRun(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
   sub->add_option("--scenes", r->scenes, "comma-separated scene names (default: all)");
   sub->add_option("--out", r->out, "submission ZIP (written atomically)")->required();
   sub->add_option("--log", r->log, "JSON-lines log, one record per query");
+  sub->add_flag("--resume", r->resume,
+                "continue an interrupted run from <out>.progress.jsonl (same options), skipping finished scenes");
   AddOverrides(sub, &r->ov);
   sub->callback([r, run] { *run = [r] { return RunRun(*r); }; });
 
