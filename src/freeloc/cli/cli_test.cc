@@ -327,6 +327,15 @@ TEST(Cli, DemoRelocalizesTheBundledScenes) {
   EXPECT_TRUE(Contains(r.out, "not wired into the pipeline yet")) << r.out;
 }
 
+// `freeloc relocalize --json` on the first TUM pair of s00003, with its sensor depth.
+Result RelocalizeS00003(const std::string& data) {
+  const std::string s = data + "/val/s00003/";
+  return RunFreeloc("relocalize --ref " + s + "seq0/frame_00000.png --query " + s +
+                    "seq1/frame_00000.png --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics "
+                    "535.4,539.2,320.1,247.6 --ref-depth " +
+                    s + "seq0/frame_00000.sensor.png --query-depth " + s + "seq1/frame_00000.sensor.png --json");
+}
+
 // run → submission → eval, and relocalize on one pair; bad presets and missing files are clear errors.
 TEST(Cli, RunThenEvalAndRelocalize) {
   FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
@@ -344,11 +353,7 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["counts"]["estimates"], 2);
   EXPECT_LT(j["Average Median Translation Error"].get<double>(), 0.03);
-  const std::string s = data + "/val/s00003/";
-  r = RunFreeloc("relocalize --ref " + s + "seq0/frame_00000.png --query " + s +
-                 "seq1/frame_00000.png --ref-intrinsics "
-                 "535.4,539.2,320.1,247.6 --query-intrinsics 535.4,539.2,320.1,247.6 --ref-depth " +
-                 s + "seq0/frame_00000.sensor.png --query-depth " + s + "seq1/frame_00000.sensor.png --json");
+  r = RelocalizeS00003(data);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "ok");
   EXPECT_EQ(RunFreeloc("run --data " + data + " --preset seed --out " + tmp.File("x.zip")).code, 1);
@@ -368,11 +373,7 @@ TEST(Cli, RunResumesFromItsProgressFile) {
   Result r = RunFreeloc("run --data " + data + " --scenes s00002 --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_FALSE(std::filesystem::exists(progress));
-  const std::string s = data + "/val/s00003/";
-  r = RunFreeloc("relocalize --ref " + s + "seq0/frame_00000.png --query " + s +
-                 "seq1/frame_00000.png --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics "
-                 "535.4,539.2,320.1,247.6 --ref-depth " +
-                 s + "seq0/frame_00000.sensor.png --query-depth " + s + "seq1/frame_00000.sensor.png --json");
+  r = RelocalizeS00003(data);
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string options = nlohmann::json::parse(r.out)["options"];
   nlohmann::json header = {{"freeloc_progress", 1}, {"options", options}};
