@@ -413,4 +413,31 @@ TEST(Cli, RunResumesFromItsProgressFile) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+// Shards of a run, merged, give the same bytes as the whole run; overlapping shards and bad shard specs are refused.
+TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
+  freeloc::testing::TempDir tmp;
+  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  ASSERT_EQ(RunFreeloc("-q run --data " + data + " --out " + tmp.File("all.zip")).code, 0);
+  Result r = RunFreeloc("run --data " + data + " --shard 1/2 --out " + tmp.File("a.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "in 2 scenes")) << r.out;  // s00001 and s00003 of three
+  r = RunFreeloc("run --data " + data + " --shard 2/2 --out " + tmp.File("b.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "in 1 scenes")) << r.out;
+  r = RunFreeloc("merge " + tmp.File("a.zip") + " " + tmp.File("b.zip") + " --out " + tmp.File("m.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "merged 3 scenes from 2 submissions")) << r.out;
+  EXPECT_EQ(freeloc::testing::ReadText(tmp.File("m.zip")), freeloc::testing::ReadText(tmp.File("all.zip")));
+  r = RunFreeloc("merge " + tmp.File("a.zip") + " " + tmp.File("all.zip") + " --out " + tmp.File("x.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "is also in")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
+  freeloc::testing::WriteText(tmp.File("junk.zip"), "not a zip");
+  EXPECT_EQ(RunFreeloc("merge " + tmp.File("junk.zip") + " --out " + tmp.File("x.zip")).code, 1);
+  EXPECT_EQ(RunFreeloc("run --data " + data + " --shard 3/2 --out " + tmp.File("x.zip")).code, 2);
+  EXPECT_EQ(RunFreeloc("run --data " + data + " --shard 0/2 --out " + tmp.File("x.zip")).code, 2);
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
+}
+
 }  // namespace

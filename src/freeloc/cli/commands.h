@@ -35,5 +35,6 @@ void RegisterSegment(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDepth(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterMerge(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli

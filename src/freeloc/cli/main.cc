@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   cli::RegisterDepth(app, global, &run);
   cli::RegisterRun(app, global, &run);
   cli::RegisterDemo(app, global, &run);
+  cli::RegisterMerge(app, global, &run);
 
   try {
     app.parse(argc, argv);

@@ -55,9 +55,26 @@ pipeline::PipelineOptions Resolve(const Overrides& ov) {
 
 struct RunOptions {
   Overrides ov;
-  std::string data, split = "val", scenes, out, log;
+  std::string data, split = "val", scenes, out, log, shard;
   bool resume = false;
 };
+
+// "i/n" (1 ≤ i ≤ n) → {i, n}; {0, 0} when it is not of that form.
+std::pair<int, int> ParseShard(const std::string& text) {
+  int i = 0, n = 0;
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%d/%d%c", &i, &n, &tail) != 2 || n < 1 || i < 1 || i > n) return {0, 0};
+  return {i, n};
+}
+
+// Shard i of n takes every n-th scene of the sorted list, starting at the i-th.
+std::vector<std::string> ShardScenes(const std::vector<std::string>& scenes, const std::string& shard) {
+  if (shard.empty()) return scenes;
+  const auto [i, n] = ParseShard(shard);
+  std::vector<std::string> mine;
+  for (size_t k = static_cast<size_t>(i - 1); k < scenes.size(); k += static_cast<size_t>(n)) mine.push_back(scenes[k]);
+  return mine;
+}
 
 nlohmann::ordered_json QueryToJson(const std::string& scene, const pipeline::QueryResult& q) {
   const auto qv = q.query_from_ref.QuaternionWxyz();
@@ -224,8 +241,9 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
 int RunRun(const RunOptions& r) {
   const pipeline::PipelineOptions o = Resolve(r.ov);
   std::string split_dir;
-  const std::vector<std::string> scenes = ResolveScenes(r.data, r.split, r.scenes, &split_dir);
+  const std::vector<std::string> scenes = ShardScenes(ResolveScenes(r.data, r.split, r.scenes, &split_dir), r.shard);
   FREELOC_LOG(INFO) << o.Summary();
+  if (!r.shard.empty()) FREELOC_LOG(INFO) << "shard " << r.shard << ": " << scenes.size() << " scenes";
   const auto results = RunAll(r, o, split_dir, scenes);
   size_t ok = 0, total = 0;
   for (const auto& [s, v] : results)
@@ -327,6 +345,13 @@ void RegisterRun(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
   sub->add_option("--log", r->log, "JSON-lines log, one record per query");
   sub->add_flag("--resume", r->resume,
                 "continue an interrupted run from <out>.progress.jsonl (same options), skipping finished scenes");
+  sub->add_option("--shard", r->shard,
+                  "i/n: only every n-th scene starting at the i-th (1 ≤ i ≤ n); join the shards with freeloc merge")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            return ParseShard(v).first ? std::string() : "expected i/n with 1 <= i <= n, e.g. 2/4";
+          },
+          "I/N"));
   AddOverrides(sub, &r->ov);
   sub->callback([r, run] { *run = [r] { return RunRun(*r); }; });
 
