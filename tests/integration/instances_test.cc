@@ -9,6 +9,7 @@
 #include "freeloc/matching/proposals.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/instance_segmenter.h"
+#include "freeloc/pipeline/dust3r_stage.h"
 #include "testing/testing.h"
 
 namespace freeloc {
@@ -53,20 +54,7 @@ TEST(Instances, ProposalsPropagationAndMatchingOnTumPhotos) {
     if (props[i].kept) pairs.push_back({props[i].id, ref_masks[i].second, props[i].query_mask});
   }
   // Instance matching with DUSt3R on the masked pairs, then the merge.
-  const matching::PointmapFn fn = [&](const Dust3rInput& x, const Dust3rInput& y) {
-    const auto p =
-        dust3r->Run({x.normalized.data(), x.height(), x.width()}, {y.normalized.data(), y.height(), y.width()});
-    matching::PairPointmaps pm;
-    pm.pts1.assign(p.pts3d_1.as<float>(), p.pts3d_1.as<float>() + p.pts3d_1.numel());
-    pm.conf1.assign(p.conf_1.as<float>(), p.conf_1.as<float>() + p.conf_1.numel());
-    pm.pts2.assign(p.pts3d_2.as<float>(), p.pts3d_2.as<float>() + p.pts3d_2.numel());
-    pm.conf2.assign(p.conf_2.as<float>(), p.conf_2.as<float>() + p.conf_2.numel());
-    pm.h1 = x.height();
-    pm.w1 = x.width();
-    pm.h2 = y.height();
-    pm.w2 = y.width();
-    return pm;
-  };
+  const matching::PointmapFn fn = pipeline::Dust3rPointmapFn(dust3r);
   matching::InstanceOptions io;
   io.preprocess.size = 224;
   io.min_matches = 1;

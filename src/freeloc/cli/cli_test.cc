@@ -192,6 +192,16 @@ TEST(Cli, PoseFromCorrespondenceFile) {
   EXPECT_TRUE(Contains(r.out, "too-few-matches")) << r.out;
 }
 
+// `freeloc relocalize --json` on the first TUM pair of s00003, with its sensor depth.
+Result RelocalizeS00003(const std::string& data, const std::string& extra = "") {
+  const std::string s = data + "/val/s00003/";
+  return RunFreeloc("relocalize --ref " + s + "seq0/frame_00000.png --query " + s +
+                    "seq1/frame_00000.png --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics "
+                    "535.4,539.2,320.1,247.6 --ref-depth " +
+                    s + "seq0/frame_00000.sensor.png --query-depth " + s + "seq1/frame_00000.sensor.png --json" +
+                    extra);
+}
+
 // `freeloc pointmap` (with --matches) and `freeloc match` (with instance label masks) on real TUM photos with the
 // tiny fixture weights: the numbers are meaningless, the path is real.
 TEST(Cli, PointmapAndMatchOnRealPhotos) {
@@ -231,6 +241,24 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
                  " --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics 535.4,539.2,320.1,247.6 --json");
   EXPECT_TRUE(r.code == 0 || r.code == 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "\"qvec\"")) << r.out;
+  // The pipeline's dust3r matcher gives the same global matches as `freeloc match` without masks.
+  r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --out " + tmp.File("g.txt"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string g = freeloc::testing::ReadText(tmp.File("g.txt"));
+  r = RelocalizeS00003(freeloc::testing::SharedPath("data/tum_mapfree"),
+                       " --preset dust3r --dust3r-size 224 --dust3r-model " + model);
+  EXPECT_TRUE(r.code == 0 || r.code == 1) << r.out;  // random weights: the pose may well fail
+  EXPECT_EQ(nlohmann::json::parse(r.out)["num_matches"], std::count(g.begin(), g.end(), '\n')) << r.out;
+  r = RelocalizeS00003(freeloc::testing::SharedPath("data/tum_mapfree"), " --preset dust3r");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "--matcher dust3r needs --dust3r-model FILE")) << r.out;
+  // A whole scene through `run` loads the model once and writes a submission.
+  r = RunFreeloc("run --data " + freeloc::testing::SharedPath("data/tum_mapfree") +
+                 " --scenes s00003 --preset dust3r --dust3r-size 224 --dust3r-model " + model + " --out " +
+                 tmp.File("d.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "in 1 scenes")) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(tmp.File("d.zip")));
   // Masks of the wrong size: a clear error.
   freeloc::WritePng16(tmp.File("small.png"), 10, 10, std::vector<uint16_t>(100, 1));
   r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --ref-masks " + tmp.File("small.png") +
@@ -325,15 +353,6 @@ TEST(Cli, DemoRelocalizesTheBundledScenes) {
   EXPECT_TRUE(Contains(r.out, "| s00002 | seq1/frame_00000.png | ok |")) << r.out;
   EXPECT_TRUE(Contains(r.out, "| Estimates for % of frames |")) << r.out;
   EXPECT_TRUE(Contains(r.out, "not wired into the pipeline yet")) << r.out;
-}
-
-// `freeloc relocalize --json` on the first TUM pair of s00003, with its sensor depth.
-Result RelocalizeS00003(const std::string& data) {
-  const std::string s = data + "/val/s00003/";
-  return RunFreeloc("relocalize --ref " + s + "seq0/frame_00000.png --query " + s +
-                    "seq1/frame_00000.png --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics "
-                    "535.4,539.2,320.1,247.6 --ref-depth " +
-                    s + "seq0/frame_00000.sensor.png --query-depth " + s + "seq1/frame_00000.sensor.png --json");
 }
 
 // run → submission → eval, and relocalize on one pair; bad presets and missing files are clear errors.

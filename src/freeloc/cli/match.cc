@@ -12,6 +12,7 @@
 #include "freeloc/io/image_io.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/nn/dust3r.h"
+#include "freeloc/pipeline/dust3r_stage.h"
 
 namespace freeloc::cli {
 
@@ -37,20 +38,7 @@ int RunMatch(const MatchOptions& o, const GlobalOptions& g) {
   rt.device = g.device;
   rt.threads = g.threads;
   const auto model = nn::Dust3rModel::Load(o.model, o.config, rt);
-  const matching::PointmapFn fn = [&](const Dust3rInput& a, const Dust3rInput& b) {
-    const auto p =
-        model->Run({a.normalized.data(), a.height(), a.width()}, {b.normalized.data(), b.height(), b.width()});
-    matching::PairPointmaps pm;
-    pm.pts1.assign(p.pts3d_1.as<float>(), p.pts3d_1.as<float>() + p.pts3d_1.numel());
-    pm.conf1.assign(p.conf_1.as<float>(), p.conf_1.as<float>() + p.conf_1.numel());
-    pm.pts2.assign(p.pts3d_2.as<float>(), p.pts3d_2.as<float>() + p.pts3d_2.numel());
-    pm.conf2.assign(p.conf_2.as<float>(), p.conf_2.as<float>() + p.conf_2.numel());
-    pm.h1 = a.height();
-    pm.w1 = a.width();
-    pm.h2 = b.height();
-    pm.w2 = b.width();
-    return pm;
-  };
+  const matching::PointmapFn fn = pipeline::Dust3rPointmapFn(model);
   const Image ref = ReadImage(o.ref), query = ReadImage(o.query);
   matching::InstanceOptions io;
   io.mode = matching::ParseInstanceMode(o.mode);

@@ -28,8 +28,10 @@ namespace freeloc::cli {
 namespace {
 
 struct Overrides {
-  std::string preset = "sift-essential", matcher, depth, solver, scale;
+  std::string preset = "sift-essential", matcher, depth, solver, scale, dust3r_model;
   double threshold = -1;
+  int dust3r_size = 0;
+  const GlobalOptions* global = nullptr;  // --device, --threads
 };
 
 void AddOverrides(CLI::App* sub, Overrides* o) {
@@ -40,6 +42,8 @@ void AddOverrides(CLI::App* sub, Overrides* o) {
   sub->add_option("--solver", o->solver, "override: essential | pnp | procrustes");
   sub->add_option("--scale", o->scale, "override: robust | official");
   sub->add_option("--threshold", o->threshold, "override: inlier threshold in pixels");
+  sub->add_option("--dust3r-model", o->dust3r_model, "DUSt3R weights for the dust3r matcher (.pth or .safetensors)");
+  sub->add_option("--dust3r-size", o->dust3r_size, "DUSt3R input size (default 512)");
 }
 
 pipeline::PipelineOptions Resolve(const Overrides& ov) {
@@ -49,6 +53,12 @@ pipeline::PipelineOptions Resolve(const Overrides& ov) {
   if (!ov.solver.empty()) o.solver = ov.solver;
   if (!ov.scale.empty()) o.scale = ov.scale;
   if (ov.threshold > 0) o.threshold_px = ov.threshold;
+  if (!ov.dust3r_model.empty()) o.dust3r_model = ov.dust3r_model;
+  if (ov.dust3r_size > 0) o.dust3r_size = ov.dust3r_size;
+  if (ov.global) {
+    o.device = ov.global->device;
+    o.threads = ov.global->threads;
+  }
   o.Validate();
   return o;
 }
@@ -268,7 +278,8 @@ int RunRelocalize(const RelocOptions& r) {
   o.Validate();
   const Camera kr = Camera::FromString(r.ref_k, "--ref-intrinsics"),
                kq = Camera::FromString(r.query_k, "--query-intrinsics");
-  FREELOC_CHECK(o.matcher == "sift", "relocalize works on images: use the sift matcher (precomputed needs a scene)");
+  FREELOC_CHECK(o.matcher == "sift" || o.matcher == "dust3r",
+                "relocalize works on images: use the sift or dust3r matcher (precomputed needs a scene)");
   DepthMap dr, dq;
   if (!r.ref_depth.empty()) dr = ReadDepthPng(r.ref_depth);
   if (!r.query_depth.empty()) dq = ReadDepthPng(r.query_depth);
@@ -335,8 +346,9 @@ int RunDemo(const std::string& data_dir) {
 
 }  // namespace
 
-void RegisterRun(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
+void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto r = std::make_shared<RunOptions>();
+  r->ov.global = &global;
   auto* sub = app.add_subcommand("run", "Relocalize every query of every scene into a map-free submission ZIP");
   sub->add_option("--data", r->data, "dataset root (holding val/ test/) or a split folder")->required();
   sub->add_option("--split", r->split, "split folder (default val)");
@@ -356,6 +368,7 @@ void RegisterRun(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
   sub->callback([r, run] { *run = [r] { return RunRun(*r); }; });
 
   auto q = std::make_shared<RelocOptions>();
+  q->ov.global = &global;
   auto* rs = app.add_subcommand("relocalize", "Pose of one query image relative to one reference image");
   rs->add_option("--ref", q->ref, "reference image")->required();
   rs->add_option("--query", q->query, "query image")->required();

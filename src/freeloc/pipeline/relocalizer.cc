@@ -9,6 +9,8 @@
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/relative_pose.h"
 #include "freeloc/matching/sift.h"
+#include "freeloc/nn/runtime.h"
+#include "freeloc/pipeline/dust3r_stage.h"
 
 namespace freeloc::pipeline {
 
@@ -19,8 +21,11 @@ double Ms(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 void PipelineOptions::Validate() const {
-  FREELOC_CHECK(matcher == "sift" || matcher.rfind("precomputed:", 0) == 0,
-                "--matcher '" << matcher << "' is not available; use sift or precomputed:<name>");
+  FREELOC_CHECK(matcher == "sift" || matcher == "dust3r" || matcher.rfind("precomputed:", 0) == 0,
+                "--matcher '" << matcher << "' is not available; use sift, dust3r or precomputed:<name>");
+  FREELOC_CHECK(matcher != "dust3r" || !dust3r_model.empty(),
+                "--matcher dust3r needs --dust3r-model FILE (the official DUSt3R .pth or model.safetensors)");
+  FREELOC_CHECK(dust3r_size >= 224, "--dust3r-size " << dust3r_size << " is too small; use 224 or 512");
   FREELOC_CHECK(depth == "none" || (depth.rfind("provided:", 0) == 0 && depth.size() > 9),
                 "--depth '" << depth << "' is not available; use provided:<suffix> or none");
   FREELOC_CHECK(solver == "essential" || solver == "pnp" || solver == "procrustes",
@@ -33,7 +38,8 @@ void PipelineOptions::Validate() const {
 std::string PipelineOptions::Summary() const {
   return "preset " + preset + ": matcher " + matcher + ", depth " + depth + ", solver " + solver +
          (solver == "essential" ? ", scale " + scale : "") +
-         (threshold_px > 0 ? ", threshold " + std::to_string(threshold_px) + " px" : "");
+         (threshold_px > 0 ? ", threshold " + std::to_string(threshold_px) + " px" : "") +
+         (matcher == "dust3r" ? ", dust3r " + dust3r_model + " at " + std::to_string(dust3r_size) : "");
 }
 
 std::vector<std::string> PresetNames() {
@@ -67,13 +73,17 @@ PipelineOptions ResolvePreset(const std::string& name) {
     o.Validate();
     return o;
   }
-  if (name == "seed" || name == "seed-no-instance" || name == "seed-provided-depth" || name == "dust3r") {
-    FREELOC_THROW("preset '" << name << "' needs the DUSt3R matcher stage (and SegGPT/Metric3D for seed), which is "
-                             << "not wired into the pipeline in this version; the networks run on their own with "
-                             << "'freeloc match', 'freeloc segment' and 'freeloc depth'. Presets available now: "
-                             << "sift-essential, sift-pnp, sift-procrustes, precomputed:<name>-<solver>");
+  if (name == "dust3r") {  // DUSt3R global matches, essential matrix, provided-depth scale (needs --dust3r-model)
+    o.matcher = "dust3r";
+    return o;
   }
-  FREELOC_THROW("--preset '" << name << "' is unknown; available: sift-essential, sift-pnp, sift-procrustes, "
+  if (name == "seed" || name == "seed-no-instance" || name == "seed-provided-depth") {
+    FREELOC_THROW("preset '" << name << "' needs the SegGPT instance and Metric3D depth stages, which are not wired "
+                             << "into the pipeline in this version; they run on their own with 'freeloc segment' and "
+                             << "'freeloc depth'. Presets available now: sift-essential, sift-pnp, sift-procrustes, "
+                             << "dust3r, precomputed:<name>-<solver>");
+  }
+  FREELOC_THROW("--preset '" << name << "' is unknown; available: sift-essential, sift-pnp, sift-procrustes, dust3r, "
                              << "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>");
 }
 
@@ -85,6 +95,20 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
   matching::Correspondences c;
   if (o.matcher == "sift") {
     c = matching::MatchSift(ref, query);
+  } else if (o.matcher == "dust3r") {
+    nn::RuntimeOptions rt;
+    rt.device = o.device;
+    rt.threads = o.threads;
+    const matching::PointmapFn fn = Dust3rPointmapFn(CachedDust3r(o.dust3r_model, "", rt));
+    Dust3rPreprocessOptions pp;
+    pp.size = o.dust3r_size;
+    const Dust3rInput a = PreprocessForDust3r(ref, pp), b = PreprocessForDust3r(query, pp);
+    matching::ReciprocalOptions mo;
+    mo.threads = o.threads;
+    for (const auto& m : matching::GlobalCorrespondences(fn(a, b), a, b, mo)) {
+      c.ref.push_back(m.ref);
+      c.query.push_back(m.query);
+    }
   } else {
     FREELOC_CHECK(pre != nullptr, "matcher " << o.matcher << " needs precomputed correspondences");
     for (const auto& v : *pre) {

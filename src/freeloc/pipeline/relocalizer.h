@@ -1,7 +1,7 @@
-// The relocalization pipeline (DESIGN §1–3), first slice: matchers that need no network (the benchmark's SIFT
-// extractor, precomputed correspondences), provided depth maps, and the three solvers (essential + metric scale,
-// PnP, Procrustes). The network presets (dust3r, seed, …) are named but report that their stage is not wired in
-// yet, so a user never gets a silent fallback.
+// The relocalization pipeline (DESIGN §1–3): matchers (the benchmark's SIFT extractor, DUSt3R global reciprocal
+// matches, precomputed correspondences), provided depth maps, and the three solvers (essential + metric scale,
+// PnP, Procrustes). The seed presets (SegGPT instances, Metric3D depth) are named but report that their stage is
+// not wired in yet, so a user never gets a silent fallback.
 #pragma once
 
 #include <string>
@@ -17,11 +17,16 @@ namespace freeloc::pipeline {
 
 struct PipelineOptions {
   std::string preset = "sift-essential";
-  std::string matcher = "sift";           // sift | precomputed:<SIFT|SG|LoFTR|…>
+  std::string matcher = "sift";           // sift | dust3r | precomputed:<SIFT|SG|LoFTR|…>
   std::string depth = "provided:sensor";  // provided:<suffix> | none
   std::string solver = "essential";       // essential | pnp | procrustes
   std::string scale = "robust";           // robust | official (essential only)
   double threshold_px = -1;               // < 0: the solver's default
+  // matcher dust3r: global reciprocal 3D matches of DUSt3R pointmaps (no instances yet).
+  std::string dust3r_model;  // official .pth or model.safetensors
+  int dust3r_size = 512;     // load_images size
+  std::string device = "cpu";
+  int threads = 0;  // 0 = library default
   void Validate() const;
   std::string Summary() const;
 };

@@ -65,6 +65,16 @@ TEST(Relocalizer, PresetsAndOverrides) {
   EXPECT_THROW(o.Validate(), Error);
   o.depth = "prov:x";
   EXPECT_THROW(o.Validate(), Error);
+  // dust3r: a real matcher now, but only with its weights named.
+  PipelineOptions d = ResolvePreset("dust3r");
+  EXPECT_EQ(d.matcher, "dust3r");
+  EXPECT_EQ(d.solver, "essential");
+  EXPECT_THROW(d.Validate(), Error);
+  d.dust3r_model = "weights.pth";
+  EXPECT_NO_THROW(d.Validate());
+  EXPECT_NE(d.Summary().find("dust3r weights.pth at 512"), std::string::npos) << d.Summary();
+  d.dust3r_size = 100;
+  EXPECT_THROW(d.Validate(), Error);
 }
 
 }  // namespace
