@@ -1,5 +1,5 @@
-// Helpers for the benchmarks that drive LibTorch directly: torch tensors as checkpoint TensorViews (random full-size
-// weights without files) and the GEMM rate measured in the same process.
+// Helpers for the benchmarks that drive LibTorch directly: the GEMM rate measured in the same process (random
+// full-size weights become checkpoint TensorViews through nn's own ToView).
 #pragma once
 
 #include <torch/torch.h>
@@ -9,21 +9,9 @@
 
 #include "bench_util.h"
 #include "freeloc/io/tensor.h"
+#include "freeloc/nn/internal/torch_util.h"  // ToView: torch tensors as TensorViews
 
 namespace freeloc::bench {
-
-// A float32 TensorView sharing the tensor's memory (the TensorView keeps the tensor alive).
-inline TensorView ViewOf(const torch::Tensor& t_in) {
-  const torch::Tensor t = t_in.to(torch::kFloat32).contiguous();
-  TensorView v;
-  v.dtype = DType::kF32;
-  v.shape = t.sizes().vec();
-  v.nbytes = static_cast<size_t>(t.numel()) * 4;
-  auto holder = std::make_shared<torch::Tensor>(t);
-  v.data = static_cast<const uint8_t*>(holder->data_ptr());
-  v.owner = holder;
-  return v;
-}
 
 // Median GFLOP/s of an M×K by K×N matmul in `dtype` (3 runs after a warm-up).
 inline double GemmRate(int64_t m, int64_t k, int64_t n, torch::Dtype dtype) {

@@ -44,7 +44,7 @@ std::map<std::string, freeloc::TensorView> RandomFullModel(const std::string& sh
     } else {
       t = torch::randn(shape) * 0.02;
     }
-    sd[name] = freeloc::bench::ViewOf(t);
+    sd[name] = freeloc::nn::internal::ToView(t);
   }
   return sd;
 }

@@ -47,7 +47,7 @@ std::map<std::string, freeloc::TensorView> RandomModel(const std::string& varian
       for (size_t k = 1; k < shape.size(); ++k) fan_in *= shape[k];
       t = torch::randn(shape) * (1.0 / std::sqrt(static_cast<double>(std::max<int64_t>(fan_in, 1))));
     }
-    sd[name] = freeloc::bench::ViewOf(t);
+    sd[name] = freeloc::nn::internal::ToView(t);
   }
   return sd;
 }

@@ -19,7 +19,7 @@ using freeloc::bench::NowSeconds;
 namespace {
 
 freeloc::TensorView Random(const std::vector<int64_t>& shape, double std, double mean = 0) {
-  return freeloc::bench::ViewOf(torch::randn(shape) * std + mean);
+  return freeloc::nn::internal::ToView(torch::randn(shape) * std + mean);
 }
 
 std::map<std::string, freeloc::TensorView> FullModel() {
