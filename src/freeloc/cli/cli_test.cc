@@ -259,6 +259,14 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "in 1 scenes")) << r.out;
   EXPECT_TRUE(std::filesystem::exists(tmp.File("d.zip")));
+  // A weights file that is not there stops the run before any scene: exit 1, no submission, no progress file.
+  r = RunFreeloc("run --data " + freeloc::testing::SharedPath("data/tum_mapfree") +
+                 " --scenes s00003 --preset dust3r --dust3r-model " + tmp.File("nope.pth") + " --out " +
+                 tmp.File("e.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "nope.pth: cannot open the checkpoint")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("e.zip")));
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("e.zip.progress.jsonl")));
   // Masks of the wrong size: a clear error.
   freeloc::WritePng16(tmp.File("small.png"), 10, 10, std::vector<uint16_t>(100, 1));
   r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --ref-masks " + tmp.File("small.png") +

@@ -253,6 +253,7 @@ int RunRun(const RunOptions& r) {
   std::string split_dir;
   const std::vector<std::string> scenes = ShardScenes(ResolveScenes(r.data, r.split, r.scenes, &split_dir), r.shard);
   FREELOC_LOG(INFO) << o.Summary();
+  pipeline::LoadModels(o);  // before the progress file and the first scene
   if (!r.shard.empty()) FREELOC_LOG(INFO) << "shard " << r.shard << ": " << scenes.size() << " scenes";
   const auto results = RunAll(r, o, split_dir, scenes);
   size_t ok = 0, total = 0;

@@ -18,7 +18,18 @@ namespace {
 double Ms(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
+
+std::shared_ptr<nn::Dust3rModel> Dust3rOf(const PipelineOptions& o) {
+  nn::RuntimeOptions rt;
+  rt.device = o.device;
+  rt.threads = o.threads;
+  return CachedDust3r(o.dust3r_model, "", rt);
+}
 }  // namespace
+
+void LoadModels(const PipelineOptions& o) {
+  if (o.matcher == "dust3r") Dust3rOf(o);
+}
 
 void PipelineOptions::Validate() const {
   FREELOC_CHECK(matcher == "sift" || matcher == "dust3r" || matcher.rfind("precomputed:", 0) == 0,
@@ -96,10 +107,7 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
   if (o.matcher == "sift") {
     c = matching::MatchSift(ref, query);
   } else if (o.matcher == "dust3r") {
-    nn::RuntimeOptions rt;
-    rt.device = o.device;
-    rt.threads = o.threads;
-    const matching::PointmapFn fn = Dust3rPointmapFn(CachedDust3r(o.dust3r_model, "", rt));
+    const matching::PointmapFn fn = Dust3rPointmapFn(Dust3rOf(o));
     Dust3rPreprocessOptions pp;
     pp.size = o.dust3r_size;
     const Dust3rInput a = PreprocessForDust3r(ref, pp), b = PreprocessForDust3r(query, pp);
@@ -173,6 +181,7 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
 
 std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& o) {
   o.Validate();
+  LoadModels(o);  // a bad weights file stops the run here instead of failing each query
   const Image ref = scene.LoadImage(scene.reference);
   DepthMap d_ref;
   std::string suffix;

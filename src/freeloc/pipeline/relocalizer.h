@@ -52,6 +52,10 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
                            const DepthMap& depth_ref, const DepthMap& depth_query, const PipelineOptions& options,
                            const std::vector<Eigen::Vector4d>* precomputed = nullptr);
 
+// Loads (and keeps for the process) the networks `options` names, so that a missing or damaged weights file is
+// one error before any work starts rather than a failure of every query. Throws freeloc::Error naming the file.
+void LoadModels(const PipelineOptions& options);
+
 // Every query of a map-free scene; the reference image, depth and correspondences are loaded once.
 std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& options);
 
