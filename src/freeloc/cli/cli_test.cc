@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -25,7 +26,8 @@ struct Result {
 
 Result RunFreeloc(const std::string& args) {
   Result r;
-  const std::string cmd = std::string(FREELOC_BINARY) + " " + args + " 2>&1";
+  // Without the user's $FREELOC_MODELS, so that model discovery sees only what a test gives it.
+  const std::string cmd = "env -u FREELOC_MODELS " + std::string(FREELOC_BINARY) + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
   std::array<char, 4096> buf;
@@ -251,7 +253,8 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["num_matches"], std::count(g.begin(), g.end(), '\n')) << r.out;
   r = RelocalizeS00003(freeloc::testing::SharedPath("data/tum_mapfree"), " --preset dust3r");
   EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_TRUE(Contains(r.out, "--matcher dust3r needs --dust3r-model FILE")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "preset dust3r needs the DUSt3R weights: looked for "
+                              "DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth")) << r.out;
   // A whole scene through `run` loads the model once and writes a submission.
   r = RunFreeloc("run --data " + freeloc::testing::SharedPath("data/tum_mapfree") +
                  " --scenes s00003 --preset dust3r --dust3r-size 224 --dust3r-model " + model + " --out " +
@@ -354,13 +357,101 @@ TEST(Cli, DepthOnRealFrames) {
   EXPECT_FALSE(std::filesystem::exists(tmp.File("y.png")));
 }
 
+// A models folder laid out with the published file names, here symlinks to the tiny fixture weights (the
+// Metric3D fixture is safetensors under the .pth name: checkpoints are recognised by content; its config.json
+// sits beside it).
+void LinkTinyModels(const freeloc::testing::TempDir& dir) {
+  namespace fs = std::filesystem;
+  fs::create_symlink(freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth"),
+                     dir.File("DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth"));
+  fs::create_directories(dir.File("seggpt-vit-large"));
+  fs::create_symlink(freeloc::testing::SharedPath("fixtures/seggpt/weights.safetensors"),
+                     dir.File("seggpt-vit-large/model.safetensors"));
+  fs::create_symlink(freeloc::testing::SharedPath("fixtures/seggpt/config.json"),
+                     dir.File("seggpt-vit-large/config.json"));
+  fs::create_symlink(freeloc::testing::SharedPath("fixtures/metric3d/final_norm/weights.safetensors"),
+                     dir.File("metric_depth_vit_small_800k.pth"));
+  fs::create_symlink(freeloc::testing::SharedPath("fixtures/metric3d/final_norm/config.json"),
+                     dir.File("config.json"));
+}
+
 TEST(Cli, DemoRelocalizesTheBundledScenes) {
   Result r = RunFreeloc("demo");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "preset sift-essential")) << r.out;
   EXPECT_TRUE(Contains(r.out, "| s00002 | seq1/frame_00000.png | ok |")) << r.out;
   EXPECT_TRUE(Contains(r.out, "| Estimates for % of frames |")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "not wired into the pipeline yet")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "not found: DUSt3R SegGPT Metric3D")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "--models DIR or set FREELOC_MODELS")) << r.out;
+}
+
+// With all three networks' weights found in a models folder, demo runs the full method (preset seed).
+TEST(Cli, DemoRunsTheSeedPresetWhenTheWeightsAreInstalled) {
+  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
+  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
+  freeloc::testing::TempDir models;
+  LinkTinyModels(models);
+  Result r = RunFreeloc("demo --models " + models.path());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "preset seed on the bundled")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "matcher dust3r+instances, depth metric3d")) << r.out;
+  EXPECT_TRUE(Contains(r.out, models.File("metric_depth_vit_small_800k.pth"))) << r.out;
+  EXPECT_TRUE(Contains(r.out, "| Estimates for % of frames |")) << r.out;
+  EXPECT_FALSE(Contains(r.out, "no-depth")) << r.out;  // Metric3D gives s00001 its depth
+}
+
+// The seed preset through `run` with the tiny weights of all three networks: models found through
+// $FREELOC_MODELS, the log's per-stage fields, a killed run resumed to the same bytes.
+TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/intrinsics.txt");
+  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
+  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
+  freeloc::testing::TempDir models, tmp;
+  LinkTinyModels(models);
+  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  const std::string run = "run --data " + data + " --scenes s00001,s00003 --preset seed --dust3r-size 224 ";
+  // Without weights: the missing file, where to get it, the presets that work; exit 1 and nothing written.
+  Result r = RunFreeloc(run + "--out " + tmp.File("none.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "docs/models.md")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("none.zip")));
+  const std::string env = "env FREELOC_MODELS=" + models.path() + " " + FREELOC_BINARY + " ";
+  auto Run = [&](const std::string& args) {
+    Result res;
+    FILE* p = popen((env + args + " 2>&1").c_str(), "r");
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) res.out.append(buf.data(), n);
+    const int status = pclose(p);
+    res.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return res;
+  };
+  r = Run(run + "--out " + tmp.File("a.zip") + " --log " + tmp.File("a.jsonl"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "in 2 scenes")) << r.out;
+  const std::string log = freeloc::testing::ReadText(tmp.File("a.jsonl"));
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 6);
+  for (const char* field : {"\"global_matches\":", "\"instances\":", "\"depth_ms\":", "\"instance_ms\":"})
+    EXPECT_TRUE(Contains(log, field)) << field << "\n" << log;
+  EXPECT_FALSE(Contains(log, "no-depth")) << log;
+  // Killed (SIGKILL) while the second scene runs: the progress file holds the first; --resume finishes the run
+  // and writes the same bytes as the uninterrupted one.
+  const std::string out = tmp.File("b.zip"), progress = out + ".progress.jsonl";
+  const std::string kill_script = "bash -c '" + env + run + "--out " + out + " >/dev/null 2>&1 & pid=$!; " +
+                                  "for i in $(seq 1 1200); do [ -f " + progress + " ] && [ \"$(wc -l < " + progress +
+                                  ")\" -ge 2 ] && break; sleep 0.025; done; kill -9 $pid; wait $pid' 2>/dev/null";
+  ASSERT_NE(std::system(kill_script.c_str()), -1);
+  ASSERT_FALSE(std::filesystem::exists(out)) << "the run finished before the kill; the test proves nothing";
+  const std::string kept = freeloc::testing::ReadText(progress);
+  ASSERT_TRUE(Contains(kept, "\"scene\":\"s00001\"")) << kept;
+  EXPECT_FALSE(Contains(kept, "\"scene\":\"s00003\"")) << kept;
+  r = Run(run + "--resume --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "1 of 2 scenes already done")) << r.out;
+  EXPECT_EQ(freeloc::testing::ReadText(out), freeloc::testing::ReadText(tmp.File("a.zip")));
+  EXPECT_FALSE(std::filesystem::exists(progress));
 }
 
 // run → submission → eval, and relocalize on one pair; bad presets and missing files are clear errors.
@@ -383,7 +474,9 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   r = RelocalizeS00003(data);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "ok");
-  EXPECT_EQ(RunFreeloc("run --data " + data + " --preset seed --out " + tmp.File("x.zip")).code, 1);
+  r = RunFreeloc("run --data " + data + " --preset seed --out " + tmp.File("x.zip"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "preset seed needs the DUSt3R weights")) << r.out;
   EXPECT_EQ(RunFreeloc("run --data " + data + " --preset nope --out " + tmp.File("x.zip")).code, 1);
   EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
   EXPECT_EQ(RunFreeloc("run --data " + tmp.File("none") + " --out " + tmp.File("y.zip")).code, 1);

@@ -28,7 +28,8 @@ namespace freeloc::cli {
 namespace {
 
 struct Overrides {
-  std::string preset = "sift-essential", matcher, depth, solver, scale, dust3r_model;
+  std::string preset = "sift-essential", matcher, depth, solver, scale, instance_mode;
+  std::string models, dust3r_model, seggpt_model, metric3d_model;
   double threshold = -1;
   int dust3r_size = 0;
   const GlobalOptions* global = nullptr;  // --device, --threads
@@ -36,13 +37,19 @@ struct Overrides {
 
 void AddOverrides(CLI::App* sub, Overrides* o) {
   sub->add_option("--preset", o->preset,
-                  "sift-essential (default), sift-pnp, sift-procrustes, precomputed:<name>-<solver>");
-  sub->add_option("--matcher", o->matcher, "override: sift | precomputed:<name>");
-  sub->add_option("--depth", o->depth, "override: provided:<suffix> | none");
+                  "sift-essential (default), sift-pnp, sift-procrustes, precomputed:<name>-<solver>, seed, "
+                  "seed-no-instance, seed-provided-depth, dust3r");
+  sub->add_option("--matcher", o->matcher, "override: sift | dust3r | dust3r+instances | precomputed:<name>");
+  sub->add_option("--depth", o->depth, "override: provided:<suffix> | metric3d | none");
   sub->add_option("--solver", o->solver, "override: essential | pnp | procrustes");
   sub->add_option("--scale", o->scale, "override: robust | official");
   sub->add_option("--threshold", o->threshold, "override: inlier threshold in pixels");
-  sub->add_option("--dust3r-model", o->dust3r_model, "DUSt3R weights for the dust3r matcher (.pth or .safetensors)");
+  sub->add_option("--instance-mode", o->instance_mode, "override: mask (default) | crop");
+  sub->add_option("--models", o->models,
+                  "folder holding the published weights files (then $FREELOC_MODELS; see docs/models.md)");
+  sub->add_option("--dust3r,--dust3r-model", o->dust3r_model, "DUSt3R weights (.pth, or model.safetensors)");
+  sub->add_option("--seggpt", o->seggpt_model, "SegGPT weights (seggpt_vit_large.pth, or model.safetensors)");
+  sub->add_option("--metric3d", o->metric3d_model, "Metric3D v2 weights (metric_depth_vit_*_800k.pth, …)");
   sub->add_option("--dust3r-size", o->dust3r_size, "DUSt3R input size (default 512)");
 }
 
@@ -53,12 +60,17 @@ pipeline::PipelineOptions Resolve(const Overrides& ov) {
   if (!ov.solver.empty()) o.solver = ov.solver;
   if (!ov.scale.empty()) o.scale = ov.scale;
   if (ov.threshold > 0) o.threshold_px = ov.threshold;
+  if (!ov.instance_mode.empty()) o.instance_mode = ov.instance_mode;
+  o.models_dir = ov.models;
   if (!ov.dust3r_model.empty()) o.dust3r_model = ov.dust3r_model;
+  if (!ov.seggpt_model.empty()) o.seggpt_model = ov.seggpt_model;
+  if (!ov.metric3d_model.empty()) o.metric3d_model = ov.metric3d_model;
   if (ov.dust3r_size > 0) o.dust3r_size = ov.dust3r_size;
   if (ov.global) {
     o.device = ov.global->device;
     o.threads = ov.global->threads;
   }
+  pipeline::FindModels(&o);
   o.Validate();
   return o;
 }
@@ -95,7 +107,13 @@ nlohmann::ordered_json QueryToJson(const std::string& scene, const pipeline::Que
           {"confidence", q.confidence},
           {"matches", q.matches},
           {"inliers", q.inliers},
+          {"global_matches", q.global_matches},
+          {"instances", q.instances},
+          {"instances_used", q.instances_used},
+          {"scale_inliers", q.scale_inliers},
+          {"depth_ms", q.depth_ms},
           {"match_ms", q.match_ms},
+          {"instance_ms", q.instance_ms},
           {"solve_ms", q.solve_ms},
           {"ok", q.ok},
           {"qvec", {qv[0], qv[1], qv[2], qv[3]}},
@@ -110,7 +128,13 @@ pipeline::QueryResult QueryFromJson(const nlohmann::json& j) {
   q.confidence = j.at("confidence").get<double>();
   q.matches = j.at("matches").get<int>();
   q.inliers = j.at("inliers").get<int>();
+  q.global_matches = j.value("global_matches", int(0));
+  q.instances = j.value("instances", int(0));
+  q.instances_used = j.value("instances_used", int(0));
+  q.scale_inliers = j.value("scale_inliers", int(0));
+  q.depth_ms = j.value("depth_ms", double(0));
   q.match_ms = j.at("match_ms").get<double>();
+  q.instance_ms = j.value("instance_ms", double(0));
   q.solve_ms = j.at("solve_ms").get<double>();
   const auto qv = j.at("qvec").get<std::array<double, 4>>();
   const auto t = j.at("tvec").get<std::array<double, 3>>();
@@ -223,7 +247,12 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
   for (const auto& name : scenes) {
     if (!results.count(name)) {
       const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
-      results[name] = pipeline::RelocalizeScene(scene, o);
+      pipeline::CacheStats cs;
+      results[name] = pipeline::RelocalizeScene(scene, o, &cs);
+      if (o.UsesDust3r() || o.UsesMetric3d())
+        FREELOC_LOG(DEBUG) << name << ": reference work " << cs.reference_ms << " ms, " << cs.reference_instances
+                           << " reference instances, DUSt3R reference encodings " << cs.reference_encodings
+                           << " (reused " << cs.reference_reuses << "), Metric3D passes " << cs.depth_estimates;
       progress.AppendScene(name, results[name]);
     }
     bar.Increment();
@@ -275,12 +304,13 @@ struct RelocOptions {
 
 int RunRelocalize(const RelocOptions& r) {
   pipeline::PipelineOptions o = Resolve(r.ov);
-  if (r.ref_depth.empty() && r.query_depth.empty() && r.ov.depth.empty()) o.depth = "none";
+  if (r.ref_depth.empty() && r.query_depth.empty() && r.ov.depth.empty() && o.UsesProvidedDepth()) o.depth = "none";
   o.Validate();
   const Camera kr = Camera::FromString(r.ref_k, "--ref-intrinsics"),
                kq = Camera::FromString(r.query_k, "--query-intrinsics");
-  FREELOC_CHECK(o.matcher == "sift" || o.matcher == "dust3r",
-                "relocalize works on images: use the sift or dust3r matcher (precomputed needs a scene)");
+  FREELOC_CHECK(o.matcher == "sift" || o.UsesDust3r(),
+                "relocalize works on images: use the sift, dust3r or dust3r+instances matcher (precomputed needs a "
+                "scene)");
   DepthMap dr, dq;
   if (!r.ref_depth.empty()) dr = ReadDepthPng(r.ref_depth);
   if (!r.query_depth.empty()) dq = ReadDepthPng(r.query_depth);
@@ -294,31 +324,53 @@ int RunRelocalize(const RelocOptions& r) {
                                 {"confidence", q.confidence},
                                 {"num_matches", q.matches},
                                 {"num_inliers", q.inliers},
+                                {"num_global_matches", q.global_matches},
+                                {"instances", q.instances},
+                                {"instances_used", q.instances_used},
+                                {"scale_inliers", q.scale_inliers},
+                                {"depth_ms", q.depth_ms},
                                 {"match_ms", q.match_ms},
+                                {"instance_ms", q.instance_ms},
                                 {"solve_ms", q.solve_ms},
                                 {"options", o.Summary()}};
     std::printf("%s\n", j.dump(2).c_str());
   } else {
     std::printf(
         "%s\nstatus:      %s\nqvec (wxyz): %.9f %.9f %.9f %.9f\ntvec:        %.6f %.6f %.6f %s\n"
-        "confidence:  %.6g\nmatches:     %d (%d inliers)\ntimes:       match %.0f ms, solve %.0f ms\n",
+        "confidence:  %.6g\nmatches:     %d (%d inliers)\ninstances:   %d of %d used\n"
+        "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n",
         o.Summary().c_str(), q.status.c_str(), qv[0], qv[1], qv[2], qv[3], t.x(), t.y(), t.z(),
         q.status == "ok-unit-translation" ? "(unit norm: no depth)" : "(metres)", q.confidence, q.matches, q.inliers,
-        q.match_ms, q.solve_ms);
+        q.instances_used, q.instances, q.depth_ms, q.match_ms, q.instance_ms, q.solve_ms);
   }
   return q.ok ? 0 : 1;
 }
 
-int RunDemo(const std::string& data_dir) {
+int RunDemo(const std::string& data_dir, const std::string& models, const GlobalOptions& global) {
   RunOptions r;
   r.data = data_dir;
   const std::string tmp =
       (std::filesystem::temp_directory_path() / ("freeloc_demo_" + std::to_string(getpid()) + ".zip")).string();
   r.out = tmp;
+  r.ov.global = &global;
+  r.ov.models = models;
+  // The best preset whose weights are installed: the full method when all three networks are found.
+  pipeline::PipelineOptions seed = pipeline::ResolvePreset("seed");
+  seed.models_dir = models;
+  pipeline::FindModels(&seed);
+  std::string missing;
+  if (seed.dust3r_model.empty()) missing += " DUSt3R";
+  if (seed.seggpt_model.empty()) missing += " SegGPT";
+  if (seed.metric3d_model.empty()) missing += " Metric3D";
+  r.ov.preset = missing.empty() ? "seed" : "sift-essential";
   const pipeline::PipelineOptions o = Resolve(r.ov);
   std::printf("freeloc demo — preset %s on the bundled TUM RGB-D scenes (%s)\n", o.preset.c_str(), data_dir.c_str());
-  std::printf("(%s; the full seed method — DUSt3R + SegGPT + Metric3D — is not wired into the pipeline yet)\n\n",
-              o.Summary().c_str());
+  std::printf("(%s)\n", o.Summary().c_str());
+  if (!missing.empty())
+    std::printf("(the full method, preset seed, needs the DUSt3R, SegGPT and Metric3D weights; not found:%s. Put the\n"
+                " published files in a folder and pass --models DIR or set FREELOC_MODELS; see docs/models.md)\n",
+                missing.c_str());
+  std::printf("\n");
   std::string split_dir;
   const std::vector<std::string> scenes = ResolveScenes(data_dir, "val", "", &split_dir);
   const auto results = RunAll(r, o, split_dir, scenes);
@@ -341,7 +393,8 @@ int RunDemo(const std::string& data_dir) {
   std::printf("%s", eval::MarkdownReport(run).c_str());
   std::error_code ec;
   std::filesystem::remove(tmp, ec);
-  std::printf("\n(s00001 has no depth maps, so its queries cannot get a metric pose: they count as failures.)\n");
+  if (o.UsesProvidedDepth())
+    std::printf("\n(s00001 has no depth maps, so its queries cannot get a metric pose: they count as failures.)\n");
   return 0;
 }
 
@@ -382,11 +435,15 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   rs->callback([q, run] { *run = [q] { return RunRelocalize(*q); }; });
 }
 
-void RegisterDemo(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
+void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto data = std::make_shared<std::string>(FREELOC_DEMO_DIR);
+  auto models = std::make_shared<std::string>();
   auto* sub = app.add_subcommand("demo", "Relocalize the bundled TUM sample scenes and print errors and metrics");
   sub->add_option("--data", *data, "demo data (default: the repository's data/demo)");
-  sub->callback([data, run] { *run = [data] { return RunDemo(*data); }; });
+  sub->add_option("--models", *models, "folder with the published weights (then $FREELOC_MODELS): runs preset seed");
+  sub->callback([data, models, run, &global] {
+    *run = [data, models, &global] { return RunDemo(*data, *models, global); };
+  });
 }
 
 }  // namespace freeloc::cli

@@ -1,9 +1,13 @@
-// DUSt3R as a pipeline stage: the model as the matching module's pointmap function, and a per-process model cache
-// so that a run loads the weights once. Light header: the LibTorch model stays behind a forward declaration.
+// DUSt3R as a pipeline stage: the model as the matching module's pointmap function (plain, or caching the encoder
+// pass of every reference-side input so a scene's reference — and each of its masked instances — is encoded once),
+// and a per-process model cache so that a run loads the weights once. Light header: the LibTorch model stays behind
+// a forward declaration.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "freeloc/matching/instance.h"
 
@@ -16,6 +20,29 @@ namespace freeloc::pipeline {
 
 // Runs `model` on a preprocessed pair and returns its pointmaps (view 2's points in view 1's frame) on the host.
 matching::PointmapFn Dust3rPointmapFn(std::shared_ptr<nn::Dust3rModel> model);
+
+// The same function, but the first (reference) view's encoder output is kept and reused whenever the same input
+// comes again (compared by content: a hash, then the full data). `Clear` forgets them (a new scene). Queries are
+// encoded every time. Not thread-safe; one per scene worker.
+class CachingDust3r {
+ public:
+  explicit CachingDust3r(std::shared_ptr<nn::Dust3rModel> model);
+  ~CachingDust3r();
+  CachingDust3r(const CachingDust3r&) = delete;
+  CachingDust3r& operator=(const CachingDust3r&) = delete;
+
+  matching::PointmapFn Fn();  // valid while this object lives
+  matching::PairPointmaps Run(const Dust3rInput& ref, const Dust3rInput& query);
+  void Clear();
+  int encoded() const { return encoded_; }  // reference-side encoder passes run
+  int reused() const { return reused_; }    // reference-side encoder passes saved
+
+ private:
+  struct Entry;
+  std::shared_ptr<nn::Dust3rModel> model_;
+  std::vector<std::unique_ptr<Entry>> entries_;
+  int encoded_ = 0, reused_ = 0;
+};
 
 // The model at `path` (official .pth or model.safetensors; `config` optional), loaded on first use and kept for the
 // process, keyed by path, config and runtime. Throws freeloc::Error naming the file when it cannot be loaded.

@@ -54,12 +54,16 @@ TEST(Relocalizer, PresetsAndOverrides) {
   EXPECT_EQ(ResolvePreset("precomputed:SG-essential").threshold_px, 2.0);
   EXPECT_THROW(ResolvePreset("magic"), Error);
   EXPECT_THROW(ResolvePreset("precomputed:SIFT"), Error);
-  try {
-    ResolvePreset("seed");
-    FAIL();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("not wired into the pipeline"), std::string::npos) << e.what();
-  }
+  // The paper's method and its Table 2 ablations.
+  const PipelineOptions seed = ResolvePreset("seed"), ni = ResolvePreset("seed-no-instance"),
+                        pd = ResolvePreset("seed-provided-depth");
+  EXPECT_EQ(seed.matcher, "dust3r+instances");
+  EXPECT_EQ(seed.depth, "metric3d");
+  EXPECT_EQ(ni.matcher, "dust3r");
+  EXPECT_EQ(ni.depth, "metric3d");
+  EXPECT_EQ(pd.matcher, "dust3r+instances");
+  EXPECT_EQ(pd.depth, "provided:sensor");
+  for (const auto* p : {&seed, &ni, &pd}) EXPECT_EQ(p->solver, "essential");
   PipelineOptions o = ResolvePreset("sift-pnp");
   o.depth = "none";
   EXPECT_THROW(o.Validate(), Error);
@@ -75,6 +79,71 @@ TEST(Relocalizer, PresetsAndOverrides) {
   EXPECT_NE(d.Summary().find("dust3r weights.pth at 512"), std::string::npos) << d.Summary();
   d.dust3r_size = 100;
   EXPECT_THROW(d.Validate(), Error);
+  d.dust3r_size = 512;
+  d.instance_mode = "box";
+  EXPECT_THROW(d.Validate(), Error);
+}
+
+// The seed preset end to end with the tiny fixture weights of all three networks (numbers meaningless; the
+// plumbing real): Metric3D depth for the reference once and each query, reference instances proposed once on the
+// reference pointmap, SegGPT propagation and per-instance DUSt3R per query, the reference's encoder passes reused.
+TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/intrinsics.txt");
+  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
+  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
+  PipelineOptions o = ResolvePreset("seed");
+  o.dust3r_model = testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+  o.seggpt_model = testing::SharedPath("fixtures/seggpt/weights.safetensors");
+  o.metric3d_model = testing::SharedPath("fixtures/metric3d/final_norm/weights.safetensors");
+  o.dust3r_size = 224;
+  // Random weights paint noise: loose proposal and propagation filters so that instances exist and are used.
+  o.proposals.depth_jump = 0.5;
+  o.proposals.normal_angle_deg = 179;
+  o.segmenter.min_score = 0;
+  o.segmenter.min_area_ratio = 0;
+  o.segmenter.max_area_ratio = 1e9;
+  o.min_instance_matches = 1;
+  const MapfreeScene s = MapfreeScene::Load(testing::SharedPath("data/tum_mapfree/val/s00001"));
+  ASSERT_EQ(s.queries.size(), 5u);
+  CacheStats st;
+  const auto res = RelocalizeScene(s, o, &st);
+  ASSERT_EQ(res.size(), 5u);
+  ASSERT_GT(st.reference_instances, 0);
+  EXPECT_EQ(st.depth_estimates, 1 + 5);  // Metric3D: the reference once, each query once
+  // Reference-side encodings: the reference, plus at most one per (masked) instance — never per query.
+  EXPECT_GE(st.reference_encodings, 1);
+  EXPECT_LE(st.reference_encodings, 1 + st.reference_instances);
+  int used = 0;
+  for (const auto& q : res) {
+    SCOPED_TRACE(q.frame);
+    EXPECT_TRUE(q.ok || q.status == "no-consensus" || q.status.rfind("scale-", 0) == 0) << q.status;
+    EXPECT_EQ(q.instances, st.reference_instances);
+    EXPECT_GT(q.global_matches, 0);
+    EXPECT_GT(q.depth_ms, 0);
+    used += q.instances_used;
+    if (q.ok) {
+      EXPECT_EQ(q.status, "ok");  // metric: Metric3D gave the depth
+      EXPECT_TRUE(q.query_from_ref.translation.allFinite());
+    }
+  }
+  ASSERT_GT(used, 0);
+  // Every query after the first reuses the reference and every instance it matched.
+  EXPECT_GE(st.reference_reuses, 5 + (used - st.reference_encodings + 1));
+  // Deterministic: a second run gives the same poses.
+  const auto again = RelocalizeScene(s, o);
+  for (size_t i = 0; i < res.size(); ++i) {
+    EXPECT_EQ(again[i].status, res[i].status);
+    EXPECT_EQ(again[i].matches, res[i].matches);
+    EXPECT_EQ(again[i].query_from_ref.translation, res[i].query_from_ref.translation);
+  }
+  // seed-no-instance: the same without SegGPT; seed-provided-depth: the sensor depth (absent in s00001).
+  PipelineOptions ni = o;
+  ni.matcher = "dust3r";
+  for (const auto& q : RelocalizeScene(s, ni)) EXPECT_EQ(q.instances, 0);
+  PipelineOptions pd = o;
+  pd.depth = "provided:sensor";
+  for (const auto& q : RelocalizeScene(s, pd)) EXPECT_EQ(q.status, "no-depth");
 }
 
 }  // namespace

@@ -1,0 +1,39 @@
+// Where the networks' weights come from (docs/models.md): an explicit file per stage, or the published file names
+// looked up in `--models DIR` and then in each folder of $FREELOC_MODELS (colon-separated). Per-process caches
+// load each network once. Light header: the LibTorch models stay behind forward declarations.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace freeloc::nn {
+class SegGptModel;
+class Metric3dModel;
+struct RuntimeOptions;
+}  // namespace freeloc::nn
+
+namespace freeloc::pipeline {
+
+enum class Network { kDust3r, kSegGpt, kMetric3d };
+const char* NetworkName(Network n);  // "DUSt3R", "SegGPT", "Metric3D v2"
+const char* NetworkFlag(Network n);  // "--dust3r", "--seggpt", "--metric3d"
+
+// The published file names freeloc looks for, in order of preference (relative to a models folder).
+std::vector<std::string> PublishedNames(Network n);
+
+// `models_dir` (when not empty) and then the folders of $FREELOC_MODELS.
+std::vector<std::string> ModelDirs(const std::string& models_dir);
+
+// The first published file of `n` found in `dirs`; "" when there is none.
+std::string FindModel(Network n, const std::vector<std::string>& dirs);
+
+// One line for a model that is needed and was not found: what was looked for where, where to get it, and which
+// presets run without it.
+std::string MissingModelMessage(Network n, const std::string& preset, const std::vector<std::string>& dirs);
+
+// Loaded on first use and kept for the process (keyed by path and runtime). Throw freeloc::Error naming the file.
+std::shared_ptr<nn::SegGptModel> CachedSegGpt(const std::string& path, const nn::RuntimeOptions& runtime);
+std::shared_ptr<nn::Metric3dModel> CachedMetric3d(const std::string& path, const nn::RuntimeOptions& runtime);
+
+}  // namespace freeloc::pipeline
