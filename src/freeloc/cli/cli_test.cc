@@ -474,6 +474,23 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   r = RelocalizeS00003(data);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "ok");
+  // --intrinsics FILE (the scene's intrinsics.txt) instead of the two strings, and --save-matches.
+  const std::string s3 = data + "/val/s00003/";
+  r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + s3 + "seq1/frame_00000.png --intrinsics " +
+                 s3 + "intrinsics.txt --ref-depth " + s3 + "seq0/frame_00000.sensor.png --query-depth " + s3 +
+                 "seq1/frame_00000.sensor.png --json --save-matches " + tmp.File("m.txt"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto jr = nlohmann::json::parse(r.out);
+  const std::string saved = freeloc::testing::ReadText(tmp.File("m.txt"));
+  EXPECT_EQ(std::count(saved.begin(), saved.end(), '\n'), jr["num_matches"].get<int>());
+  EXPECT_EQ(jr["status"], "ok");
+  r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + tmp.File("other.png") +
+                 " --intrinsics " + s3 + "intrinsics.txt");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "intrinsics.txt: no line for " + tmp.File("other.png"))) << r.out;
+  r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + s3 + "seq1/frame_00000.png");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "--intrinsics FILE")) << r.out;
   r = RunFreeloc("run --data " + data + " --preset seed --out " + tmp.File("x.zip"));
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(Contains(r.out, "preset seed needs the DUSt3R weights")) << r.out;

@@ -298,23 +298,59 @@ int RunRun(const RunOptions& r) {
 
 struct RelocOptions {
   Overrides ov;
-  std::string ref, query, ref_k, query_k, ref_depth, query_depth;
+  std::string ref, query, ref_k, query_k, intrinsics, ref_depth, query_depth, save_matches;
   bool json = false;
 };
+
+// The camera of `image` in an intrinsics file (map-free `intrinsics.txt` lines: path fx fy cx cy W H): the line
+// whose path is the image's path, a suffix of it, or has its file name.
+Camera CameraFromFile(const std::string& file, const std::string& image) {
+  const std::vector<MapfreeFrame> frames = ReadIntrinsicsFile(file);
+  const std::string base = std::filesystem::path(image).filename().string();
+  const MapfreeFrame* by_name = nullptr;
+  for (const auto& f : frames) {
+    if (image == f.name || (image.size() > f.name.size() && image.compare(image.size() - f.name.size() - 1,
+                                                                         f.name.size() + 1, "/" + f.name) == 0))
+      return f.camera;
+    if (!by_name && std::filesystem::path(f.name).filename().string() == base) by_name = &f;
+  }
+  FREELOC_CHECK(by_name != nullptr, file << ": no line for " << image
+                                         << "; each line is 'path fx fy cx cy width height' with the image's path "
+                                            "or file name");
+  return by_name->camera;
+}
 
 int RunRelocalize(const RelocOptions& r) {
   pipeline::PipelineOptions o = Resolve(r.ov);
   if (r.ref_depth.empty() && r.query_depth.empty() && r.ov.depth.empty() && o.UsesProvidedDepth()) o.depth = "none";
   o.Validate();
-  const Camera kr = Camera::FromString(r.ref_k, "--ref-intrinsics"),
-               kq = Camera::FromString(r.query_k, "--query-intrinsics");
+  FREELOC_CHECK(r.intrinsics.empty() != (r.ref_k.empty() && r.query_k.empty()),
+                "give --ref-intrinsics and --query-intrinsics (fx,fy,cx,cy), or --intrinsics FILE, not both");
+  FREELOC_CHECK(!r.intrinsics.empty() || (!r.ref_k.empty() && !r.query_k.empty()),
+                "give both --ref-intrinsics and --query-intrinsics (fx,fy,cx,cy), or --intrinsics FILE");
+  const Camera kr = r.intrinsics.empty() ? Camera::FromString(r.ref_k, "--ref-intrinsics")
+                                         : CameraFromFile(r.intrinsics, r.ref),
+               kq = r.intrinsics.empty() ? Camera::FromString(r.query_k, "--query-intrinsics")
+                                         : CameraFromFile(r.intrinsics, r.query);
   FREELOC_CHECK(o.matcher == "sift" || o.UsesDust3r(),
                 "relocalize works on images: use the sift, dust3r or dust3r+instances matcher (precomputed needs a "
                 "scene)");
   DepthMap dr, dq;
   if (!r.ref_depth.empty()) dr = ReadDepthPng(r.ref_depth);
   if (!r.query_depth.empty()) dq = ReadDepthPng(r.query_depth);
-  const auto q = pipeline::RelocalizePair(ReadImage(r.ref), ReadImage(r.query), kr, kq, dr, dq, o);
+  matching::Correspondences matches;
+  const auto q = pipeline::RelocalizePair(ReadImage(r.ref), ReadImage(r.query), kr, kq, dr, dq, o, nullptr,
+                                          r.save_matches.empty() ? nullptr : &matches);
+  if (!r.save_matches.empty()) {
+    std::string text;
+    char line[128];
+    for (size_t i = 0; i < matches.size(); ++i) {
+      std::snprintf(line, sizeof(line), "%.3f %.3f %.3f %.3f\n", matches.ref[i].x(), matches.ref[i].y(),
+                    matches.query[i].x(), matches.query[i].y());
+      text += line;
+    }
+    WriteFileAtomic(r.save_matches, text.data(), text.size());
+  }
   const auto qv = q.query_from_ref.QuaternionWxyz();
   const auto& t = q.query_from_ref.translation;
   if (r.json) {
@@ -426,8 +462,11 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto* rs = app.add_subcommand("relocalize", "Pose of one query image relative to one reference image");
   rs->add_option("--ref", q->ref, "reference image")->required();
   rs->add_option("--query", q->query, "query image")->required();
-  rs->add_option("--ref-intrinsics", q->ref_k, "fx,fy,cx,cy")->required();
-  rs->add_option("--query-intrinsics", q->query_k, "fx,fy,cx,cy")->required();
+  rs->add_option("--ref-intrinsics", q->ref_k, "fx,fy,cx,cy");
+  rs->add_option("--query-intrinsics", q->query_k, "fx,fy,cx,cy");
+  rs->add_option("--intrinsics", q->intrinsics,
+                 "instead of the two above: a file of 'path fx fy cx cy W H' lines (map-free intrinsics.txt)");
+  rs->add_option("--save-matches", q->save_matches, "write the correspondences (x_ref y_ref x_query y_query per line)");
   rs->add_option("--ref-depth", q->ref_depth, "reference depth PNG (uint16 mm)");
   rs->add_option("--query-depth", q->query_depth, "query depth PNG (uint16 mm)");
   rs->add_flag("--json", q->json, "one JSON object");

@@ -5,7 +5,8 @@
 //    every candidate tried as a hypothesis with a fixed 0.1 m window, the first with most support wins, no refit,
 //    confidence = that support.
 //  * kRobust — freeloc: bilinear depth at the sub-pixel location, a per-candidate window relative to the points'
-//    depth (depth noise grows with depth), exhaustive consensus over all candidates, an inverse-variance weighted
+//    depth (depth noise grows with depth), exhaustive consensus over all candidates weighted by 1/window (a kernel
+//    density: precise near points are not outvoted by wide far-point windows), an inverse-variance weighted
 //    refit on the consensus set (iterated), and a confidence from the refit's standard error that predicts the
 //    scale's accuracy.
 #pragma once
@@ -41,6 +42,8 @@ struct ScaleResult {
   int num_candidates = 0;         // correspondences with valid depth in both frames
   int num_inliers = 0;            // consensus size
   double relative_std_error = 0;  // kRobust: standard error of the scale / |scale|
+  double std_error_m = 0;         // kRobust: standard error of the scale, metres
+  double mean_distance_m = 0;     // kRobust: mean distance to the camera of the consensus points, metres
 };
 
 // `px_ref`/`px_query`: the inlier correspondences in original pixels; `query_from_ref` with unit translation.

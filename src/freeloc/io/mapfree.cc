@@ -80,17 +80,8 @@ std::vector<std::vector<Eigen::Vector4d>> MapfreeScene::LoadCorrespondences(cons
   return out;
 }
 
-MapfreeScene MapfreeScene::Load(const std::string& dir) {
-  MapfreeScene s;
-  s.dir = dir;
-  s.name = fs::path(dir).filename().string();
-  if (s.name.empty()) s.name = fs::path(dir).parent_path().filename().string();
-  const std::string ipath = dir + "/intrinsics.txt";
-  std::error_code ec;
-  FREELOC_CHECK(fs::is_directory(dir, ec), dir << ": scene folder not found");
-  FREELOC_CHECK(fs::exists(ipath, ec), ipath << ": missing; every scene needs intrinsics.txt (path fx fy cx cy W H)");
-  std::map<std::string, MapfreeFrame> frames;
-  std::vector<std::string> order;
+std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& ipath) {
+  std::vector<MapfreeFrame> out;
   const auto lines = py::SplitLines(ReadText(ipath));
   for (size_t i = 0; i < lines.size(); ++i) {
     const std::string where = ipath + " line " + std::to_string(i + 1);
@@ -108,6 +99,23 @@ MapfreeScene MapfreeScene::Load(const std::string& dir) {
     f.camera.height = static_cast<int>(Number(parts[6], where));
     f.camera.Validate(where);
     FREELOC_CHECK(f.camera.width > 0 && f.camera.height > 0, where << ": width and height must be positive");
+    out.push_back(f);
+  }
+  return out;
+}
+
+MapfreeScene MapfreeScene::Load(const std::string& dir) {
+  MapfreeScene s;
+  s.dir = dir;
+  s.name = fs::path(dir).filename().string();
+  if (s.name.empty()) s.name = fs::path(dir).parent_path().filename().string();
+  const std::string ipath = dir + "/intrinsics.txt";
+  std::error_code ec;
+  FREELOC_CHECK(fs::is_directory(dir, ec), dir << ": scene folder not found");
+  FREELOC_CHECK(fs::exists(ipath, ec), ipath << ": missing; every scene needs intrinsics.txt (path fx fy cx cy W H)");
+  std::map<std::string, MapfreeFrame> frames;
+  std::vector<std::string> order;
+  for (const MapfreeFrame& f : ReadIntrinsicsFile(ipath)) {
     if (!frames.count(f.name)) order.push_back(f.name);
     frames[f.name] = f;
   }

@@ -23,6 +23,10 @@ struct MapfreeFrame {
   Camera camera;     // this frame's own K and image size
 };
 
+// The frames of an intrinsics file (`path fx fy cx cy width height` per line, `#` lines skipped), in file order.
+// Throws freeloc::Error naming the file and line.
+std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& path);
+
 struct MapfreeScene {
   std::string name;  // "s00460"
   std::string dir;

@@ -36,20 +36,31 @@ void RootSift(cv::Mat* d) {
 
 }  // namespace
 
-Correspondences MatchSift(const Image& ref, const Image& query, const SiftOptions& o) {
+SiftFeatures ExtractSift(const Image& image, const SiftOptions& o) {
   o.Validate();
-  FREELOC_CHECK(!ref.empty() && !query.empty(), "SIFT: empty image");
+  FREELOC_CHECK(!image.empty(), "SIFT: empty image");
   auto sift = cv::SIFT::create(o.num_features);
-  std::vector<cv::KeyPoint> k0, k1;
-  cv::Mat d0, d1;
-  sift->detectAndCompute(Grey(ref), cv::noArray(), k0, d0);
-  sift->detectAndCompute(Grey(query), cv::noArray(), k1, d1);
-  Correspondences out;
-  if (k0.size() < 2 || k1.size() < 2) return out;
-  if (o.root_sift) {
-    RootSift(&d0);
-    RootSift(&d1);
+  std::vector<cv::KeyPoint> k;
+  cv::Mat d;
+  sift->detectAndCompute(Grey(image), cv::noArray(), k, d);
+  if (o.root_sift && !k.empty()) RootSift(&d);
+  SiftFeatures f;
+  for (const auto& kp : k) f.points.emplace_back(kp.pt.x, kp.pt.y);
+  if (!k.empty()) {
+    f.dim = d.cols;
+    f.descriptors.resize(static_cast<size_t>(d.rows) * d.cols);
+    for (int r = 0; r < d.rows; ++r)
+      std::copy(d.ptr<float>(r), d.ptr<float>(r) + d.cols, f.descriptors.begin() + static_cast<size_t>(r) * d.cols);
   }
+  return f;
+}
+
+Correspondences MatchSiftFeatures(const SiftFeatures& ref, const SiftFeatures& query, const SiftOptions& o) {
+  o.Validate();
+  Correspondences out;
+  if (ref.size() < 2 || query.size() < 2) return out;
+  const cv::Mat d0(static_cast<int>(ref.size()), ref.dim, CV_32F, const_cast<float*>(ref.descriptors.data()));
+  const cv::Mat d1(static_cast<int>(query.size()), query.dim, CV_32F, const_cast<float*>(query.descriptors.data()));
   cvflann::seed_random(o.seed);
   cv::FlannBasedMatcher matcher(cv::makePtr<cv::flann::KDTreeIndexParams>(o.trees),
                                 cv::makePtr<cv::flann::SearchParams>(o.checks));
@@ -58,12 +69,18 @@ Correspondences MatchSift(const Image& ref, const Image& query, const SiftOption
   for (const auto& m : knn) {
     if (m.size() < 2) continue;
     if (m[0].distance < o.ratio * m[1].distance) {
-      const cv::Point2f a = k0[m[0].queryIdx].pt, b = k1[m[0].trainIdx].pt;
-      out.ref.emplace_back(a.x, a.y);
-      out.query.emplace_back(b.x, b.y);
+      const Eigen::Vector2f& a = ref.points[static_cast<size_t>(m[0].queryIdx)];
+      const Eigen::Vector2f& b = query.points[static_cast<size_t>(m[0].trainIdx)];
+      out.ref.emplace_back(a.x(), a.y());
+      out.query.emplace_back(b.x(), b.y());
     }
   }
   return out;
+}
+
+Correspondences MatchSift(const Image& ref, const Image& query, const SiftOptions& o) {
+  FREELOC_CHECK(!ref.empty() && !query.empty(), "SIFT: empty image");
+  return MatchSiftFeatures(ExtractSift(ref, o), ExtractSift(query, o), o);
 }
 
 }  // namespace freeloc::matching

@@ -27,6 +27,19 @@ struct Correspondences {
   size_t size() const { return ref.size(); }
 };
 
+// Keypoints (x, y in pixels) and their (Root)SIFT descriptors, row-major [size × dim].
+struct SiftFeatures {
+  std::vector<Eigen::Vector2f> points;
+  std::vector<float> descriptors;
+  int dim = 128;
+  size_t size() const { return points.size(); }
+};
+
+// Extraction alone, so that a reference's features can be computed once and matched against many queries.
+SiftFeatures ExtractSift(const Image& image, const SiftOptions& options = {});
+// FLANN kNN of the reference's descriptors in the query's index, ratio test. MatchSift(a, b) ==
+// MatchSiftFeatures(ExtractSift(a), ExtractSift(b)).
+Correspondences MatchSiftFeatures(const SiftFeatures& ref, const SiftFeatures& query, const SiftOptions& options = {});
 Correspondences MatchSift(const Image& ref, const Image& query, const SiftOptions& options = {});
 
 }  // namespace freeloc::matching

@@ -9,12 +9,11 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <fstream>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
 
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/relative_pose.h"
 #include "freeloc/io/mapfree.h"
+#include "testing/official_baseline.h"
 #include "testing/testing.h"
 
 namespace freeloc {
@@ -28,46 +27,22 @@ Errors Compare(const Rigid3d& est, const Rigid3d& gt) {
   return {RotationAngleDeg(est.rotation, gt.rotation), (est.Center() - gt.Center()).norm()};
 }
 
-// The official recipe (map-free EssentialMatrixMetricSolver).
-bool OfficialRecipe(const matching::Correspondences& c, const Camera& k0, const Camera& k1, const DepthMap& d0,
-                    const DepthMap& d1, Rigid3d* out) {
-  std::vector<cv::Point2d> a, b;
-  for (size_t i = 0; i < c.size(); ++i) {
-    a.emplace_back((c.ref[i].x() - k0.cx) / k0.fx, (c.ref[i].y() - k0.cy) / k0.fy);
-    b.emplace_back((c.query[i].x() - k1.cx) / k1.fx, (c.query[i].y() - k1.cy) / k1.fy);
+// ExtractSift once + MatchSiftFeatures per query gives exactly MatchSift's correspondences.
+TEST(Sift, CachedReferenceFeaturesGiveTheSameMatches) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00003/poses.txt");
+  const MapfreeScene s = MapfreeScene::Load(testing::SharedPath("data/tum_mapfree/val/s00003"));
+  const Image ref = s.LoadImage(s.reference), query = s.LoadImage(s.queries.at(0));
+  const matching::Correspondences a = matching::MatchSift(ref, query);
+  const matching::SiftFeatures fr = matching::ExtractSift(ref);
+  EXPECT_LE(fr.size(), 2048u + 16u);  // OpenCV keeps ties at the cut
+  EXPECT_EQ(fr.descriptors.size(), fr.size() * 128);
+  const matching::Correspondences b = matching::MatchSiftFeatures(fr, matching::ExtractSift(query));
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 100u);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a.ref[i], b.ref[i]);
+    EXPECT_EQ(a.query[i], b.query[i]);
   }
-  const double thr = 3.0 / ((k0.fx + k1.fy + k0.fy + k1.fx) / 4);
-  cv::Mat mask;
-  cv::Mat E = cv::findEssentialMat(a, b, cv::Mat::eye(3, 3, CV_64F), cv::USAC_MAGSAC, 0.9999, thr, mask);
-  if (E.empty()) return false;
-  int best = 0;
-  cv::Mat R, t;
-  for (int k = 0; k + 3 <= E.rows; k += 3) {
-    cv::Mat Rk, tk, m = mask.clone();
-    const int n = cv::recoverPose(E.rowRange(k, k + 3), a, b, cv::Mat::eye(3, 3, CV_64F), Rk, tk, 1e9, m);
-    if (n > best) {
-      best = n;
-      R = Rk;
-      t = tk;
-    }
-  }
-  if (best == 0) return false;
-  Eigen::Matrix3d Re;
-  Eigen::Vector3d te;
-  cv::cv2eigen(R, Re);
-  cv::cv2eigen(t, te);
-  std::vector<Eigen::Vector2d> r, q;
-  for (size_t i = 0; i < c.size(); ++i)
-    if (mask.at<uchar>(static_cast<int>(i))) {
-      r.push_back(c.ref[i]);
-      q.push_back(c.query[i]);
-    }
-  geometry::ScaleOptions so;
-  so.method = geometry::ScaleMethod::kOfficial;
-  const auto s = geometry::EstimateMetricScale(r, q, Rigid3d(Re, te), d0, d1, k0, k1, so);
-  if (!s.success) return false;
-  *out = Rigid3d(Re, te.normalized() * s.scale);
-  return true;
 }
 
 TEST(Sift, FreelocBeatsOfficialRecipeOnRealTumPairs) {
@@ -89,7 +64,7 @@ TEST(Sift, FreelocBeatsOfficialRecipeOnRealTumPairs) {
       f << c.ref[i].x() << " " << c.ref[i].y() << " " << c.query[i].x() << " " << c.query[i].y() << "\n";
 
     Rigid3d official;
-    ASSERT_TRUE(OfficialRecipe(c, s.reference.camera, q.camera, d0, d1, &official));
+    ASSERT_TRUE(testing::OfficialEssentialScale(c, s.reference.camera, q.camera, d0, d1, &official));
     const Errors eo = Compare(official, gt);
 
     // freeloc with its defaults (1 px Sampson threshold, robust scale).

@@ -6,6 +6,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/geometry/absolute_pose.h"
+#include "freeloc/geometry/essential.h"
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/relative_pose.h"
 #include "freeloc/matching/instance.h"
@@ -14,6 +15,7 @@
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/runtime.h"
 #include "freeloc/nn/seggpt.h"
+#include "freeloc/pipeline/confidence.h"
 #include "freeloc/pipeline/dust3r_stage.h"
 #include "freeloc/pipeline/models.h"
 
@@ -154,6 +156,7 @@ struct Relocalizer::Impl {
   DepthMap d_ref;
   Dust3rInput ref_in;
   std::vector<std::pair<int, std::vector<uint8_t>>> ref_masks;
+  matching::SiftFeatures ref_sift;  // matcher sift: the reference's features, extracted once
   bool have_ref = false;
 
   DepthMap Estimate(const Image& image, const Camera& k) {
@@ -196,6 +199,7 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, DepthMa
   m.d_ref = m.o.UsesProvidedDepth() ? std::move(depth) : DepthMap();
   if (m.o.UsesMetric3d()) m.d_ref = m.Estimate(image, camera);
   m.ref_masks.clear();
+  if (m.o.matcher == "sift") m.ref_sift = matching::ExtractSift(image);
   if (m.dust3r_fn) {
     m.dust3r_fn->Clear();
     m.ref_in = PreprocessForDust3r(image, m.instance.preprocess);
@@ -217,7 +221,7 @@ matching::Correspondences Relocalizer::Impl::Match(const Image& query, const std
   matching::Correspondences c;
   auto t0 = std::chrono::steady_clock::now();
   if (o.matcher == "sift") {
-    c = matching::MatchSift(ref, query);
+    c = matching::MatchSiftFeatures(ref_sift, matching::ExtractSift(query));
   } else if (o.UsesDust3r()) {
     const Dust3rInput q_in = PreprocessForDust3r(query, instance.preprocess);
     const matching::PointmapFn fn = dust3r_fn->Fn();
@@ -281,11 +285,17 @@ void Relocalizer::Impl::Solve(const matching::Correspondences& c, const Camera& 
     r->confidence = rel.status.num_inliers;
     if (have_depth) {
       std::vector<Eigen::Vector2d> a, b;
+      const Eigen::Matrix3d E =
+          geometry::Skew(rel.query_from_ref.translation) * rel.query_from_ref.rotation.toRotationMatrix();
+      double sampson = 0;
       for (size_t i = 0; i < c.size(); ++i)
         if (rel.inliers[i]) {
           a.push_back(c.ref[i]);
           b.push_back(c.query[i]);
+          sampson += geometry::SampsonSquared(E, k_ref.Unproject(c.ref[i].x(), c.ref[i].y()),
+                                              k_query.Unproject(c.query[i].x(), c.query[i].y()));
         }
+      const double focal = 0.25 * (k_ref.fx + k_ref.fy + k_query.fx + k_query.fy);
       geometry::ScaleOptions so;
       so.method = geometry::ParseScaleMethod(o.scale);
       const auto s = geometry::EstimateMetricScale(a, b, rel.query_from_ref, d_ref, d_query, k_ref, k_query, so);
@@ -296,7 +306,22 @@ void Relocalizer::Impl::Solve(const matching::Correspondences& c, const Camera& 
         return;
       }
       r->query_from_ref.translation *= s.scale;
-      r->confidence = s.confidence;
+      r->confidence = s.confidence;  // official: the baseline's support count
+      if (so.method == geometry::ScaleMethod::kRobust) {
+        PoseEvidence ev;
+        ev.matches = static_cast<int>(c.size());
+        ev.inliers = rel.status.num_inliers;
+        ev.residual_px = focal * std::sqrt(sampson / std::max<size_t>(1, a.size()));
+        ev.focal_px = focal;
+        ev.mean_depth_m = s.mean_distance_m;
+        ev.scale_candidates = s.num_candidates;
+        ev.scale_inliers = s.num_inliers;
+        ev.scale_std_error_m = s.std_error_m;
+        const PredictedError pe = PredictPoseError(ev);
+        r->predicted_translation_m = pe.translation_m;
+        r->predicted_rotation_deg = pe.rotation_deg;
+        r->confidence = ConfidenceFromPredictedError(pe);
+      }
       r->status = "ok";
     } else {
       r->status = "ok-unit-translation";
@@ -315,7 +340,7 @@ void Relocalizer::Impl::Solve(const matching::Correspondences& c, const Camera& 
 }
 
 QueryResult Relocalizer::Relocalize(const Image& image, const Camera& camera, DepthMap depth,
-                                    const std::vector<Eigen::Vector4d>* pre) {
+                                    const std::vector<Eigen::Vector4d>* pre, matching::Correspondences* matches) {
   Impl& m = *impl_;
   FREELOC_CHECK(m.have_ref, "Relocalizer::Relocalize before SetReference");
   QueryResult r;
@@ -331,6 +356,7 @@ QueryResult Relocalizer::Relocalize(const Image& image, const Camera& camera, De
   }
   const matching::Correspondences c = m.Match(image, pre, &r);
   m.Solve(c, camera, d_query, &r);
+  if (matches) *matches = c;
   m.stats.reference_encodings = m.dust3r_fn ? m.dust3r_fn->encoded() : 0;
   m.stats.reference_reuses = m.dust3r_fn ? m.dust3r_fn->reused() : 0;
   return r;
@@ -338,10 +364,10 @@ QueryResult Relocalizer::Relocalize(const Image& image, const Camera& camera, De
 
 QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k_ref, const Camera& k_query,
                            const DepthMap& d_ref, const DepthMap& d_query, const PipelineOptions& o,
-                           const std::vector<Eigen::Vector4d>* pre) {
+                           const std::vector<Eigen::Vector4d>* pre, matching::Correspondences* matches) {
   Relocalizer r(o);
   r.SetReference(ref, k_ref, d_ref);
-  return r.Relocalize(query, k_query, d_query, pre);
+  return r.Relocalize(query, k_query, d_query, pre, matches);
 }
 
 std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& o, CacheStats* stats) {

@@ -18,6 +18,7 @@
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/io/mapfree.h"
 #include "freeloc/matching/proposals.h"
+#include "freeloc/matching/sift.h"
 #include "freeloc/nn/instance_segmenter.h"
 
 namespace freeloc::pipeline {
@@ -63,11 +64,13 @@ struct QueryResult {
   bool ok = false;
   std::string status;  // "ok" or why not (too-few-matches, no-consensus, no-depth, scale-…, error: …)
   Rigid3d query_from_ref;
-  double confidence = 0;
+  double confidence = 0;  // essential + robust scale: confidence.h; official scale: its support; pnp/procrustes: inliers
   int matches = 0, inliers = 0;
   int global_matches = 0;                 // dust3r matchers: before the instance merge
   int instances = 0, instances_used = 0;  // reference instances tried / whose matches replaced global ones
   int scale_inliers = 0;                  // correspondences agreeing on the metric scale
+  double predicted_translation_m = 0;     // essential + robust scale: the predicted error (confidence.h)
+  double predicted_rotation_deg = 0;
   double depth_ms = 0, match_ms = 0, instance_ms = 0, solve_ms = 0;
 };
 
@@ -92,9 +95,11 @@ class Relocalizer {
   // (may be empty; ignored unless the depth stage is provided:<suffix>).
   void SetReference(const Image& image, const Camera& camera, DepthMap depth = {});
   // One query against the current reference. `depth`: the provided query depth (as above); `precomputed`: the
-  // correspondences (x_ref, y_ref, x_query, y_query) when the matcher is precomputed.
+  // correspondences (x_ref, y_ref, x_query, y_query) when the matcher is precomputed; `matches` (optional) receives
+  // the correspondences the solver got (original pixels).
   QueryResult Relocalize(const Image& image, const Camera& camera, DepthMap depth = {},
-                         const std::vector<Eigen::Vector4d>* precomputed = nullptr);
+                         const std::vector<Eigen::Vector4d>* precomputed = nullptr,
+                         matching::Correspondences* matches = nullptr);
   const CacheStats& stats() const;
   const PipelineOptions& options() const;
 
@@ -106,7 +111,8 @@ class Relocalizer {
 // One pair (a Relocalizer used once). `depth_ref`/`depth_query` may be empty.
 QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k_ref, const Camera& k_query,
                            const DepthMap& depth_ref, const DepthMap& depth_query, const PipelineOptions& options,
-                           const std::vector<Eigen::Vector4d>* precomputed = nullptr);
+                           const std::vector<Eigen::Vector4d>* precomputed = nullptr,
+                           matching::Correspondences* matches = nullptr);
 
 // Loads (and keeps for the process) the networks `options` names, so that a missing or damaged weights file is
 // one error before any work starts rather than a failure of every query. Throws freeloc::Error naming the file.

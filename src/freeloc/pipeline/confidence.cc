@@ -1,0 +1,31 @@
+#include "freeloc/pipeline/confidence.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace freeloc::pipeline {
+
+PredictedError PredictPoseError(const PoseEvidence& e) {
+  constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
+  const double n = std::max(1, e.inliers);
+  // A floor on the residual: a fit that is too good to be true on few points is not more certain than 0.1 px.
+  const double sigma = std::max(e.residual_px, 0.1) / std::max(e.focal_px, 1.0);
+  const double rot = sigma / std::sqrt(n);
+  const double dir = sigma * std::max(e.mean_depth_m, 0.0) / std::sqrt(n);
+  const double trans = std::sqrt(dir * dir + e.scale_std_error_m * e.scale_std_error_m);
+  // Risk of a wrong model: few of the correspondences agreed (essential) or few depths agreed (scale).
+  const double ess_ratio = e.matches > 0 ? static_cast<double>(e.inliers) / e.matches : 0.0;
+  const double scale_ratio = e.scale_candidates > 0 ? static_cast<double>(e.scale_inliers) / e.scale_candidates : 0.0;
+  const double agree = std::sqrt(std::max(ess_ratio, 1e-3) * std::max(scale_ratio, 1e-3));
+  PredictedError p;
+  p.rotation_deg = rot * kRadToDeg / agree;
+  p.translation_m = trans / agree;
+  return p;
+}
+
+double ConfidenceFromPredictedError(const PredictedError& p) {
+  const double worst = std::max(p.translation_m / 0.25, p.rotation_deg / 5.0);
+  return 1.0 / std::max(worst, 1e-9);
+}
+
+}  // namespace freeloc::pipeline

@@ -1,0 +1,38 @@
+// The confidence of an essential + metric-scale estimate (issue 9, DESIGN §3): the map-free AUCs rank estimates by
+// it, so it should order them by their actual error. freeloc predicts the pose error from what the stages measured
+// and ranks by it:
+//   angular noise of one correspondence   σ = RMS Sampson residual of the essential inliers / focal  (radians)
+//   rotation error                        σ_R ≈ σ / √n                                    (n essential inliers)
+//   translation error from the direction  σ_dir ≈ σ · Z̄ / √n   (metres; Z̄ = mean depth of the scale inliers:
+//                                          the metric error of a direction error is independent of the baseline)
+//   translation error from the scale      σ_s = the robust scale refit's standard error (metres)
+//   gross-failure risk                    the fraction of correspondences that agreed, for the essential fit and
+//                                          for the scale vote: predicted errors are divided by their geometric mean
+// Confidence = 1 / max(σ_t / 0.25 m, σ_R / 5°) with σ_t = √(σ_dir² + σ_s²) — the inverse of the predicted error in
+// units of the benchmark's pose thresholds. bench/confidence compares its AUCs with those of the raw inlier count.
+#pragma once
+
+namespace freeloc::pipeline {
+
+struct PoseEvidence {
+  int matches = 0;              // correspondences into the essential estimator
+  int inliers = 0;              // its inliers
+  double residual_px = 0;       // RMS Sampson error of the inliers, pixels
+  double focal_px = 0;          // mean focal of the two cameras
+  double mean_depth_m = 0;      // mean depth of the points that voted for the scale
+  int scale_candidates = 0;     // correspondences with depth in both images
+  int scale_inliers = 0;        // … that agreed on the scale
+  double scale_std_error_m = 0; // standard error of |t|
+};
+
+struct PredictedError {
+  double rotation_deg = 0;
+  double translation_m = 0;
+};
+
+PredictedError PredictPoseError(const PoseEvidence& e);
+
+// 1 / max(t / 0.25 m, R / 5°); larger is better, finite and > 0.
+double ConfidenceFromPredictedError(const PredictedError& p);
+
+}  // namespace freeloc::pipeline
