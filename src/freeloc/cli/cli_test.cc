@@ -499,6 +499,51 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   EXPECT_EQ(RunFreeloc("run --data " + tmp.File("none") + " --out " + tmp.File("y.zip")).code, 1);
 }
 
+// Bad input: what stops a run (exit 1, one line naming the file or option, no submission) and what fails only
+// its queries (status in the log, no line in the submission, exit 0).
+TEST(Cli, RunReportsBadInputClearly) {
+  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
+  namespace fs = std::filesystem;
+  freeloc::testing::TempDir tmp;
+  const std::string split = tmp.File("data/val");
+  fs::create_directories(split);
+  for (const char* s : {"s00002", "s00003"})
+    fs::copy(freeloc::testing::SharedPath(std::string("data/tum_mapfree/val/") + s), split + "/" + s,
+             fs::copy_options::recursive);
+  const std::string run = "run --data " + tmp.File("data") + " --log " + tmp.File("log.jsonl") + " --out ";
+  // A depth suffix no scene has: stops before any work.
+  Result r = RunFreeloc(run + tmp.File("a.zip") + " --depth provided:sensr");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "--depth provided:sensr: no scene has this depth (e.g. " + split +
+                                  "/s00002/seq0/frame_00000.sensr.png is missing)"))
+      << r.out;
+  EXPECT_FALSE(fs::exists(tmp.File("a.zip")));
+  // A corrupt query image and a missing one: those queries fail, the run finishes.
+  freeloc::testing::WriteText(split + "/s00002/seq1/frame_00000.png", "not a png");
+  fs::remove(split + "/s00003/seq1/frame_00000.png");
+  r = RunFreeloc(run + tmp.File("b.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(r.out, "0 of 2 queries relocalized in 2 scenes")) << r.out;
+  const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
+  EXPECT_TRUE(Contains(log, "\"status\":\"error: " + split + "/s00002/seq1/frame_00000.png")) << log;
+  EXPECT_TRUE(Contains(log, "\"status\":\"error: " + split + "/s00003/seq1/frame_00000.png")) << log;
+  const auto zip = freeloc::ZipContents::Read(tmp.File("b.zip")).files;
+  EXPECT_EQ(zip.at("pose_s00002.txt"), "");
+  EXPECT_EQ(zip.at("pose_s00003.txt"), "");
+  // A missing reference image fails its scene's queries.
+  fs::remove(split + "/s00003/seq0/frame_00000.png");
+  r = RunFreeloc(run + tmp.File("c.zip") + " --scenes s00003");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(Contains(freeloc::testing::ReadText(tmp.File("log.jsonl")), "\"status\":\"error: reference: ")) << r.out;
+  // A scene without intrinsics: stops before any scene is processed, naming the file.
+  fs::remove(split + "/s00003/intrinsics.txt");
+  r = RunFreeloc(run + tmp.File("d.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, split + "/s00003/intrinsics.txt: missing")) << r.out;
+  EXPECT_FALSE(fs::exists(tmp.File("d.zip")));
+  EXPECT_FALSE(fs::exists(tmp.File("d.zip.progress.jsonl")));
+}
+
 // An interrupted run leaves <out>.progress.jsonl; --resume keeps its finished scenes (the planted pose below comes
 // back verbatim, so that scene was not recomputed), ignores a last line cut short, and refuses other options.
 TEST(Cli, RunResumesFromItsProgressFile) {

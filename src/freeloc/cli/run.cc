@@ -277,11 +277,29 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
   return results;
 }
 
+// Before any work: every scene's intrinsics.txt and poses.txt parse (a broken scene is one error now, not after
+// hours), and a provided-depth suffix exists for at least one reference (a typo is an error, not N failures).
+void CheckScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
+                 const pipeline::PipelineOptions& o) {
+  bool any_depth = !o.UsesProvidedDepth();
+  std::string example;
+  for (const auto& name : scenes) {
+    const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
+    if (!o.UsesProvidedDepth()) continue;
+    const std::string p = scene.DepthPath(scene.reference, o.depth.substr(9));
+    if (example.empty()) example = p;
+    any_depth = any_depth || std::filesystem::exists(p);
+  }
+  FREELOC_CHECK(any_depth, "--depth " << o.depth << ": no scene has this depth (e.g. " << example
+                                      << " is missing); check the suffix, or use --depth metric3d or none");
+}
+
 int RunRun(const RunOptions& r) {
   const pipeline::PipelineOptions o = Resolve(r.ov);
   std::string split_dir;
   const std::vector<std::string> scenes = ShardScenes(ResolveScenes(r.data, r.split, r.scenes, &split_dir), r.shard);
   FREELOC_LOG(INFO) << o.Summary();
+  CheckScenes(split_dir, scenes, o);
   pipeline::LoadModels(o);  // before the progress file and the first scene
   if (!r.shard.empty()) FREELOC_LOG(INFO) << "shard " << r.shard << ": " << scenes.size() << " scenes";
   const auto results = RunAll(r, o, split_dir, scenes);

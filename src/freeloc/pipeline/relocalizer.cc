@@ -373,19 +373,33 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
 std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& o, CacheStats* stats) {
   Relocalizer reloc(o);  // validates and loads the networks: a bad weights file stops the run here
   std::string suffix;
-  DepthMap d_ref;
-  if (o.UsesProvidedDepth()) {
-    suffix = o.depth.substr(9);
-    if (std::filesystem::exists(scene.DepthPath(scene.reference, suffix))) {
-      d_ref = scene.LoadDepth(scene.reference, suffix);
-    } else {
-      FREELOC_LOG(WARNING) << scene.name << ": no '" << suffix << "' depth for the reference; every query fails";
+  std::vector<QueryResult> out;
+  try {
+    DepthMap d_ref;
+    if (o.UsesProvidedDepth()) {
+      suffix = o.depth.substr(9);
+      if (std::filesystem::exists(scene.DepthPath(scene.reference, suffix))) {
+        d_ref = scene.LoadDepth(scene.reference, suffix);
+      } else {
+        FREELOC_LOG(WARNING) << scene.name << ": no '" << suffix << "' depth for the reference ("
+                             << scene.DepthPath(scene.reference, suffix) << "); every query fails";
+      }
     }
+    reloc.SetReference(scene.LoadImage(scene.reference), scene.reference.camera, std::move(d_ref));
+  } catch (const Error& e) {
+    // A missing or damaged reference fails the scene's queries; the run goes on.
+    FREELOC_LOG(WARNING) << scene.name << ": reference " << scene.reference.name << ": " << e.what();
+    for (const MapfreeFrame& q : scene.queries) {
+      QueryResult r;
+      r.frame = q.name;
+      r.status = std::string("error: reference: ") + e.what();
+      out.push_back(r);
+    }
+    if (stats) *stats = reloc.stats();
+    return out;
   }
-  reloc.SetReference(scene.LoadImage(scene.reference), scene.reference.camera, std::move(d_ref));
   std::vector<std::vector<Eigen::Vector4d>> pre;
   if (o.matcher.rfind("precomputed:", 0) == 0) pre = scene.LoadCorrespondences(o.matcher.substr(12));
-  std::vector<QueryResult> out;
   for (size_t i = 0; i < scene.queries.size(); ++i) {
     const MapfreeFrame& q = scene.queries[i];
     QueryResult r;
