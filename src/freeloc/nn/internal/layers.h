@@ -57,7 +57,10 @@ class Rope2D {
 
 // softmax(q·kᵀ·scale)·v for [B, heads, N, dh] tensors (croco Attention / CrossAttention core).
 torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
-                               const Precision& p);
+                               const Precision& p, int64_t block_rows = 128);
+// softmax(q·kᵀ·scale)·v in three whole-tensor ops (the upstream formulation): the reference for bench/attention.
+torch::Tensor ScaledDotProductReference(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v,
+                                        double scale);
 
 // croco/models/blocks.py Attention (self-attention with RoPE).
 struct SelfAttention {
