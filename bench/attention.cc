@@ -1,8 +1,9 @@
-// bench/attention — the attention core of every network (nn/internal ScaledDotProduct, fp32): row-blocked
+// bench/attention — the attention core of DUSt3R and Metric3D (nn/internal ScaledDotProduct, fp32): row-blocked
 // (logits block kept in cache, scale folded into Q, (head, block) items over the threads) against the upstream
 // three-op form (matmul, softmax, matmul over whole heads), at the shapes the released models run: Metric3D vit_large
-// at 616×1064 (3349 tokens, 16 heads × 64), DUSt3R ViT-L encoder at 512×384 (768 tokens, 16 × 64), SegGPT ViT-L
-// global blocks at 896×448 ×2 (3136 tokens, 16 × 64). Median ms of one layer, max |difference|.
+// at 616×1064 (3349 tokens, 16 heads × 64), DUSt3R ViT-L encoder at 512×384 (768 tokens, 16 × 64), and, for scale,
+// 3136 tokens (SegGPT's global blocks at 896×448; SegGPT keeps its own head-chunked attention with relative
+// position terms). Median ms of one layer, max |difference|.
 //
 //   attention [--threads N] [--reps R]
 #include <torch/torch.h>
@@ -29,7 +30,7 @@ int main(int argc, char** argv) {
     int64_t heads, tokens, dim;
   };
   const Shape shapes[] = {{"Metric3D vit_large 616×1064", 16, 3349, 64},
-                          {"SegGPT ViT-L 896×448 (global block)", 16, 3136, 64},
+                          {"3136 tokens (SegGPT global-block size)", 16, 3136, 64},
                           {"DUSt3R ViT-L 512×384", 16, 768, 64}};
   freeloc::bench::MarkdownTable t({"shape", "method", "median ms / layer", "GFLOP/s (QKᵀ + PV)", "max |diff|"});
   for (const Shape& s : shapes) {

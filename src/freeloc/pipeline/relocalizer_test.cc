@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "freeloc/core/error.h"
+#include "testing/synthetic_scene.h"
 #include "testing/testing.h"
 
 namespace freeloc::pipeline {
@@ -46,6 +47,45 @@ TEST(Relocalizer, SiftEssentialOnTumScenes) {
     }
   }
   EXPECT_GE(ok, 4);
+}
+
+// A stage of one's own plugs into the Relocalizer: a matcher that hands out a synthetic scene's correspondences,
+// with the built-in provided depth and essential + scale; the reference share runs once, the query share per query.
+TEST(Relocalizer, CustomMatcherWithBuiltInStages) {
+  class SceneMatcher : public Matcher {
+   public:
+    explicit SceneMatcher(const testing::SyntheticScene& s) : scene_(s) {}
+    void SetReference(const Image&, const Camera&) override { ++references; }
+    matching::Correspondences Match(const Image&, const Camera&, const std::vector<Eigen::Vector4d>*,
+                                    QueryResult*) override {
+      matching::Correspondences c;
+      scene_.Correspondences(300, 0.5, 7 + queries++, &c.ref, &c.query);
+      return c;
+    }
+    int references = 0, queries = 0;
+
+   private:
+    const testing::SyntheticScene& scene_;
+  };
+  const testing::SyntheticScene scene = testing::MakeRoomScene(3, 0.6, 320, 240);
+  PipelineOptions o = ResolvePreset("sift-essential");
+  auto matcher = std::make_unique<SceneMatcher>(scene);
+  SceneMatcher* m = matcher.get();
+  Relocalizer reloc(o, std::move(matcher), MakeDepthEstimator(o), MakePoseSolver(o));
+  reloc.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
+  for (int i = 0; i < 3; ++i) {
+    const QueryResult r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query);
+    ASSERT_TRUE(r.ok) << r.status;
+    EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 0.2);
+    EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.02);
+    EXPECT_GT(r.predicted_translation_m, 0);
+  }
+  EXPECT_EQ(m->references, 1);
+  EXPECT_EQ(m->queries, 3);
+  // Without the query's provided depth: no-depth, and the matcher is not even asked.
+  EXPECT_EQ(reloc.Relocalize(Image(320, 240), scene.query, DepthMap()).status, "no-depth");
+  EXPECT_EQ(m->queries, 3);
+  EXPECT_THROW(Relocalizer(o, nullptr, MakeDepthEstimator(o), MakePoseSolver(o)), Error);
 }
 
 TEST(Relocalizer, PresetsAndOverrides) {

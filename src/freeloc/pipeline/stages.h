@@ -1,0 +1,56 @@
+// The pipeline's stages as interfaces (DESIGN §1–3), so a library user can plug in their own: a Matcher gives
+// correspondences between the reference and a query, a DepthEstimator the metric depth of a frame, a PoseSolver the
+// pose from both. Each does its reference-frame share once in SetReference; the rest runs per query. The built-in
+// implementations are made from PipelineOptions (MakeMatcher, MakeDepthEstimator, MakePoseSolver). Light header.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+#include "freeloc/core/camera.h"
+#include "freeloc/core/depth_map.h"
+#include "freeloc/core/image.h"
+#include "freeloc/matching/sift.h"
+#include "freeloc/pipeline/options.h"
+
+namespace freeloc::pipeline {
+
+// sift (the benchmark's extractor; reference features once) | dust3r (global reciprocal 3D matches; reference
+// encoding once) | dust3r+instances (+ SegGPT-propagated reference instances, per-instance DUSt3R, Eq. 3 merge;
+// proposals once) | precomputed:<name> (the rows handed in).
+class Matcher {
+ public:
+  virtual ~Matcher() = default;
+  virtual void SetReference(const Image& image, const Camera& camera) = 0;
+  // Correspondences in original pixels; fills r->global_matches, instances, instances_used, match_ms, instance_ms.
+  virtual matching::Correspondences Match(const Image& query, const Camera& camera,
+                                          const std::vector<Eigen::Vector4d>* precomputed, QueryResult* r) = 0;
+  virtual void AddStats(CacheStats* /*stats*/) const {}
+};
+
+// metric3d (Metric3D v2 on the image) | provided (the depth handed in) | none (always empty).
+class DepthEstimator {
+ public:
+  virtual ~DepthEstimator() = default;
+  // `provided`: the frame's provided depth, possibly empty. Returns the depth to use (empty: none).
+  virtual DepthMap Depth(const Image& image, const Camera& camera, DepthMap provided) = 0;
+  virtual bool needs_provided() const { return false; }  // a frame without provided depth cannot be solved
+  virtual void AddStats(CacheStats* /*stats*/) const {}
+};
+
+// essential (+ metric scale when both depths exist) | pnp (reference depth) | procrustes (both depths). Fills
+// r->ok, status, query_from_ref, confidence, matches, inliers, scale_inliers, predicted errors, solve_ms.
+class PoseSolver {
+ public:
+  virtual ~PoseSolver() = default;
+  virtual void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query,
+                     const DepthMap& d_ref, const DepthMap& d_query, QueryResult* r) const = 0;
+};
+
+// The built-in stages `options` names (options validated; networks loaded and kept for the process).
+std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& options);
+std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& options);
+std::unique_ptr<PoseSolver> MakePoseSolver(const PipelineOptions& options);
+
+}  // namespace freeloc::pipeline
