@@ -32,10 +32,6 @@
 using namespace freeloc;
 using freeloc::bench::Fmt;
 
-#ifndef FREELOC_SOURCE_DIR
-#define FREELOC_SOURCE_DIR "."
-#endif
-
 namespace {
 
 struct Outcome {

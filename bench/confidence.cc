@@ -18,10 +18,6 @@
 using namespace freeloc;
 using freeloc::bench::Fmt;
 
-#ifndef FREELOC_SOURCE_DIR
-#define FREELOC_SOURCE_DIR "."
-#endif
-
 namespace {
 
 void Table(const char* title, const std::vector<testing::StudyQuery>& qs) {

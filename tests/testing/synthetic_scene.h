@@ -26,22 +26,27 @@ struct SyntheticScene {
   Rigid3d query_from_ref;  // world = reference camera
   DepthMap depth_ref, depth_query;
 
-  // Depth (camera z) of the first surface along pixel (u, v) of a camera with pose cam_from_world.
-  double RayCast(const Camera& cam, const Rigid3d& cam_from_world, double u, double v) const {
-    const Eigen::Matrix3d Rt = cam_from_world.R().transpose();
-    const Eigen::Vector3d c = cam_from_world.Center();
-    const Eigen::Vector3d d = Rt * cam.Unproject(u, v);
+  // The first surface along the ray c + λ·d: λ (0 when nothing is hit) and the plane's index (−1).
+  double FirstHit(const Eigen::Vector3d& c, const Eigen::Vector3d& d, int* plane = nullptr) const {
     double best = 0;
-    for (const Plane& p : planes) {
+    int which = -1;
+    for (size_t k = 0; k < planes.size(); ++k) {
+      const Plane& p = planes[k];
       const double den = p.n.dot(d);
       if (std::abs(den) < 1e-12) continue;
       const double lam = (p.h - p.n.dot(c)) / den;
       if (lam <= 1e-6) continue;
       const Eigen::Vector3d X = c + lam * d;
       if ((X.array() < p.lo.array() - 1e-9).any() || (X.array() > p.hi.array() + 1e-9).any()) continue;
-      if (best == 0 || lam < best) best = lam;
+      if (best == 0 || lam < best) best = lam, which = static_cast<int>(k);
     }
+    if (plane) *plane = which;
     return best;
+  }
+
+  // Depth (camera z) of the first surface along pixel (u, v) of a camera with pose cam_from_world.
+  double RayCast(const Camera& cam, const Rigid3d& cam_from_world, double u, double v) const {
+    return FirstHit(cam_from_world.Center(), cam_from_world.R().transpose() * cam.Unproject(u, v));
   }
 
   DepthMap Render(const Camera& cam, const Rigid3d& cam_from_world) const {

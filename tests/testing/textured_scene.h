@@ -50,18 +50,8 @@ inline Image RenderTextured(const SyntheticScene& sc, const Camera& cam, const R
       for (int sub = 0; sub < 4; ++sub) {
         const double u = x - 0.25 + 0.5 * (sub % 2), v = y - 0.25 + 0.5 * (sub / 2);
         const Eigen::Vector3d d = Rt * cam.Unproject(u, v);
-        double best = 0;
         int plane = -1;
-        for (size_t k = 0; k < sc.planes.size(); ++k) {
-          const Plane& p = sc.planes[k];
-          const double den = p.n.dot(d);
-          if (std::abs(den) < 1e-12) continue;
-          const double lam = (p.h - p.n.dot(c)) / den;
-          if (lam <= 1e-6) continue;
-          const Eigen::Vector3d X = c + lam * d;
-          if ((X.array() < p.lo.array() - 1e-9).any() || (X.array() > p.hi.array() + 1e-9).any()) continue;
-          if (best == 0 || lam < best) best = lam, plane = static_cast<int>(k);
-        }
+        const double best = sc.FirstHit(c, d, &plane);
         if (plane < 0) continue;
         const Plane& p = sc.planes[static_cast<size_t>(plane)];
         const Eigen::Vector3d X = c + best * d;

@@ -24,10 +24,10 @@ struct Result {
   std::string out;  // stdout and stderr together
 };
 
-Result RunFreeloc(const std::string& args) {
+// `env` sets the environment; by default $FREELOC_MODELS is unset, so model discovery sees only what a test gives.
+Result RunFreeloc(const std::string& args, const std::string& env = "-u FREELOC_MODELS") {
   Result r;
-  // Without the user's $FREELOC_MODELS, so that model discovery sees only what a test gives it.
-  const std::string cmd = "env -u FREELOC_MODELS " + std::string(FREELOC_BINARY) + " " + args + " 2>&1";
+  const std::string cmd = "env " + env + " " + std::string(FREELOC_BINARY) + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
   std::array<char, 4096> buf;
@@ -417,17 +417,8 @@ TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "docs/models.md")) << r.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.File("none.zip")));
-  const std::string env = "env FREELOC_MODELS=" + models.path() + " " + FREELOC_BINARY + " ";
-  auto Run = [&](const std::string& args) {
-    Result res;
-    FILE* p = popen((env + args + " 2>&1").c_str(), "r");
-    std::array<char, 4096> buf;
-    size_t n;
-    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) res.out.append(buf.data(), n);
-    const int status = pclose(p);
-    res.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return res;
-  };
+  const std::string env = "FREELOC_MODELS=" + models.path();
+  auto Run = [&](const std::string& args) { return RunFreeloc(args, env); };
   r = Run(run + "--out " + tmp.File("a.zip") + " --log " + tmp.File("a.jsonl"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "in 2 scenes")) << r.out;
@@ -439,7 +430,8 @@ TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
   // Killed (SIGKILL) while the second scene runs: the progress file holds the first; --resume finishes the run
   // and writes the same bytes as the uninterrupted one.
   const std::string out = tmp.File("b.zip"), progress = out + ".progress.jsonl";
-  const std::string kill_script = "bash -c '" + env + run + "--out " + out + " >/dev/null 2>&1 & pid=$!; " +
+  const std::string kill_script = "bash -c 'env " + env + " " + FREELOC_BINARY + " " + run + "--out " + out +
+                                  " >/dev/null 2>&1 & pid=$!; " +
                                   "for i in $(seq 1 1200); do [ -f " + progress + " ] && [ \"$(wc -l < " + progress +
                                   ")\" -ge 2 ] && break; sleep 0.025; done; kill -9 $pid; wait $pid' 2>/dev/null";
   ASSERT_NE(std::system(kill_script.c_str()), -1);

@@ -6,8 +6,6 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/geometry/metric_scale.h"
-#include "freeloc/nn/runtime.h"
-#include "freeloc/pipeline/dust3r_stage.h"
 #include "freeloc/pipeline/models.h"
 
 namespace freeloc::pipeline {
@@ -17,12 +15,6 @@ double Ms(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-nn::RuntimeOptions RuntimeOf(const PipelineOptions& o) {
-  nn::RuntimeOptions rt;
-  rt.device = o.device;
-  rt.threads = o.threads;
-  return rt;
-}
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -124,10 +116,9 @@ void FindModels(PipelineOptions* o) {
 }
 
 void LoadModels(const PipelineOptions& o) {
-  const nn::RuntimeOptions rt = RuntimeOf(o);
-  if (o.UsesDust3r()) CachedDust3r(o.dust3r_model, "", rt);
-  if (o.UsesSegGpt()) CachedSegGpt(o.seggpt_model, rt);
-  if (o.UsesMetric3d()) CachedMetric3d(o.metric3d_model, rt);
+  // Building the stages loads their networks into the per-process caches.
+  MakeMatcher(o);
+  MakeDepthEstimator(o);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
