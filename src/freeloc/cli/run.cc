@@ -225,7 +225,8 @@ class ProgressFile {
 std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOptions& r,
                                                                  const pipeline::PipelineOptions& o,
                                                                  const std::string& split_dir,
-                                                                 const std::vector<std::string>& scenes) {
+                                                                 const std::vector<std::string>& scenes,
+                                                                 const std::map<std::string, size_t>& queries) {
   ProgressFile progress(r.out, o.Summary());
   std::map<std::string, std::vector<pipeline::QueryResult>> results;
   if (r.resume) {
@@ -243,19 +244,29 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
                          << " exists from an earlier run; starting over (use --resume to continue it)";
   }
   progress.Open(r.resume);
-  ProgressBar bar("scenes", static_cast<int64_t>(scenes.size()));
+  // One bar over the queries (rate and ETA in queries), its label counting scenes.
+  int64_t total = 0;
+  for (const auto& name : scenes) total += static_cast<int64_t>(queries.at(name));
+  ProgressBar bar("queries", total);
+  size_t scenes_done = 0;
+  auto label = [&] { bar.SetLabel("scene " + std::to_string(scenes_done) + "/" + std::to_string(scenes.size()) +
+                                  ", queries"); };
+  label();
   for (const auto& name : scenes) {
     if (!results.count(name)) {
       const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
       pipeline::CacheStats cs;
-      results[name] = pipeline::RelocalizeScene(scene, o, &cs);
+      results[name] = pipeline::RelocalizeScene(scene, o, &cs, [&](const pipeline::QueryResult&) { bar.Increment(); });
       if (o.UsesDust3r() || o.UsesMetric3d())
         FREELOC_LOG(DEBUG) << name << ": reference work " << cs.reference_ms << " ms, " << cs.reference_instances
                            << " reference instances, DUSt3R reference encodings " << cs.reference_encodings
                            << " (reused " << cs.reference_reuses << "), Metric3D passes " << cs.depth_estimates;
       progress.AppendScene(name, results[name]);
+    } else {
+      bar.Increment(static_cast<int64_t>(results[name].size()));
     }
-    bar.Increment();
+    ++scenes_done;
+    label();
   }
   bar.Finish();
   std::map<std::string, std::vector<SubmissionEntry>> sub;
@@ -279,12 +290,15 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
 
 // Before any work: every scene's intrinsics.txt and poses.txt parse (a broken scene is one error now, not after
 // hours), and a provided-depth suffix exists for at least one reference (a typo is an error, not N failures).
-void CheckScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
-                 const pipeline::PipelineOptions& o) {
+// Returns the number of queries per scene.
+std::map<std::string, size_t> CheckScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
+                                          const pipeline::PipelineOptions& o) {
   bool any_depth = !o.UsesProvidedDepth();
   std::string example;
+  std::map<std::string, size_t> queries;
   for (const auto& name : scenes) {
     const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
+    queries[name] = scene.queries.size();
     if (!o.UsesProvidedDepth()) continue;
     const std::string p = scene.DepthPath(scene.reference, o.depth.substr(9));
     if (example.empty()) example = p;
@@ -292,6 +306,7 @@ void CheckScenes(const std::string& split_dir, const std::vector<std::string>& s
   }
   FREELOC_CHECK(any_depth, "--depth " << o.depth << ": no scene has this depth (e.g. " << example
                                       << " is missing); check the suffix, or use --depth metric3d or none");
+  return queries;
 }
 
 int RunRun(const RunOptions& r) {
@@ -299,10 +314,10 @@ int RunRun(const RunOptions& r) {
   std::string split_dir;
   const std::vector<std::string> scenes = ShardScenes(ResolveScenes(r.data, r.split, r.scenes, &split_dir), r.shard);
   FREELOC_LOG(INFO) << o.Summary();
-  CheckScenes(split_dir, scenes, o);
+  const auto queries = CheckScenes(split_dir, scenes, o);
   pipeline::LoadModels(o);  // before the progress file and the first scene
   if (!r.shard.empty()) FREELOC_LOG(INFO) << "shard " << r.shard << ": " << scenes.size() << " scenes";
-  const auto results = RunAll(r, o, split_dir, scenes);
+  const auto results = RunAll(r, o, split_dir, scenes, queries);
   size_t ok = 0, total = 0;
   for (const auto& [s, v] : results)
     for (const auto& q : v) {
@@ -427,7 +442,7 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
   std::printf("\n");
   std::string split_dir;
   const std::vector<std::string> scenes = ResolveScenes(data_dir, "val", "", &split_dir);
-  const auto results = RunAll(r, o, split_dir, scenes);
+  const auto results = RunAll(r, o, split_dir, scenes, CheckScenes(split_dir, scenes, o));
   std::printf("| scene | query | status | inliers | rot err (°) | centre err (cm) |\n|---|---|---|---|---|---|\n");
   for (const auto& name : scenes) {
     const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);

@@ -17,6 +17,7 @@ class ProgressBar {
   void Update(int64_t done);  // absolute progress
   void Increment(int64_t n = 1) { Update(done_ + n); }
   void Finish();
+  void SetLabel(std::string label) { label_ = std::move(label); }  // shown from the next redraw
   bool enabled() const { return enabled_; }
 
   // The line drawn for `done` of `total` after `elapsed_s` seconds, `width` characters for the bar.

@@ -194,7 +194,8 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
   return r.Relocalize(query, k_query, d_query, pre, matches);
 }
 
-std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& o, CacheStats* stats) {
+std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& o, CacheStats* stats,
+                                         const std::function<void(const QueryResult&)>& on_query) {
   Relocalizer reloc(o);  // validates and loads the networks: a bad weights file stops the run here
   std::string suffix;
   std::vector<QueryResult> out;
@@ -218,6 +219,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const Pipeli
       r.frame = q.name;
       r.status = std::string("error: reference: ") + e.what();
       out.push_back(r);
+      if (on_query) on_query(r);
     }
     if (stats) *stats = reloc.stats();
     return out;
@@ -238,6 +240,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const Pipeli
     }
     r.frame = q.name;
     out.push_back(r);
+    if (on_query) on_query(r);
   }
   if (stats) *stats = reloc.stats();
   return out;

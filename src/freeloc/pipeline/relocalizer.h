@@ -9,6 +9,7 @@
 // work per query.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -70,8 +71,9 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
 void LoadModels(const PipelineOptions& options);
 
 // Every query of a map-free scene; the reference's image, depth, encodings and instances are computed once.
-// `stats` (optional) receives the scene's cache counters.
+// `stats` (optional) receives the scene's cache counters; `on_query` (optional) is called after each query.
 std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& options,
-                                         CacheStats* stats = nullptr);
+                                         CacheStats* stats = nullptr,
+                                         const std::function<void(const QueryResult&)>& on_query = nullptr);
 
 }  // namespace freeloc::pipeline
