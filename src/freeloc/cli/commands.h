@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/matching/sift.h"
+
 namespace CLI {
 class App;
 }
@@ -23,6 +25,10 @@ struct GlobalOptions {
 // comma-separated --scenes list (each must exist). Throws freeloc::Error naming what is missing.
 std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split, const std::string& scenes_csv,
                                        std::string* split_dir);
+
+// Writes a correspondence file (docs/formats.md: `x_ref y_ref x_query y_query` per line, original pixels), the
+// input of `freeloc pose`; atomically.
+void WriteCorrespondences(const std::string& path, const matching::Correspondences& c);
 
 // Each Register* a subcommand whose callback stores the function to run in `*run`.
 using RunFn = std::function<int()>;

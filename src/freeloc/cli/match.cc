@@ -8,7 +8,6 @@
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
 #include "freeloc/io/dust3r_preprocess.h"
-#include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/nn/dust3r.h"
@@ -68,13 +67,12 @@ int RunMatch(const MatchOptions& o, const GlobalOptions& g) {
     given = static_cast<int>(masks.size());
     final_matches = matching::MergeMatches(global, results, masks, ref.width, ref.height);
   }
-  std::string text;
-  char line[128];
+  matching::Correspondences out;
   for (const auto& c : final_matches) {
-    std::snprintf(line, sizeof(line), "%.3f %.3f %.3f %.3f\n", c.ref.x(), c.ref.y(), c.query.x(), c.query.y());
-    text += line;
+    out.ref.push_back(c.ref);
+    out.query.push_back(c.query);
   }
-  WriteFileAtomic(o.out, text.data(), text.size());
+  WriteCorrespondences(o.out, out);
   std::printf("%zu correspondences (%zu global before merging; %d of %d instances used) written to %s\n",
               final_matches.size(), global.size(), used, given, o.out.c_str());
   return 0;

@@ -224,9 +224,8 @@ class ProgressFile {
 // queries only) and the JSON-lines log.
 std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOptions& r,
                                                                  const pipeline::PipelineOptions& o,
-                                                                 const std::string& split_dir,
                                                                  const std::vector<std::string>& scenes,
-                                                                 const std::map<std::string, size_t>& queries) {
+                                                                 const std::map<std::string, MapfreeScene>& loaded) {
   ProgressFile progress(r.out, o.Summary());
   std::map<std::string, std::vector<pipeline::QueryResult>> results;
   if (r.resume) {
@@ -246,7 +245,7 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
   progress.Open(r.resume);
   // One bar over the queries (rate and ETA in queries), its label counting scenes.
   int64_t total = 0;
-  for (const auto& name : scenes) total += static_cast<int64_t>(queries.at(name));
+  for (const auto& name : scenes) total += static_cast<int64_t>(loaded.at(name).queries.size());
   ProgressBar bar("queries", total);
   size_t scenes_done = 0;
   auto label = [&] { bar.SetLabel("scene " + std::to_string(scenes_done) + "/" + std::to_string(scenes.size()) +
@@ -254,9 +253,8 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
   label();
   for (const auto& name : scenes) {
     if (!results.count(name)) {
-      const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
       pipeline::CacheStats cs;
-      results[name] = pipeline::RelocalizeScene(scene, o, &cs, [&](const pipeline::QueryResult&) { bar.Increment(); });
+      results[name] = pipeline::RelocalizeScene(loaded.at(name), o, &cs, [&](const pipeline::QueryResult&) { bar.Increment(); });
       if (o.UsesDust3r() || o.UsesMetric3d())
         FREELOC_LOG(DEBUG) << name << ": reference work " << cs.reference_ms << " ms, " << cs.reference_instances
                            << " reference instances, DUSt3R reference encodings " << cs.reference_encodings
@@ -288,17 +286,15 @@ std::map<std::string, std::vector<pipeline::QueryResult>> RunAll(const RunOption
   return results;
 }
 
-// Before any work: every scene's intrinsics.txt and poses.txt parse (a broken scene is one error now, not after
-// hours), and a provided-depth suffix exists for at least one reference (a typo is an error, not N failures).
-// Returns the number of queries per scene.
-std::map<std::string, size_t> CheckScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
-                                          const pipeline::PipelineOptions& o) {
+// Every scene read before any work: a missing or malformed intrinsics.txt/poses.txt is one error now, not after
+// hours, and a provided-depth suffix must exist for at least one reference (a typo is an error, not N failures).
+std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
+                                               const pipeline::PipelineOptions& o) {
   bool any_depth = !o.UsesProvidedDepth();
   std::string example;
-  std::map<std::string, size_t> queries;
+  std::map<std::string, MapfreeScene> loaded;
   for (const auto& name : scenes) {
-    const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
-    queries[name] = scene.queries.size();
+    const MapfreeScene& scene = loaded[name] = MapfreeScene::Load(split_dir + "/" + name);
     if (!o.UsesProvidedDepth()) continue;
     const std::string p = scene.DepthPath(scene.reference, o.depth.substr(9));
     if (example.empty()) example = p;
@@ -306,7 +302,7 @@ std::map<std::string, size_t> CheckScenes(const std::string& split_dir, const st
   }
   FREELOC_CHECK(any_depth, "--depth " << o.depth << ": no scene has this depth (e.g. " << example
                                       << " is missing); check the suffix, or use --depth metric3d or none");
-  return queries;
+  return loaded;
 }
 
 int RunRun(const RunOptions& r) {
@@ -314,10 +310,10 @@ int RunRun(const RunOptions& r) {
   std::string split_dir;
   const std::vector<std::string> scenes = ShardScenes(ResolveScenes(r.data, r.split, r.scenes, &split_dir), r.shard);
   FREELOC_LOG(INFO) << o.Summary();
-  const auto queries = CheckScenes(split_dir, scenes, o);
+  const auto loaded = LoadScenes(split_dir, scenes, o);
   pipeline::LoadModels(o);  // before the progress file and the first scene
   if (!r.shard.empty()) FREELOC_LOG(INFO) << "shard " << r.shard << ": " << scenes.size() << " scenes";
-  const auto results = RunAll(r, o, split_dir, scenes, queries);
+  const auto results = RunAll(r, o, scenes, loaded);
   size_t ok = 0, total = 0;
   for (const auto& [s, v] : results)
     for (const auto& q : v) {
@@ -374,16 +370,7 @@ int RunRelocalize(const RelocOptions& r) {
   matching::Correspondences matches;
   const auto q = pipeline::RelocalizePair(ReadImage(r.ref), ReadImage(r.query), kr, kq, dr, dq, o, nullptr,
                                           r.save_matches.empty() ? nullptr : &matches);
-  if (!r.save_matches.empty()) {
-    std::string text;
-    char line[128];
-    for (size_t i = 0; i < matches.size(); ++i) {
-      std::snprintf(line, sizeof(line), "%.3f %.3f %.3f %.3f\n", matches.ref[i].x(), matches.ref[i].y(),
-                    matches.query[i].x(), matches.query[i].y());
-      text += line;
-    }
-    WriteFileAtomic(r.save_matches, text.data(), text.size());
-  }
+  if (!r.save_matches.empty()) WriteCorrespondences(r.save_matches, matches);
   const auto qv = q.query_from_ref.QuaternionWxyz();
   const auto& t = q.query_from_ref.translation;
   if (r.json) {
@@ -442,10 +429,11 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
   std::printf("\n");
   std::string split_dir;
   const std::vector<std::string> scenes = ResolveScenes(data_dir, "val", "", &split_dir);
-  const auto results = RunAll(r, o, split_dir, scenes, CheckScenes(split_dir, scenes, o));
+  const auto loaded = LoadScenes(split_dir, scenes, o);
+  const auto results = RunAll(r, o, scenes, loaded);
   std::printf("| scene | query | status | inliers | rot err (°) | centre err (cm) |\n|---|---|---|---|---|---|\n");
   for (const auto& name : scenes) {
-    const MapfreeScene scene = MapfreeScene::Load(split_dir + "/" + name);
+    const MapfreeScene& scene = loaded.at(name);
     for (const auto& q : results.at(name)) {
       if (!q.ok || !scene.gt.count(q.frame)) {
         std::printf("| %s | %s | %s | %d | – | – |\n", name.c_str(), q.frame.c_str(), q.status.c_str(), q.inliers);

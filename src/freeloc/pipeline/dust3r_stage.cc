@@ -1,8 +1,6 @@
 #include "freeloc/pipeline/dust3r_stage.h"
 
 #include <cstring>
-#include <map>
-#include <mutex>
 
 #include "freeloc/nn/dust3r.h"
 
@@ -71,7 +69,8 @@ matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInp
     entries_.push_back(std::move(e));
     ++encoded_;
   }
-  const auto query = model_->Encode(ViewOf(b));
+  // (reference, reference), as for the instance proposals: the query side is that same encoding.
+  const auto query = &a == &b ? hit->encoding : model_->Encode(ViewOf(b));
   return ToHost(model_->Decode(*hit->encoding, *query), a, b);
 }
 
@@ -79,15 +78,5 @@ matching::PointmapFn CachingDust3r::Fn() {
   return [this](const Dust3rInput& a, const Dust3rInput& b) { return Run(a, b); };
 }
 
-std::shared_ptr<nn::Dust3rModel> CachedDust3r(const std::string& path, const std::string& config,
-                                              const nn::RuntimeOptions& rt) {
-  static std::mutex mu;
-  static std::map<std::string, std::shared_ptr<nn::Dust3rModel>> cache;
-  const std::string key = path + "|" + config + "|" + rt.device + "|" + rt.precision + "|" + std::to_string(rt.threads);
-  std::lock_guard<std::mutex> lock(mu);
-  auto& m = cache[key];
-  if (!m) m = nn::Dust3rModel::Load(path, config, rt);
-  return m;
-}
 
 }  // namespace freeloc::pipeline

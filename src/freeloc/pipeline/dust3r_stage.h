@@ -1,7 +1,6 @@
 // DUSt3R as a pipeline stage: the model as the matching module's pointmap function (plain, or caching the encoder
-// pass of every reference-side input so a scene's reference — and each of its masked instances — is encoded once),
-// and a per-process model cache so that a run loads the weights once. Light header: the LibTorch model stays behind
-// a forward declaration.
+// pass of every reference-side input so a scene's reference — and each of its masked instances — is encoded once).
+// The per-process model cache is in models.h. Light header: the LibTorch model stays behind a forward declaration.
 #pragma once
 
 #include <cstdint>
@@ -13,7 +12,6 @@
 
 namespace freeloc::nn {
 class Dust3rModel;
-struct RuntimeOptions;
 }  // namespace freeloc::nn
 
 namespace freeloc::pipeline {
@@ -43,10 +41,5 @@ class CachingDust3r {
   std::vector<std::unique_ptr<Entry>> entries_;
   int encoded_ = 0, reused_ = 0;
 };
-
-// The model at `path` (official .pth or model.safetensors; `config` optional), loaded on first use and kept for the
-// process, keyed by path, config and runtime. Throws freeloc::Error naming the file when it cannot be loaded.
-std::shared_ptr<nn::Dust3rModel> CachedDust3r(const std::string& path, const std::string& config,
-                                              const nn::RuntimeOptions& runtime);
 
 }  // namespace freeloc::pipeline

@@ -8,6 +8,7 @@
 #include <vector>
 
 namespace freeloc::nn {
+class Dust3rModel;
 class SegGptModel;
 class Metric3dModel;
 struct RuntimeOptions;
@@ -32,7 +33,10 @@ std::string FindModel(Network n, const std::vector<std::string>& dirs);
 // presets run without it.
 std::string MissingModelMessage(Network n, const std::string& preset, const std::vector<std::string>& dirs);
 
-// Loaded on first use and kept for the process (keyed by path and runtime). Throw freeloc::Error naming the file.
+// Loaded on first use and kept for the process (keyed by path, config and runtime), so a run loads each network
+// once. `config`: an explicit config.json (optional). Throw freeloc::Error naming the file.
+std::shared_ptr<nn::Dust3rModel> CachedDust3r(const std::string& path, const std::string& config,
+                                              const nn::RuntimeOptions& runtime);
 std::shared_ptr<nn::SegGptModel> CachedSegGpt(const std::string& path, const nn::RuntimeOptions& runtime);
 std::shared_ptr<nn::Metric3dModel> CachedMetric3d(const std::string& path, const nn::RuntimeOptions& runtime);
 
