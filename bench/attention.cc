@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
     const double ms_ref = time([&] { return freeloc::nn::internal::ScaledDotProductReference(q, k, v, scale); });
     t.Row({s.name, "upstream form (3 whole-head ops)", Fmt("%.1f", ms_ref), Fmt("%.1f", gflop / ms_ref * 1e3), "0"});
     for (int64_t rows : {64, 128, 256, 512}) {
-      freeloc::nn::internal::Precision p;
+      freeloc::nn::internal::PrecisionPolicy p;
       const torch::Tensor o = freeloc::nn::internal::ScaledDotProduct(q, k, v, scale, p, rows);
       const double diff = (o - ref).abs().max().item<double>();
       const double ms = time([&] { return freeloc::nn::internal::ScaledDotProduct(q, k, v, scale, p, rows); });

@@ -138,7 +138,7 @@ int main(int argc, char** argv) {
     std::vector<double> ms_official, ms_freeloc;
     AllQueries all_official, all_freeloc;
     pipeline::PipelineOptions o = pipeline::ResolvePreset("sift-essential");
-    o.depth = "provided:" + depth;
+    o.depth = pipeline::DepthSpec::FromString("provided:" + depth);
     for (const auto& name : scenes) {
       const MapfreeScene sc = MapfreeScene::Load(split + "/" + name);
       const Image ref = sc.LoadImage(sc.reference);
@@ -158,16 +158,16 @@ int main(int argc, char** argv) {
         const double t0 = bench::NowSeconds();
         const pipeline::QueryResult r = reloc.Relocalize(qi, q.camera, dq);
         ms_freeloc.push_back((bench::NowSeconds() - t0) * 1e3);
-        if (r.ok) sub_freeloc[name].push_back({q.name, r.query_from_ref, r.confidence});
-        if (has_gt) all_freeloc.Add({r.ok, r.query_from_ref, r.confidence, 0}, sc.gt.at(q.name));
+        if (r.ok()) sub_freeloc[name].push_back({q.name, r.query_from_ref, r.confidence});
+        if (has_gt) all_freeloc.Add({r.ok(), r.query_from_ref, r.confidence, 0}, sc.gt.at(q.name));
         if (per_query && has_gt) {
           const Rigid3d& gt = sc.gt.at(q.name);
           std::printf("%s %s %s |t| %.3f  official %.3f m %.2f°  freeloc %.3f m %.2f° (%d inl, scale %d)\n",
                       depth.c_str(), name.c_str(), q.name.c_str(), gt.translation.norm(),
                       off.ok ? (off.pose.Center() - gt.Center()).norm() : -1.0,
                       off.ok ? RotationAngleDeg(off.pose.rotation, gt.rotation) : -1.0,
-                      r.ok ? (r.query_from_ref.Center() - gt.Center()).norm() : -1.0,
-                      r.ok ? RotationAngleDeg(r.query_from_ref.rotation, gt.rotation) : -1.0, r.inliers,
+                      r.ok() ? (r.query_from_ref.Center() - gt.Center()).norm() : -1.0,
+                      r.ok() ? RotationAngleDeg(r.query_from_ref.rotation, gt.rotation) : -1.0, r.inliers,
                       r.scale_inliers);
         }
       }

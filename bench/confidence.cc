@@ -69,14 +69,14 @@ int main(int argc, char** argv) {
     for (const auto& r : res) {
       testing::StudyQuery q;
       q.result = r;
-      if (r.ok) {
+      if (r.ok()) {
         const Rigid3d& gt = scene.gt.at(r.frame);
         q.err.trans_err = (r.query_from_ref.Center() - gt.Center()).norm();
         q.err.rot_err = RotationAngleDeg(r.query_from_ref.rotation, gt.rotation);
       }
-      t.Row({name, r.frame, r.status, std::to_string(r.inliers), r.ok ? Fmt("%.3f", r.confidence) : "–",
-             r.ok ? Fmt("%.3f", r.predicted_translation_m) : "–", r.ok ? Fmt("%.3f", q.err.trans_err) : "–",
-             r.ok ? Fmt("%.2f", q.err.rot_err) : "–"});
+      t.Row({name, r.frame, r.StatusText(), std::to_string(r.inliers), r.ok() ? Fmt("%.3f", r.confidence) : "–",
+             r.ok() ? Fmt("%.3f", r.predicted_translation_m) : "–", r.ok() ? Fmt("%.3f", q.err.trans_err) : "–",
+             r.ok() ? Fmt("%.2f", q.err.rot_err) : "–"});
       demo.push_back(q);
     }
   }

@@ -141,7 +141,7 @@ int main(int argc, char** argv) {
               b32, b16, b16 / b32);
   if (bf16_pair) {
     freeloc::nn::RuntimeOptions rb = rt;
-    rb.precision = "bf16";
+    rb.precision = freeloc::nn::Precision::kBf16;
     const auto mb = freeloc::nn::Dust3rModel::Create(
         sd, {{"enc_num_heads", "16"}, {"dec_num_heads", "12"}, {"pos_embed", "RoPE100"}}, "random", rb);
     const auto p32 = model->Run(v1, v2);

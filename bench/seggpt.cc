@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
   tab.Row({"peak RSS", Fmt("%.2f GB", freeloc::bench::PeakRssMB() / 1024.0), "target ≤ 2.8 GB"});
   if (bf16) {
     freeloc::nn::RuntimeOptions rb = rt;
-    rb.precision = "bf16";
+    rb.precision = freeloc::nn::Precision::kBf16;
     const auto mb = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rb);
     const auto p32 = model->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
     const double t0 = NowSeconds();

@@ -3,7 +3,7 @@
 // instance-restricted DUSt3R matching → the Eq. 3 merge.
 #include <gtest/gtest.h>
 
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/matching/proposals.h"
@@ -16,12 +16,11 @@ namespace freeloc {
 namespace {
 
 TEST(Instances, ProposalsPropagationAndMatchingOnTumPhotos) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/seq0/frame_00000.png");
   FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
   const auto dust3r = nn::Dust3rModel::Load(testing::SharedPath("fixtures/pth/dust3r_tiny.pth"));
   const auto seggpt = nn::SegGptModel::Load(testing::SharedPath("fixtures/seggpt/weights.safetensors"),
                                             testing::SharedPath("fixtures/seggpt/config.json"));
-  const std::string s = testing::SharedPath("data/tum_mapfree/val/s00001/");
+  const std::string s = testing::DemoPath("val/s00001/");
   const Image ref = ReadImage(s + "seq0/frame_00000.png"), query = ReadImage(s + "seq1/frame_00002.png");
   Dust3rPreprocessOptions po;
   po.size = 224;

@@ -49,11 +49,11 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height) {
   std::vector<Eigen::Vector4d> pre;
   for (size_t k = 0; k < p1.size(); ++k) pre.emplace_back(p1[k].x(), p1[k].y(), p2[k].x(), p2[k].y());
   pipeline::PipelineOptions o = pipeline::ResolvePreset("precomputed:SIFT-essential");
-  o.depth = "provided:synthetic";
+  o.depth = pipeline::DepthSpec::FromString("provided:synthetic");
   pipeline::Relocalizer reloc(o);
   reloc.SetReference(Image(width, height), sc.ref, dr);
   q.result = reloc.Relocalize(Image(width, height), sc.query, dq, &pre);
-  if (q.result.ok) {
+  if (q.result.ok()) {
     auto official = [](const Rigid3d& query_from_ref) {
       OfficialPose p;
       const Eigen::Quaterniond c2w = query_from_ref.rotation.conjugate();
@@ -101,7 +101,7 @@ inline StudyScore ScoreStudy(const std::vector<StudyQuery>& queries, StudyConfid
   std::vector<bool> pose_ok, vcre_ok;
   StudyScore s;
   for (const auto& q : queries) {
-    if (!q.result.ok) {
+    if (!q.result.ok()) {
       ++s.failures;
       continue;
     }

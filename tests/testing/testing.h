@@ -14,6 +14,8 @@ std::string SharedPath(const std::string& relative);
 bool SharedExists(const std::string& relative);
 // The repository root.
 std::string SourceDir();
+// The bundled demo data (data/demo: TUM RGB-D scenes in the map-free layout, CC BY 4.0), always present.
+std::string DemoPath(const std::string& relative = "");
 
 // A fresh empty folder under the system temp dir, removed when the object dies.
 class TempDir {

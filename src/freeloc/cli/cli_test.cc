@@ -13,8 +13,10 @@
 #include <string>
 
 #include "freeloc/io/image_io.h"
+#include "freeloc/io/mapfree.h"
 #include "freeloc/io/safetensors.h"
 #include "freeloc/io/submission.h"
+#include "testing/mapfree_writer.h"
 #include "testing/testing.h"
 
 namespace {
@@ -96,12 +98,11 @@ TEST(Cli, InspectSafetensorsWithFilter) {
 
 // A perfect submission made from the GT of the real TUM scenes: zero errors, precision 1 (issue acceptance).
 TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/poses.txt");
   freeloc::testing::TempDir tmp;
   std::map<std::string, std::vector<freeloc::SubmissionEntry>> sub;
   for (const char* s : {"s00001", "s00002", "s00003"}) {
     std::istringstream in(freeloc::testing::ReadText(
-        freeloc::testing::SharedPath(std::string("data/tum_mapfree/val/") + s + "/poses.txt")));
+        freeloc::testing::DemoPath(std::string("val/") + s + "/poses.txt")));
     std::string l;
     while (std::getline(in, l)) {
       std::istringstream ls(l);
@@ -114,7 +115,7 @@ TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
     }
   }
   freeloc::WriteSubmission(tmp.File("gt.zip"), sub);
-  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  const std::string data = freeloc::testing::DemoPath();
   Result r = RunFreeloc("eval --data " + data + " --split val --submission " + tmp.File("gt.zip") +
                         " --json - --report " + tmp.File("rep"));
   ASSERT_EQ(r.code, 0) << r.out;
@@ -142,8 +143,7 @@ TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
 
 // `freeloc pose` on the committed SIFT correspondences of the real TUM pair s00003 with its sensor depth.
 TEST(Cli, PoseFromCorrespondenceFile) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00003/seq0/frame_00000.sensor.png");
-  const std::string scene = freeloc::testing::SharedPath("data/tum_mapfree/val/s00003");
+  const std::string scene = freeloc::testing::DemoPath("val/s00003");
   const std::string matches = freeloc::testing::SourceDir() + "/tests/data/tum_sift/s00003_sift_matches.txt";
   const std::string k = "535.4,539.2,320.1,247.6";
   const std::string base = "pose --matches " + matches + " --ref-intrinsics " + k + " --query-intrinsics " + k;
@@ -167,7 +167,7 @@ TEST(Cli, PoseFromCorrespondenceFile) {
       freeloc::Rigid3d::FromWxyz({q[0], q[1], q[2], q[3]}, Eigen::Vector3d(t[0], t[1], t[2]));
   EXPECT_LT(freeloc::RotationAngleDeg(est.rotation, truth.rotation), 0.5);
   EXPECT_LT((est.Center() - truth.Center()).norm(), 0.02);
-  EXPECT_GT(j["num_inliers"].get<int>(), 300);
+  EXPECT_GT(j["inliers"].get<int>(), 300);
   // Without depth: unit translation, and the text output says so.
   r = RunFreeloc(base);
   ASSERT_EQ(r.code, 0) << r.out;
@@ -208,10 +208,9 @@ Result RelocalizeS00003(const std::string& data, const std::string& extra = "") 
 // tiny fixture weights: the numbers are meaningless, the path is real.
 TEST(Cli, PointmapAndMatchOnRealPhotos) {
   FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00003/seq0/frame_00000.png");
   freeloc::testing::TempDir tmp;
   const std::string model = freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
-  const std::string s = freeloc::testing::SharedPath("data/tum_mapfree/val/s00003");
+  const std::string s = freeloc::testing::DemoPath("val/s00003");
   const std::string pair = s + "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png";
   Result r = RunFreeloc("pointmap --model " + model + " --size 224,128 " + pair + " --out " +
                         tmp.File("pm.safetensors") + " --matches --conf-thr 1.2");
@@ -247,23 +246,23 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --out " + tmp.File("g.txt"));
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string g = freeloc::testing::ReadText(tmp.File("g.txt"));
-  r = RelocalizeS00003(freeloc::testing::SharedPath("data/tum_mapfree"),
+  r = RelocalizeS00003(freeloc::testing::DemoPath(),
                        " --preset dust3r --dust3r-size 224 --dust3r-model " + model);
   EXPECT_TRUE(r.code == 0 || r.code == 1) << r.out;  // random weights: the pose may well fail
-  EXPECT_EQ(nlohmann::json::parse(r.out)["num_matches"], std::count(g.begin(), g.end(), '\n')) << r.out;
-  r = RelocalizeS00003(freeloc::testing::SharedPath("data/tum_mapfree"), " --preset dust3r");
+  EXPECT_EQ(nlohmann::json::parse(r.out)["matches"], std::count(g.begin(), g.end(), '\n')) << r.out;
+  r = RelocalizeS00003(freeloc::testing::DemoPath(), " --preset dust3r");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "preset dust3r needs the DUSt3R weights: looked for "
                               "DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth")) << r.out;
   // A whole scene through `run` loads the model once and writes a submission.
-  r = RunFreeloc("run --data " + freeloc::testing::SharedPath("data/tum_mapfree") +
+  r = RunFreeloc("run --data " + freeloc::testing::DemoPath() +
                  " --scenes s00003 --preset dust3r --dust3r-size 224 --dust3r-model " + model + " --out " +
                  tmp.File("d.zip"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "in 1 scenes")) << r.out;
   EXPECT_TRUE(std::filesystem::exists(tmp.File("d.zip")));
   // A weights file that is not there stops the run before any scene: exit 1, no submission, no progress file.
-  r = RunFreeloc("run --data " + freeloc::testing::SharedPath("data/tum_mapfree") +
+  r = RunFreeloc("run --data " + freeloc::testing::DemoPath() +
                  " --scenes s00003 --preset dust3r --dust3r-model " + tmp.File("nope.pth") + " --out " +
                  tmp.File("e.zip"));
   EXPECT_EQ(r.code, 1) << r.out;
@@ -357,6 +356,92 @@ TEST(Cli, DepthOnRealFrames) {
   EXPECT_FALSE(std::filesystem::exists(tmp.File("y.png")));
 }
 
+// The same correspondences and depth give the same pose, status and confidence from `freeloc pose` and `freeloc
+// run` (issue 13): two synthetic scenes with precomputed correspondences and provided depth, run with
+// --save-matches; each query's saved correspondences through `pose --preset <the run's preset>` reproduce the log's
+// record to the last bit, failures included.
+TEST(Cli, PoseAndRunAgreeOnTheSameCorrespondences) {
+  freeloc::testing::TempDir tmp;
+  for (uint32_t s : {1u, 2u})
+    freeloc::testing::WriteSyntheticMapfreeScene(tmp.File("data/val/s0000" + std::to_string(s)), 40 + s);
+  const std::string preset = "precomputed:SIFT-essential";
+  Result r = RunFreeloc("run --data " + tmp.File("data") + " --preset " + preset + " --depth provided:gt --out " +
+                        tmp.File("s.zip") + " --log " + tmp.File("log.jsonl") + " --save-matches " + tmp.File("m"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::istringstream log(freeloc::testing::ReadText(tmp.File("log.jsonl")));
+  std::string line;
+  std::getline(log, line);  // the header
+  int compared = 0, ok = 0;
+  while (std::getline(log, line)) {
+    const auto rec = nlohmann::json::parse(line);
+    const std::string scene = rec["scene"], frame = rec["frame"];
+    SCOPED_TRACE(scene + "/" + frame);
+    const freeloc::MapfreeScene sc = freeloc::MapfreeScene::Load(tmp.File("data/val/" + scene));
+    const freeloc::MapfreeFrame* q = nullptr;
+    for (const auto& f : sc.queries)
+      if (f.name == frame) q = &f;
+    ASSERT_NE(q, nullptr);
+    auto k = [](const freeloc::Camera& c) {
+      char b[160];
+      std::snprintf(b, sizeof(b), "%.17g,%.17g,%.17g,%.17g", c.fx, c.fy, c.cx, c.cy);
+      return std::string(b);
+    };
+    const std::string stem = frame.substr(0, frame.size() - 4);
+    const Result p = RunFreeloc("pose --preset " + preset + " --matches " + tmp.File("m/" + scene + "/" + stem) +
+                                ".matches.txt --ref-intrinsics " + k(sc.reference.camera) + " --query-intrinsics " +
+                                k(q->camera) + " --ref-depth " + sc.DepthPath(sc.reference, "gt") + " --query-depth " +
+                                sc.DepthPath(*q, "gt") + " --json");
+    ASSERT_TRUE(p.code == 0 || p.code == 1) << p.out;
+    const auto j = nlohmann::json::parse(p.out);
+    EXPECT_EQ(j["status"], rec["status"]);
+    auto rel = [](double a, double b) { return std::abs(a - b) / std::max(1e-300, std::max(std::abs(a), std::abs(b))); };
+    EXPECT_LE(rel(j["confidence"], rec["confidence"]), 1e-9);
+    for (int i = 0; i < 4; ++i) EXPECT_LE(rel(j["qvec"][i], rec["qvec"][i]), 1e-9) << i;
+    for (int i = 0; i < 3; ++i) EXPECT_LE(rel(j["tvec"][i], rec["tvec"][i]), 1e-9) << i;
+    EXPECT_EQ(j["inliers"], rec["inliers"]);
+    EXPECT_EQ(j["options"]["threshold_px"], 3.0);
+    ++compared;
+    ok += rec["status"] == "ok";
+  }
+  EXPECT_EQ(compared, 8);
+  EXPECT_GE(ok, 4);  // the comparison covers real answers, not only failures
+}
+
+// Provenance: the log's first line and the sidecar <out>.json hold the version and every resolved option;
+// relocalize --json and pose --json carry the options too.
+TEST(Cli, RunRecordsItsProvenance) {
+  freeloc::testing::TempDir tmp;
+  const std::string data = freeloc::testing::DemoPath();
+  Result r = RunFreeloc("--threads 1 run --data " + data + " --scenes s00002 --solver essential --set "
+                        "proposals.max_instances=3 --out " + tmp.File("s.zip") + " --log " + tmp.File("l.jsonl"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string log = freeloc::testing::ReadText(tmp.File("l.jsonl"));
+  const auto header = nlohmann::json::parse(log.substr(0, log.find('\n')));
+  const auto sidecar = nlohmann::json::parse(freeloc::testing::ReadText(tmp.File("s.zip.json")));
+  for (const auto& h : {header, sidecar}) {
+    EXPECT_TRUE(Contains(h["freeloc_version"].get<std::string>(), "0.")) << h.dump();
+    EXPECT_EQ(h["options"]["preset"], "sift-essential");
+    EXPECT_EQ(h["options"]["depth"], "provided:sensor");
+    EXPECT_EQ(h["options"]["threads"], 1);
+    EXPECT_EQ(h["options"]["proposals.max_instances"], 3);
+    EXPECT_EQ(h["split"], "val");
+    EXPECT_EQ(h["scenes"], nlohmann::json::array({"s00002"}));
+    EXPECT_TRUE(h["shard"].is_null());
+  }
+  EXPECT_EQ(sidecar["summary"]["queries"], 1);
+  r = RelocalizeS00003(data);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["options"]["matcher"], "sift");
+  // Bad option values name the flag and the choices; unknown --set fields list the options.
+  r = RunFreeloc("run --data " + data + " --solver ransac --out " + tmp.File("x.zip"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "--solver: 'ransac' is not one of essential, pnp, procrustes")) << r.out;
+  r = RunFreeloc("run --data " + data + " --set colour=red --out " + tmp.File("x.zip"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_TRUE(Contains(r.out, "colour: not an option; the options are preset, matcher")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
+}
+
 // A models folder laid out with the published file names, here symlinks to the tiny fixture weights (the
 // Metric3D fixture is safetensors under the .pth name: checkpoints are recognised by content; its config.json
 // sits beside it).
@@ -404,13 +489,12 @@ TEST(Cli, DemoRunsTheSeedPresetWhenTheWeightsAreInstalled) {
 // The seed preset through `run` with the tiny weights of all three networks: models found through
 // $FREELOC_MODELS, the log's per-stage fields, a killed run resumed to the same bytes.
 TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/intrinsics.txt");
   FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
   FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
   FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
   freeloc::testing::TempDir models, tmp;
   LinkTinyModels(models);
-  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  const std::string data = freeloc::testing::DemoPath();
   const std::string run = "run --data " + data + " --scenes s00001,s00003 --preset seed --dust3r-size 224 ";
   // Without weights: the missing file, where to get it, the presets that work; exit 1 and nothing written.
   Result r = RunFreeloc(run + "--out " + tmp.File("none.zip"));
@@ -423,7 +507,7 @@ TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "in 2 scenes")) << r.out;
   const std::string log = freeloc::testing::ReadText(tmp.File("a.jsonl"));
-  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 6);
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1 + 6);
   for (const char* field : {"\"global_matches\":", "\"instances\":", "\"depth_ms\":", "\"instance_ms\":"})
     EXPECT_TRUE(Contains(log, field)) << field << "\n" << log;
   EXPECT_FALSE(Contains(log, "no-depth")) << log;
@@ -448,15 +532,14 @@ TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
 
 // run → submission → eval, and relocalize on one pair; bad presets and missing files are clear errors.
 TEST(Cli, RunThenEvalAndRelocalize) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
   freeloc::testing::TempDir tmp;
-  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  const std::string data = freeloc::testing::DemoPath();
   Result r = RunFreeloc("run --data " + data + " --preset sift-essential --out " + tmp.File("s.zip") + " --log " +
                         tmp.File("log.jsonl"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "2 of 7 queries relocalized in 3 scenes")) << r.out;
   const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
-  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 7);
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1 + 7);  // the header, then a record per query
   EXPECT_TRUE(Contains(log, "\"status\":\"no-depth\"")) << log;
   r = RunFreeloc("-q eval --data " + data + " --submission " + tmp.File("s.zip") + " --json -");
   ASSERT_EQ(r.code, 0) << r.out;
@@ -474,7 +557,7 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   ASSERT_EQ(r.code, 0) << r.out;
   const auto jr = nlohmann::json::parse(r.out);
   const std::string saved = freeloc::testing::ReadText(tmp.File("m.txt"));
-  EXPECT_EQ(std::count(saved.begin(), saved.end(), '\n'), jr["num_matches"].get<int>());
+  EXPECT_EQ(std::count(saved.begin(), saved.end(), '\n'), jr["matches"].get<int>());
   EXPECT_EQ(jr["status"], "ok");
   r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + tmp.File("other.png") +
                  " --intrinsics " + s3 + "intrinsics.txt");
@@ -494,13 +577,12 @@ TEST(Cli, RunThenEvalAndRelocalize) {
 // Bad input: what stops a run (exit 1, one line naming the file or option, no submission) and what fails only
 // its queries (status in the log, no line in the submission, exit 0).
 TEST(Cli, RunReportsBadInputClearly) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
   namespace fs = std::filesystem;
   freeloc::testing::TempDir tmp;
   const std::string split = tmp.File("data/val");
   fs::create_directories(split);
   for (const char* s : {"s00002", "s00003"})
-    fs::copy(freeloc::testing::SharedPath(std::string("data/tum_mapfree/val/") + s), split + "/" + s,
+    fs::copy(freeloc::testing::DemoPath(std::string("val/") + s), split + "/" + s,
              fs::copy_options::recursive);
   const std::string run = "run --data " + tmp.File("data") + " --log " + tmp.File("log.jsonl") + " --out ";
   // A depth suffix no scene has: stops before any work.
@@ -517,8 +599,8 @@ TEST(Cli, RunReportsBadInputClearly) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "0 of 2 queries relocalized in 2 scenes")) << r.out;
   const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
-  EXPECT_TRUE(Contains(log, "\"status\":\"error: " + split + "/s00002/seq1/frame_00000.png")) << log;
-  EXPECT_TRUE(Contains(log, "\"status\":\"error: " + split + "/s00003/seq1/frame_00000.png")) << log;
+  EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00002/seq1/frame_00000.png")) << log;
+  EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00003/seq1/frame_00000.png")) << log;
   const auto zip = freeloc::ZipContents::Read(tmp.File("b.zip")).files;
   EXPECT_EQ(zip.at("pose_s00002.txt"), "");
   EXPECT_EQ(zip.at("pose_s00003.txt"), "");
@@ -526,7 +608,7 @@ TEST(Cli, RunReportsBadInputClearly) {
   fs::remove(split + "/s00003/seq0/frame_00000.png");
   r = RunFreeloc(run + tmp.File("c.zip") + " --scenes s00003");
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(freeloc::testing::ReadText(tmp.File("log.jsonl")), "\"status\":\"error: reference: ")) << r.out;
+  EXPECT_TRUE(Contains(freeloc::testing::ReadText(tmp.File("log.jsonl")), "\"status\":\"error\",\"message\":\"reference: ")) << r.out;
   // A scene without intrinsics: stops before any scene is processed, naming the file.
   fs::remove(split + "/s00003/intrinsics.txt");
   r = RunFreeloc(run + tmp.File("d.zip"));
@@ -539,9 +621,8 @@ TEST(Cli, RunReportsBadInputClearly) {
 // An interrupted run leaves <out>.progress.jsonl; --resume keeps its finished scenes (the planted pose below comes
 // back verbatim, so that scene was not recomputed), ignores a last line cut short, and refuses other options.
 TEST(Cli, RunResumesFromItsProgressFile) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
   freeloc::testing::TempDir tmp;
-  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  const std::string data = freeloc::testing::DemoPath();
   const std::string out = tmp.File("r.zip"), progress = out + ".progress.jsonl";
   // A complete run leaves no progress file behind; its options line is what the header must carry.
   Result r = RunFreeloc("run --data " + data + " --scenes s00002 --out " + out);
@@ -549,8 +630,8 @@ TEST(Cli, RunResumesFromItsProgressFile) {
   EXPECT_FALSE(std::filesystem::exists(progress));
   r = RelocalizeS00003(data);
   ASSERT_EQ(r.code, 0) << r.out;
-  const std::string options = nlohmann::json::parse(r.out)["options"];
-  nlohmann::json header = {{"freeloc_progress", 1}, {"options", options}};
+  const nlohmann::json options = nlohmann::json::parse(r.out)["options"];
+  nlohmann::json header = {{"freeloc_run", 1}, {"options", options}};
   nlohmann::json planted = {{"scene", "s00003"},
                             {"queries",
                              {{{"frame", "seq1/frame_00000.png"},
@@ -589,9 +670,8 @@ TEST(Cli, RunResumesFromItsProgressFile) {
 
 // Shards of a run, merged, give the same bytes as the whole run; overlapping shards and bad shard specs are refused.
 TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
   freeloc::testing::TempDir tmp;
-  const std::string data = freeloc::testing::SharedPath("data/tum_mapfree");
+  const std::string data = freeloc::testing::DemoPath();
   ASSERT_EQ(RunFreeloc("-q run --data " + data + " --out " + tmp.File("all.zip")).code, 0);
   Result r = RunFreeloc("run --data " + data + " --shard 1/2 --out " + tmp.File("a.zip"));
   ASSERT_EQ(r.code, 0) << r.out;

@@ -1,36 +1,146 @@
-// Helpers shared by the subcommands.
-#include <cstdio>
+// Helpers shared by the subcommands: the pipeline's options as flags, flag names in errors, scene lists.
+#include <CLI/CLI.hpp>
+#include <regex>
 #include <sstream>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
-#include "freeloc/io/file_util.h"
-#include "freeloc/io/mapfree.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/relocalizer.h"
 
 namespace freeloc::cli {
 
-std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split, const std::string& scenes_csv,
-                                       std::string* split_dir) {
-  *split_dir = ResolveSplitDir(data, split);
-  std::vector<std::string> only;
-  std::stringstream ss(scenes_csv);
-  std::string item;
-  while (std::getline(ss, item, ','))
-    if (!item.empty()) only.push_back(item);
-  std::vector<std::string> scenes = ListScenes(*split_dir, only);
-  FREELOC_CHECK(!scenes.empty(), *split_dir << ": no scene folders to process");
-  return scenes;
+namespace {
+
+// Option fields → the flags that set them.
+const std::pair<const char*, const char*> kFlags[] = {
+    {"preset", "--preset"},           {"matcher", "--matcher"},           {"depth", "--depth"},
+    {"solver", "--solver"},           {"scale", "--scale"},               {"threshold_px", "--threshold"},
+    {"instance_mode", "--instance-mode"}, {"models_dir", "--models"},     {"dust3r_model", "--dust3r"},
+    {"dust3r_config", "--dust3r-config"}, {"seggpt_model", "--seggpt"},   {"metric3d_model", "--metric3d"},
+    {"dust3r_size", "--dust3r-size"}, {"device", "--device"},             {"precision", "--precision"},
+    {"threads", "--threads"},         {"shard", "--shard"},               {"data", "--data"},
+    {"out", "--out"}};
+
+}  // namespace
+
+// "field: …" → "--flag: …"; other fields named in the text get "(--flag)" after them.
+std::string NameFlags(std::string m) {
+  for (const auto& [field, flag] : kFlags) {  // a leading "field:" or "field " names the flag
+    const std::string f = field;
+    if (m.size() > f.size() && m.compare(0, f.size(), f) == 0 && (m[f.size()] == ':' || m[f.size()] == ' ')) {
+      m = flag + m.substr(f.size());
+      break;
+    }
+  }
+  for (const auto& [field, flag] : kFlags) {
+    if (std::string(field).find('_') == std::string::npos) continue;  // only unambiguous names
+    const std::regex word("\\b" + std::string(field) + "\\b(?! \\()");
+    m = std::regex_replace(m, word, std::string(field) + " (" + flag + ")");
+  }
+  return m;
 }
 
-void WriteCorrespondences(const std::string& path, const matching::Correspondences& c) {
-  std::string text;
-  char line[128];
-  for (size_t i = 0; i < c.size(); ++i) {
-    std::snprintf(line, sizeof(line), "%.3f %.3f %.3f %.3f\n", c.ref[i].x(), c.ref[i].y(), c.query[i].x(),
-                  c.query[i].y());
-    text += line;
+namespace {
+
+void Apply(pipeline::PipelineOptions* o, const char* field, const std::string& value) {
+  if (!value.empty()) pipeline::SetOption(o, field, value);
+}
+
+}  // namespace
+
+nn::RuntimeOptions GlobalOptions::Runtime() const {
+  nn::RuntimeOptions rt;
+  rt.device = ParseEnum<nn::Device>(device, "--device");
+  rt.precision = ParseEnum<nn::Precision>(precision, "--precision");
+  rt.threads = threads;
+  return rt;
+}
+
+pipeline::PipelineOptions WithFlagNames(const std::function<pipeline::PipelineOptions()>& fn) {
+  try {
+    return fn();
+  } catch (const Error& e) {
+    throw Error(NameFlags(e.what()));
   }
-  WriteFileAtomic(path, text.data(), text.size());
+}
+
+void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_preset, bool networks) {
+  sub->add_option("--preset", a->preset,
+                  "default " + default_preset + "; sift-essential, sift-pnp, sift-procrustes, "
+                  "precomputed:<name>-<solver>, seed, seed-no-instance, seed-provided-depth, dust3r");
+  sub->add_option("--matcher", a->matcher, "override: sift | dust3r | dust3r+instances | precomputed:<name>");
+  sub->add_option("--depth", a->depth, "override: provided:<suffix> | metric3d | none");
+  sub->add_option("--solver", a->solver, "override: essential | pnp | procrustes");
+  sub->add_option("--scale", a->scale, "override: robust | official");
+  sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels");
+  sub->add_option("--set", a->sets, "override any option field: NAME=VALUE (docs/pipeline.md lists them)");
+  if (!networks) return;
+  sub->add_option("--instance-mode", a->instance_mode, "override: mask (default) | crop");
+  sub->add_option("--models", a->models,
+                  "folder holding the published weights files (then $FREELOC_MODELS; see docs/models.md)");
+  sub->add_option("--dust3r,--dust3r-model", a->dust3r_model, "DUSt3R weights (.pth, or model.safetensors)");
+  sub->add_option("--dust3r-config", a->dust3r_config, "DUSt3R config.json (optional)");
+  sub->add_option("--seggpt", a->seggpt_model, "SegGPT weights (seggpt_vit_large.pth, or model.safetensors)");
+  sub->add_option("--metric3d", a->metric3d_model, "Metric3D v2 weights (metric_depth_vit_*_800k.pth, …)");
+  sub->add_option("--dust3r-size", a->dust3r_size, "DUSt3R input size (default 512)");
+}
+
+pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const GlobalOptions& g,
+                                              const std::string& default_preset,
+                                              const std::function<void(pipeline::PipelineOptions*)>& adjust) {
+  return WithFlagNames([&] {
+    pipeline::PipelineOptions o = pipeline::ResolvePreset(a.preset.empty() ? default_preset : a.preset);
+    Apply(&o, "matcher", a.matcher);
+    Apply(&o, "depth", a.depth);
+    Apply(&o, "solver", a.solver);
+    Apply(&o, "scale", a.scale);
+    Apply(&o, "instance_mode", a.instance_mode);
+    if (a.threshold > 0) o.threshold_px = a.threshold;
+    o.models_dir = a.models;
+    Apply(&o, "dust3r_model", a.dust3r_model);
+    Apply(&o, "dust3r_config", a.dust3r_config);
+    Apply(&o, "seggpt_model", a.seggpt_model);
+    Apply(&o, "metric3d_model", a.metric3d_model);
+    if (a.dust3r_size > 0) o.dust3r_size = a.dust3r_size;
+    o.runtime = g.Runtime();
+    for (const std::string& s : a.sets) {
+      const size_t eq = s.find('=');
+      FREELOC_CHECK(eq != std::string::npos && eq > 0, "--set: '" << s << "' is not NAME=VALUE");
+      pipeline::SetOption(&o, s.substr(0, eq), s.substr(eq + 1));
+    }
+    if (adjust) adjust(&o);
+    pipeline::FindModels(&o);
+    o.Validate();
+    return o;
+  });
+}
+
+std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split, const std::string& scenes_csv,
+                                       std::string* split_dir) {
+  std::vector<std::string> only;
+  std::stringstream ss(scenes_csv);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) only.push_back(item);
+  return pipeline::ResolveScenes(data, split, only, split_dir);
+}
+
+std::vector<uint16_t> ReadLabels(const std::string& path, int width, int height) {
+  int lw, lh;
+  std::vector<uint16_t> v = ReadPng16(path, &lw, &lh);
+  FREELOC_CHECK(lw == width && lh == height, path << ": the label image is " << lw << "x" << lh << " but its photo is "
+                                                  << width << "x" << height
+                                                  << "; give masks at the photo's resolution");
+  return v;
+}
+
+void ApplyMaskArgs(pipeline::PipelineOptions* o, bool ref_masks, bool query_masks) {
+  if (!ref_masks && !query_masks) return;
+  FREELOC_CHECK(ref_masks, "--query-masks needs --ref-masks (the reference's instances)");
+  FREELOC_CHECK(o->UsesInstances(), "--ref-masks: the matcher " << o->matcher.ToString()
+                                        << " takes no instances; use --matcher dust3r+instances");
+  o->instance_source = query_masks ? pipeline::InstanceSource::kGiven : pipeline::InstanceSource::kPropagate;
 }
 
 }  // namespace freeloc::cli

@@ -15,15 +15,12 @@ namespace freeloc::cli {
 namespace {
 
 struct DepthOptions {
-  std::string model, config, image, intrinsics, out, raw, precision = "fp32";
+  std::string model, config, image, intrinsics, out, raw;
 };
 
 int RunDepth(const DepthOptions& o, const GlobalOptions& g) {
   const Camera cam = Camera::FromString(o.intrinsics, "--intrinsics");
-  nn::RuntimeOptions rt;
-  rt.device = g.device;
-  rt.threads = g.threads;
-  rt.precision = o.precision;
+  const nn::RuntimeOptions rt = g.Runtime();
   const auto model = nn::Metric3dModel::Load(o.model, o.config, rt);
   const Image img = ReadImage(o.image);
   const nn::Metric3dOutput out = model->Estimate(img, cam);
@@ -60,7 +57,6 @@ void RegisterDepth(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--config", o->config, "config.json (optional; released defaults otherwise)");
   sub->add_option("--image", o->image, "input image")->required();
   sub->add_option("--intrinsics", o->intrinsics, "fx,fy,cx,cy of the image")->required();
-  sub->add_option("--precision", o->precision, "fp32 (default) or bf16")->check(CLI::IsMember({"fp32", "bf16"}));
   sub->add_option("--out", o->out, "depth PNG, uint16 millimetres, 0 = invalid")->required();
   sub->add_option("--raw", o->raw, "also write depth/confidence/normal/canonical_depth as float32 safetensors");
   sub->callback([o, run, &global] { *run = [o, &global] { return RunDepth(*o, global); }; });

@@ -7,23 +7,23 @@
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
-
-#ifndef FREELOC_VERSION
-#define FREELOC_VERSION "unknown"
-#endif
+#include "freeloc/core/version.h"
 
 int main(int argc, char** argv) {
   using namespace freeloc;
   cli::GlobalOptions global;
   cli::RunFn run;
 
-  CLI::App app{"freeloc " FREELOC_VERSION
-               " — map-free metric relocalization: the pose of a query photo relative to a reference photo, in metres.",
+  CLI::App app{std::string("freeloc ") + Version() +
+                   " — map-free metric relocalization: the pose of a query photo relative to a reference photo, in "
+                   "metres.",
                "freeloc"};
-  app.set_version_flag("--version", std::string("freeloc ") + FREELOC_VERSION);
+  app.set_version_flag("--version", std::string("freeloc ") + Version());
   app.add_option("--threads", global.threads, "CPU threads for inference and geometry (default: library default)")
       ->check(CLI::PositiveNumber);
   app.add_option("--device", global.device, "where networks run: cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
+  app.add_option("--precision", global.precision, "network arithmetic: fp32 (default, parity) or bf16")
+      ->check(CLI::IsMember({"fp32", "bf16"}));
   auto* quiet = app.add_flag("-q,--quiet", global.quiet, "only errors; no progress bars");
   app.add_flag("-v,--verbose", global.verbose, "debug logging")->excludes(quiet);
   app.require_subcommand(1);
@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   cli::RegisterSegment(app, global, &run);
   cli::RegisterDepth(app, global, &run);
   cli::RegisterRun(app, global, &run);
+  cli::RegisterRelocalize(app, global, &run);
   cli::RegisterDemo(app, global, &run);
   cli::RegisterMerge(app, global, &run);
 

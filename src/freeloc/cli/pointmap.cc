@@ -8,7 +8,7 @@
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/safetensors.h"
 #include "freeloc/matching/pixel_mapping.h"
@@ -20,7 +20,7 @@ namespace freeloc::cli {
 namespace {
 
 struct PointmapOptions {
-  std::string model, config, size = "512", out, precision = "fp32";
+  std::string model, config, size = "512", out;
   std::vector<std::string> images;
   bool matches = false;
   double conf_thr = 0;
@@ -44,10 +44,7 @@ std::pair<int, int> ParseSizes(const std::string& s) {
 int RunPointmap(const PointmapOptions& o, const GlobalOptions& g) {
   FREELOC_CHECK(o.images.size() == 2, "pointmap needs exactly two images (IMG1 IMG2), got " << o.images.size());
   const auto [s1, s2] = ParseSizes(o.size);
-  nn::RuntimeOptions rt;
-  rt.device = g.device;
-  rt.threads = g.threads;
-  rt.precision = o.precision;
+  const nn::RuntimeOptions rt = g.Runtime();
   const auto t_load = std::chrono::steady_clock::now();
   const auto model = nn::Dust3rModel::Load(o.model, o.config, rt);
   const double load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_load).count();
@@ -96,8 +93,8 @@ int RunPointmap(const PointmapOptions& o, const GlobalOptions& g) {
       {"model", o.model},
       {"config", model->config().Summary()},
       {"size", std::to_string(s1) + "," + std::to_string(s2)},
-      {"precision", o.precision},
-      {"device", g.device},
+      {"precision", ToString(rt.precision)},
+      {"device", ToString(rt.device)},
       {"timings", timing},
       {"image_1", o.images[0] + " " + std::to_string(a.orig_width) + "x" + std::to_string(a.orig_height) +
                       " -> resized " + std::to_string(a.resized_width) + "x" + std::to_string(a.resized_height) +
@@ -120,7 +117,6 @@ void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--model", o->model, "DUSt3R weights: official .pth or model.safetensors")->required();
   sub->add_option("--config", o->config, "config.json with the constructor arguments (optional)");
   sub->add_option("--size", o->size, "load_images size: 224 or a multiple of 16, one value or two (SIZE1,SIZE2)");
-  sub->add_option("--precision", o->precision, "fp32 (default) or bf16")->check(CLI::IsMember({"fp32", "bf16"}));
   sub->add_option("--out", o->out, "output .safetensors")->required();
   sub->add_option("IMAGES", o->images, "IMG1 IMG2")->expected(2);
   sub->add_flag("--matches", o->matches,

@@ -1,179 +1,88 @@
 // `freeloc pose`: a pose from a correspondence file (`x_ref y_ref x_query y_query` per line, pixels) and each
-// frame's intrinsics — essential matrix + metric scale from depth (or unit translation without depth), PnP or
-// Procrustes.
+// frame's intrinsics, by the pipeline's PoseSolver — the same solver, status and confidence `freeloc run` gives for
+// the same correspondences, depths and options (`run --save-matches` writes its correspondences in this format).
 #include <CLI/CLI.hpp>
-#include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
-#include "freeloc/geometry/absolute_pose.h"
-#include "freeloc/geometry/metric_scale.h"
-#include "freeloc/geometry/relative_pose.h"
+#include "freeloc/io/correspondence_file.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/io/pyparse.h"
+#include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/stages.h"
 
 namespace freeloc::cli {
 
 namespace {
 
-struct PoseOptions {
-  std::string matches, ref_intr, query_intr, ref_depth, query_depth, solver = "essential", scale = "robust";
-  double threshold = -1;
+struct PoseArgs {
+  PipelineArgs pipeline;
+  std::string matches, ref_intr, query_intr, ref_depth, query_depth;
   bool json = false;
 };
 
-void ReadMatches(const std::string& path, std::vector<Eigen::Vector2d>* a, std::vector<Eigen::Vector2d>* b) {
-  std::ifstream f(path);
-  FREELOC_CHECK(f.good(), path << ": cannot open the correspondence file");
-  std::string line;
-  int ln = 0;
-  while (std::getline(f, line)) {
-    ++ln;
-    const std::string s = py::Strip(line);
-    if (s.empty() || s[0] == '#') continue;
-    std::istringstream is(s);
-    std::vector<double> v;
-    std::string tok;
-    while (is >> tok) {
-      double x;
-      FREELOC_CHECK(py::ParseFloat(tok, &x), path << " line " << ln << ": '" << tok << "' is not a number");
-      v.push_back(x);
-    }
-    FREELOC_CHECK(v.size() == 4,
-                  path << " line " << ln << ": expected 4 numbers 'x_ref y_ref x_query y_query', got " << v.size());
-    FREELOC_CHECK(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]) && std::isfinite(v[3]),
-                  path << " line " << ln << ": non-finite coordinate; remove NaN/inf rows");
-    a->emplace_back(v[0], v[1]);
-    b->emplace_back(v[2], v[3]);
-  }
+// Without --preset: the solver's own defaults (essential: 1 px threshold, robust scale). The correspondences are
+// the file's; depth is the files given (provided) or none.
+pipeline::PipelineOptions Options(const PoseArgs& a, const GlobalOptions& g) {
+  return ResolvePipelineArgs(a.pipeline, g, "precomputed:file-essential", [&](pipeline::PipelineOptions* o) {
+    if (a.pipeline.preset.empty() && a.pipeline.threshold <= 0) o->threshold_px = -1;
+    o->matcher = pipeline::MatcherSpec::FromString("precomputed:file");
+    o->depth = pipeline::DepthSpec::FromString(a.ref_depth.empty() ? "none" : "provided:png");
+    FREELOC_CHECK(a.ref_depth.empty() == a.query_depth.empty() || o->solver == pipeline::SolverKind::kPnp,
+                  "give both --ref-depth and --query-depth (or neither); only --solver pnp uses the reference depth "
+                  "alone");
+  });
 }
 
-int RunPose(const PoseOptions& o) {
-  const Camera kr = Camera::FromString(o.ref_intr, "--ref-intrinsics");
-  const Camera kq = Camera::FromString(o.query_intr, "--query-intrinsics");
-  std::vector<Eigen::Vector2d> a, b;
-  ReadMatches(o.matches, &a, &b);
-  const bool have_depth = !o.ref_depth.empty() && !o.query_depth.empty();
-  FREELOC_CHECK(
-      o.ref_depth.empty() == o.query_depth.empty() || o.solver == "pnp",
-      "give both --ref-depth and --query-depth (or neither); only --solver pnp uses the reference depth alone");
-  DepthMap dr, dq;
-  if (!o.ref_depth.empty()) dr = ReadDepthPng(o.ref_depth);
-  if (!o.query_depth.empty()) dq = ReadDepthPng(o.query_depth);
+void PrintText(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o) {
+  const auto qv = q.query_from_ref.QuaternionWxyz();
+  const auto& t = q.query_from_ref.translation;
+  std::printf("%s\n", o.Summary().c_str());
+  std::printf("status:      %s\n", q.StatusText().c_str());
+  std::printf("qvec (wxyz): %.9f %.9f %.9f %.9f\n", qv[0], qv[1], qv[2], qv[3]);
+  std::printf("tvec:        %.6f %.6f %.6f %s\n", t.x(), t.y(), t.z(),
+              q.metric() ? "(metres)" : "(unit norm: no depth given, translation direction only)");
+  std::printf("inliers:     %d of %d (%d agree on the scale)\n", q.inliers, q.matches, q.scale_inliers);
+  std::printf("confidence:  %.6g\n", q.confidence);
+}
 
-  Rigid3d pose;
-  double confidence = 0;
-  int inliers = 0;
-  std::string status;
-  bool metric = false;
-  nlohmann::ordered_json st;
-  if (o.solver == "essential") {
-    geometry::RelativePoseOptions ro;
-    if (o.threshold > 0) ro.threshold_px = o.threshold;
-    const auto r = geometry::EstimateRelativePose(a, b, kr, kq, ro);
-    pose = r.query_from_ref;
-    inliers = r.status.num_inliers;
-    confidence = inliers;
-    status = r.status.reason;
-    st = {{"matches", r.status.num_matches},
-          {"iterations", r.status.iterations},
-          {"local_optimizations", r.status.local_optimizations},
-          {"stop_reason", r.status.stop_reason},
-          {"refinement_cost", r.status.refinement_cost},
-          {"time_ms", r.status.time_ms}};
-    if (r.status.success && have_depth) {
-      std::vector<Eigen::Vector2d> ia, ib;
-      for (size_t i = 0; i < a.size(); ++i)
-        if (r.inliers[i]) {
-          ia.push_back(a[i]);
-          ib.push_back(b[i]);
-        }
-      geometry::ScaleOptions so;
-      so.method = geometry::ParseScaleMethod(o.scale);
-      const auto s = geometry::EstimateMetricScale(ia, ib, r.query_from_ref, dr, dq, kr, kq, so);
-      st["scale"] = {{"method", o.scale},
-                     {"status", s.reason},
-                     {"candidates", s.num_candidates},
-                     {"inliers", s.num_inliers},
-                     {"value", s.scale}};
-      if (s.success) {
-        pose.translation *= s.scale;
-        confidence = s.confidence;
-        metric = true;
-      } else {
-        status = "scale-" + s.reason;
-      }
-    }
-  } else if (o.solver == "pnp" || o.solver == "procrustes") {
-    FREELOC_CHECK(!dr.empty(), "--solver " << o.solver << " needs --ref-depth");
-    geometry::MetricPoseResult r;
-    if (o.solver == "pnp") {
-      geometry::PnPOptions po;
-      if (o.threshold > 0) po.threshold_px = o.threshold;
-      r = geometry::EstimatePnP(a, b, dr, kr, kq, po);
-    } else {
-      FREELOC_CHECK(!dq.empty(), "--solver procrustes needs --query-depth too");
-      r = geometry::EstimateProcrustes(a, b, dr, dq, kr, kq);
-    }
-    pose = r.query_from_ref;
-    inliers = r.status.num_inliers;
-    confidence = r.confidence;
-    status = r.status.reason;
-    metric = r.status.success;
-    st = {{"matches", r.status.num_matches},
-          {"iterations", r.status.iterations},
-          {"stop_reason", r.status.stop_reason},
-          {"time_ms", r.status.time_ms}};
-  } else {
-    FREELOC_THROW("--solver '" << o.solver << "' is unknown; use essential, pnp or procrustes");
+int RunPose(const PoseArgs& a, const GlobalOptions& g) {
+  const pipeline::PipelineOptions o = Options(a, g);
+  const Camera kr = Camera::FromString(a.ref_intr, "--ref-intrinsics");
+  const Camera kq = Camera::FromString(a.query_intr, "--query-intrinsics");
+  matching::Correspondences c;
+  for (const auto& r : ReadCorrespondenceFile(a.matches)) {
+    c.ref.emplace_back(r(0), r(1));
+    c.query.emplace_back(r(2), r(3));
   }
-  const auto q = pose.QuaternionWxyz();
-  if (o.json) {
-    nlohmann::ordered_json j;
-    j["qvec"] = {q[0], q[1], q[2], q[3]};
-    j["tvec"] = {pose.translation.x(), pose.translation.y(), pose.translation.z()};
-    j["confidence"] = confidence;
-    j["num_inliers"] = inliers;
-    j["status"] = status;
-    j["metric"] = metric;
-    j["solver"] = o.solver;
-    j["details"] = st;
-    std::printf("%s\n", j.dump(2).c_str());
+  DepthMap dr, dq;
+  if (!a.ref_depth.empty()) dr = ReadDepthPng(a.ref_depth);
+  if (!a.query_depth.empty()) dq = ReadDepthPng(a.query_depth);
+  pipeline::QueryResult q;
+  pipeline::MakePoseSolver(o)->Solve(c, kr, kq, dr, dq, &q);
+  if (a.json) {
+    std::printf("%s\n", pipeline::QueryRecordJson("", q, &o, 2).c_str());
   } else {
-    std::printf("solver:      %s\n", o.solver.c_str());
-    std::printf("status:      %s\n", status.c_str());
-    std::printf("qvec (wxyz): %.9f %.9f %.9f %.9f\n", q[0], q[1], q[2], q[3]);
-    std::printf("tvec:        %.6f %.6f %.6f %s\n", pose.translation.x(), pose.translation.y(), pose.translation.z(),
-                metric ? "(metres)" : "(unit norm: no depth given, translation direction only)");
-    std::printf("inliers:     %d of %zu\n", inliers, a.size());
-    std::printf("confidence:  %.6g\n", confidence);
-    std::printf("details:     %s\n", st.dump().c_str());
+    PrintText(q, o);
   }
-  return status == "ok" ? 0 : 1;
+  return q.ok() ? 0 : 1;
 }
 
 }  // namespace
 
-void RegisterPose(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
-  auto o = std::make_shared<PoseOptions>();
+void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run) {
+  auto a = std::make_shared<PoseArgs>();
   auto* sub = app.add_subcommand(
       "pose", "Estimate query_from_ref from a correspondence file (x_ref y_ref x_query y_query per line)");
-  sub->add_option("--matches", o->matches, "correspondence file, pixels of each frame")->required();
-  sub->add_option("--ref-intrinsics", o->ref_intr, "fx,fy,cx,cy of the reference frame")->required();
-  sub->add_option("--query-intrinsics", o->query_intr, "fx,fy,cx,cy of the query frame")->required();
-  sub->add_option("--ref-depth", o->ref_depth, "reference depth PNG (uint16 mm)");
-  sub->add_option("--query-depth", o->query_depth, "query depth PNG (uint16 mm)");
-  sub->add_option("--solver", o->solver, "essential (default), pnp or procrustes")
-      ->check(CLI::IsMember({"essential", "pnp", "procrustes"}));
-  sub->add_option("--scale", o->scale, "metric scale method for essential: robust (default) or official")
-      ->check(CLI::IsMember({"official", "robust"}));
-  sub->add_option("--threshold", o->threshold, "inlier threshold in pixels (default: 1 for essential, 3 for pnp)");
-  sub->add_flag("--json", o->json, "one JSON object: qvec, tvec, confidence, num_inliers, status");
-  sub->callback([o, run] { *run = [o] { return RunPose(*o); }; });
+  sub->add_option("--matches", a->matches, "correspondence file, pixels of each frame")->required();
+  sub->add_option("--ref-intrinsics", a->ref_intr, "fx,fy,cx,cy of the reference frame")->required();
+  sub->add_option("--query-intrinsics", a->query_intr, "fx,fy,cx,cy of the query frame")->required();
+  sub->add_option("--ref-depth", a->ref_depth, "reference depth PNG (uint16 mm)");
+  sub->add_option("--query-depth", a->query_depth, "query depth PNG (uint16 mm)");
+  sub->add_flag("--json", a->json, "one JSON record (docs/formats.md) with the resolved options");
+  AddPipelineArgs(sub, &a->pipeline, "none: essential with the solver's defaults (or the preset of a run)",
+                  /*networks=*/false);
+  sub->callback([a, run, &global] { *run = [a, &global] { return RunPose(*a, global); }; });
 }
 
 }  // namespace freeloc::cli

@@ -14,7 +14,7 @@ namespace freeloc::cli {
 namespace {
 
 struct SegmentOptions {
-  std::string model, config, target, out, raw, type = "instance", precision = "fp32";
+  std::string model, config, target, out, raw, type = "instance";
   std::vector<std::string> prompt_images, prompt_masks;
 };
 
@@ -22,10 +22,7 @@ int RunSegment(const SegmentOptions& o, const GlobalOptions& g) {
   FREELOC_CHECK(!o.prompt_images.empty() && o.prompt_images.size() == o.prompt_masks.size(),
                 "give one --prompt-mask per --prompt-image (got " << o.prompt_images.size() << " images and "
                                                                   << o.prompt_masks.size() << " masks)");
-  nn::RuntimeOptions rt;
-  rt.device = g.device;
-  rt.threads = g.threads;
-  rt.precision = o.precision;
+  const nn::RuntimeOptions rt = g.Runtime();
   const auto model = nn::SegGptModel::Load(o.model, o.config, rt);
   std::vector<Image> pi, pm;
   for (size_t k = 0; k < o.prompt_images.size(); ++k) {
@@ -76,7 +73,6 @@ void RegisterSegment(CLI::App& app, const GlobalOptions& global, RunFn* run) {
       ->required();
   sub->add_option("--target", o->target, "target image")->required();
   sub->add_option("--type", o->type, "instance (default) or semantic")->check(CLI::IsMember({"instance", "semantic"}));
-  sub->add_option("--precision", o->precision, "fp32 (default) or bf16")->check(CLI::IsMember({"fp32", "bf16"}));
   sub->add_option("--out", o->out, "binary mask PNG (0/255) at the target's size")->required();
   sub->add_option("--raw", o->raw, "also write the network output of the target half as safetensors ('pred' [3,S,S])");
   sub->callback([o, run, &global] { *run = [o, &global] { return RunSegment(*o, global); }; });

@@ -243,8 +243,7 @@ TEST(Metrics, ErrorsWhereTheOfficialEvaluatorPrintsNothing) {
 }
 
 TEST(Metrics, RealTumScenesPerfectSubmission) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/poses.txt");
-  const std::string split = testing::SharedPath("data/tum_mapfree/val");
+  const std::string split = testing::DemoPath("val");
   testing::TempDir tmp;
   std::map<std::string, std::vector<SubmissionEntry>> sub;
   for (const char* s : {"s00001", "s00002", "s00003"}) {

@@ -70,12 +70,10 @@ void MulAdd(const Quad& a, const Lin& b, double s, Cubic* out) {
   }
 }
 
-}  // namespace
-
-int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5], std::vector<Eigen::Matrix3d>* out) {
-  // Epipolar constraints x2ᵀ·E·x1 = 0 as rows over vec(E) (row-major). The null space is spanned by the last 4
-  // columns of the orthogonal factor of a QR of Qᵀ (numerically the most accurate choice; Gauss–Jordan is faster
-  // but loses digits on near-degenerate samples).
+// The null space of the epipolar constraints x2ᵀ·E·x1 = 0 (rows over vec(E), row-major): the last 4 columns of the
+// orthogonal factor of a QR of Qᵀ (numerically the most accurate choice; Gauss–Jordan is faster but loses digits on
+// near-degenerate samples). Columns X, Y, Z, W: E = x·X + y·Y + z·Z + W.
+Eigen::Matrix<double, 9, 4> NullSpace(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5]) {
   Eigen::Matrix<double, 9, 5> Qt;
   for (int i = 0; i < 5; ++i) {
     for (int r = 0; r < 3; ++r)
@@ -84,26 +82,25 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
   const Eigen::HouseholderQR<Eigen::Matrix<double, 9, 5>> qr(Qt);
   Eigen::Matrix<double, 9, 4> N = Eigen::Matrix<double, 9, 4>::Zero();
   N.bottomRows<4>().setIdentity();
-  N.applyOnTheLeft(qr.householderQ());  // columns: X, Y, Z, W → E = x·X + y·Y + z·Z + W
+  N.applyOnTheLeft(qr.householderQ());
+  return N;
+}
 
-  // E entries as linear polynomials in (x, y, z).
-  Lin e[3][3];
+// The 10 cubic constraints over the 20 monomials: det(E) = 0 and 2·E·Eᵀ·E − tr(E·Eᵀ)·E = 0.
+Eigen::Matrix<double, 10, 20> CubicConstraints(const Eigen::Matrix<double, 9, 4>& N) {
+  Lin e[3][3];  // E entries as linear polynomials in (x, y, z)
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) e[r][c] = {N(3 * r + c, 0), N(3 * r + c, 1), N(3 * r + c, 2), N(3 * r + c, 3)};
-
-  // 10 cubic constraints: det(E) = 0 and 2·E·Eᵀ·E − tr(E·Eᵀ)·E = 0.
   Eigen::Matrix<double, 10, 20> A = Eigen::Matrix<double, 10, 20>::Zero();
-  {
-    Cubic det{};
-    const int p[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {1, 0, 2}, {2, 1, 0}};
-    const double sgn[6] = {1, 1, 1, -1, -1, -1};
-    for (int k = 0; k < 6; ++k) {
-      Quad q{};
-      MulAdd(e[0][p[k][0]], e[1][p[k][1]], 1.0, &q);
-      MulAdd(q, e[2][p[k][2]], sgn[k], &det);
-    }
-    for (int j = 0; j < 20; ++j) A(0, j) = det[j];
+  Cubic det{};
+  const int p[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {1, 0, 2}, {2, 1, 0}};
+  const double sgn[6] = {1, 1, 1, -1, -1, -1};
+  for (int k = 0; k < 6; ++k) {
+    Quad q{};
+    MulAdd(e[0][p[k][0]], e[1][p[k][1]], 1.0, &q);
+    MulAdd(q, e[2][p[k][2]], sgn[k], &det);
   }
+  for (int j = 0; j < 20; ++j) A(0, j) = det[j];
   Quad eet[3][3];
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) {
@@ -119,27 +116,33 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
       MulAdd(tr, e[r][c], -1.0, &v);
       for (int j = 0; j < 20; ++j) A(1 + 3 * r + c, j) = v[j];
     }
+  return A;
+}
 
-  const Eigen::Matrix<double, 10, 20> A0 = A;  // the constraints before elimination, for polishing roots
-  // Gauss–Jordan elimination on the first 10 columns (partial pivoting).
+// Gauss–Jordan elimination on the first 10 columns (partial pivoting); false for a degenerate sample.
+bool Eliminate(Eigen::Matrix<double, 10, 20>* A) {
   for (int col = 0; col < 10; ++col) {
     int piv = col;
     for (int r = col + 1; r < 10; ++r)
-      if (std::abs(A(r, col)) > std::abs(A(piv, col))) piv = r;
-    if (std::abs(A(piv, col)) < 1e-12) return 0;  // degenerate sample
-    if (piv != col) A.row(piv).swap(A.row(col));
-    A.row(col) /= A(col, col);
+      if (std::abs((*A)(r, col)) > std::abs((*A)(piv, col))) piv = r;
+    if (std::abs((*A)(piv, col)) < 1e-12) return false;
+    if (piv != col) A->row(piv).swap(A->row(col));
+    A->row(col) /= (*A)(col, col);
     for (int r = 0; r < 10; ++r)
-      if (r != col && A(r, col) != 0) A.row(r) -= A(r, col) * A.row(col);
+      if (r != col && (*A)(r, col) != 0) A->row(r) -= (*A)(r, col) * A->row(col);
   }
-  // Rows after elimination: row i = leading monomial i + Σ b_ij·rest_j, rest = [xz², xz, x, yz², yz, y, z³, z², z, 1].
+  return true;
+}
+
+// The hidden-variable 3×3 matrix in z (rows k, l, m; columns: coefficient of x, of y, constant) from the eliminated
+// rows: row i = leading monomial i + Σ b_ij·rest_j, rest = [xz², xz, x, yz², yz, y, z³, z², z, 1].
+void HiddenVariableMatrix(const Eigen::Matrix<double, 10, 20>& A, Poly M[3][3]) {
   auto row_polys = [&](int r, Poly* px, Poly* py, Poly* pc) {
     const auto b = [&](int j) { return A(r, 10 + j); };
     *px = {b(2), b(1), b(0)};
     *py = {b(5), b(4), b(3)};
     *pc = {b(9), b(8), b(7), b(6)};
   };
-  Poly M[3][3];  // rows k, l, m; columns: coefficient of x, of y, constant — polynomials in z
   const int pairs[3][2] = {{4, 5}, {6, 7}, {8, 9}};
   for (int i = 0; i < 3; ++i) {
     Poly ax, ay, ac, bx, by, bc;
@@ -150,12 +153,52 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
     M[i][1] = PolySub(ay, PolyMul(z, by));
     M[i][2] = PolySub(ac, PolyMul(z, bc));
   }
+}
+
+// Gauss–Newton steps on the 10 original cubic constraints A0 at (x, y, z): the degree-10 polynomial can be
+// ill-conditioned near close roots, the cubic system much less so.
+void PolishRoot(const Eigen::Matrix<double, 10, 20>& A0, double* x, double* y, double* z) {
+  for (int it = 0; it < 3; ++it) {
+    // Powers up to 3 of x, y, z and the monomials with their partial derivatives.
+    const double px[4] = {1, *x, *x * *x, *x * *x * *x}, py[4] = {1, *y, *y * *y, *y * *y * *y},
+                 pz[4] = {1, *z, *z * *z, *z * *z * *z};
+    Eigen::Matrix<double, 20, 1> m;
+    Eigen::Matrix<double, 20, 3> dm;
+    for (int j = 0; j < 20; ++j) {
+      const Exp& e = kCubicExp[j];
+      m(j) = px[e.a] * py[e.b] * pz[e.c];
+      dm(j, 0) = e.a ? e.a * px[e.a - 1] * py[e.b] * pz[e.c] : 0.0;
+      dm(j, 1) = e.b ? e.b * px[e.a] * py[e.b - 1] * pz[e.c] : 0.0;
+      dm(j, 2) = e.c ? e.c * px[e.a] * py[e.b] * pz[e.c - 1] : 0.0;
+    }
+    const Eigen::Matrix<double, 10, 1> r = A0 * m;
+    const Eigen::Matrix<double, 10, 3> J = A0 * dm;
+    const Eigen::Vector3d step = (J.transpose() * J).ldlt().solve(-J.transpose() * r);
+    if (!step.allFinite()) break;
+    *x += step(0);
+    *y += step(1);
+    *z += step(2);
+    if (step.norm() < 1e-15 * (1 + std::abs(*x) + std::abs(*y) + std::abs(*z))) break;
+  }
+}
+
+}  // namespace
+
+// Nistér's 5-point solver (D. Nistér, "An efficient solution to the five-point relative pose problem", PAMI 2004),
+// in the hidden-variable form: null space, 10 cubic constraints, elimination, a degree-10 polynomial in z, roots
+// polished on the cubic system.
+int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5], std::vector<Eigen::Matrix3d>* out) {
+  const Eigen::Matrix<double, 9, 4> N = NullSpace(x1, x2);
+  Eigen::Matrix<double, 10, 20> A = CubicConstraints(N);
+  const Eigen::Matrix<double, 10, 20> A0 = A;  // the constraints before elimination, for polishing roots
+  if (!Eliminate(&A)) return 0;  // degenerate sample
+  Poly M[3][3];
+  HiddenVariableMatrix(A, M);
   const Poly det = PolyAdd(PolySub(PolyMul(M[0][0], PolySub(PolyMul(M[1][1], M[2][2]), PolyMul(M[1][2], M[2][1]))),
                                    PolyMul(M[0][1], PolySub(PolyMul(M[1][0], M[2][2]), PolyMul(M[1][2], M[2][0])))),
                            PolyMul(M[0][2], PolySub(PolyMul(M[1][0], M[2][1]), PolyMul(M[1][1], M[2][0]))));
-  const std::vector<double> zs = RealRoots(det);
   int found = 0;
-  for (double z : zs) {
+  for (double z : RealRoots(det)) {
     Eigen::Vector3d rows[3];
     for (int i = 0; i < 3; ++i) rows[i] = {PolyEval(M[i][0], z), PolyEval(M[i][1], z), PolyEval(M[i][2], z)};
     // (x, y, 1) is the null vector of the 3×3 matrix: the best-conditioned cross product of two rows.
@@ -164,46 +207,8 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
       if (std::abs(v(2)) > std::abs(best(2))) best = v;
     if (std::abs(best(2)) < 1e-300) continue;
     double x = best(0) / best(2), y = best(1) / best(2), zz = z;
-    // Polish (x, y, z) with Gauss–Newton steps on the 10 original cubic constraints: the degree-10 polynomial can
-    // be ill-conditioned near close roots, the cubic system much less so.
-    for (int it = 0; it < 3; ++it) {
-      // Powers up to 3 of x, y, z and the monomials with their partial derivatives.
-      const double px[4] = {1, x, x * x, x * x * x}, py[4] = {1, y, y * y, y * y * y},
-                   pz[4] = {1, zz, zz * zz, zz * zz * zz};
-      Eigen::Matrix<double, 20, 1> m;
-      Eigen::Matrix<double, 20, 3> dm;
-      for (int j = 0; j < 20; ++j) {
-        const Exp& e = kCubicExp[j];
-        m(j) = px[e.a] * py[e.b] * pz[e.c];
-        dm(j, 0) = e.a ? e.a * px[e.a - 1] * py[e.b] * pz[e.c] : 0.0;
-        dm(j, 1) = e.b ? e.b * px[e.a] * py[e.b - 1] * pz[e.c] : 0.0;
-        dm(j, 2) = e.c ? e.c * px[e.a] * py[e.b] * pz[e.c - 1] : 0.0;
-      }
-      Eigen::Matrix<double, 10, 1> r;
-      Eigen::Matrix<double, 10, 3> J;
-      for (int i = 0; i < 10; ++i) {
-        double ri = 0, j0 = 0, j1 = 0, j2 = 0;
-        for (int j = 0; j < 20; ++j) {
-          const double a = A0(i, j);
-          ri += a * m(j);
-          j0 += a * dm(j, 0);
-          j1 += a * dm(j, 1);
-          j2 += a * dm(j, 2);
-        }
-        r(i) = ri;
-        J(i, 0) = j0;
-        J(i, 1) = j1;
-        J(i, 2) = j2;
-      }
-      const Eigen::Vector3d step = (J.transpose() * J).ldlt().solve(-J.transpose() * r);
-      if (!step.allFinite()) break;
-      x += step(0);
-      y += step(1);
-      zz += step(2);
-      if (step.norm() < 1e-15 * (1 + std::abs(x) + std::abs(y) + std::abs(zz))) break;
-    }
-    const double z_final = zz;
-    const Eigen::Matrix<double, 9, 1> ev = x * N.col(0) + y * N.col(1) + z_final * N.col(2) + N.col(3);
+    PolishRoot(A0, &x, &y, &zz);
+    const Eigen::Matrix<double, 9, 1> ev = x * N.col(0) + y * N.col(1) + zz * N.col(2) + N.col(3);
     Eigen::Matrix3d E;
     E << ev(0), ev(1), ev(2), ev(3), ev(4), ev(5), ev(6), ev(7), ev(8);
     if (!E.allFinite()) continue;

@@ -8,13 +8,6 @@
 
 namespace freeloc::geometry {
 
-const char* ScaleMethodName(ScaleMethod m) { return m == ScaleMethod::kOfficial ? "official" : "robust"; }
-
-ScaleMethod ParseScaleMethod(const std::string& s) {
-  if (s == "official") return ScaleMethod::kOfficial;
-  if (s == "robust") return ScaleMethod::kRobust;
-  FREELOC_THROW("--scale '" << s << "' is not a scale method; use official or robust");
-}
 
 void ScaleOptions::Validate() const {
   FREELOC_CHECK(official_threshold_m > 0 && relative_threshold > 0 && min_threshold_m >= 0,
@@ -32,18 +25,21 @@ float BilinearDepth(const DepthMap& d, double x, double y) {
   return static_cast<float>((1 - fy) * ((1 - fx) * a + fx * b) + fy * ((1 - fx) * c + fx * e));
 }
 
-ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
-                                const std::vector<Eigen::Vector2d>& px_query, const Rigid3d& query_from_ref,
-                                const DepthMap& depth_ref, const DepthMap& depth_query, const Camera& ref,
-                                const Camera& query, const ScaleOptions& opt) {
-  opt.Validate();
-  FREELOC_CHECK(px_ref.size() == px_query.size(), "metric scale: point lists differ in length");
-  FREELOC_CHECK(!depth_ref.empty() && !depth_query.empty(), "metric scale: both depth maps are needed");
-  ScaleResult res;
+namespace {
+
+// One candidate per correspondence with depth in both frames: s = t̂·(X_query − R·X_ref), its window τ and the mean
+// distance of its two points.
+struct Candidates {
+  std::vector<double> s, tau, dist;
+};
+
+Candidates ScaleCandidates(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                           const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
+                           const Camera& ref, const Camera& query, const ScaleOptions& opt) {
   const Eigen::Matrix3d R = query_from_ref.R();
   const Eigen::Vector3d t = query_from_ref.translation.normalized();
-  std::vector<double> s, tau, dist;
-  s.reserve(px_ref.size());
+  Candidates c;
+  c.s.reserve(px_ref.size());
   for (size_t i = 0; i < px_ref.size(); ++i) {
     double ur = px_ref[i].x(), vr = px_ref[i].y(), uq = px_query[i].x(), vq = px_query[i].y();
     double dr, dq;
@@ -64,60 +60,63 @@ ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
     if (!(dr > 0 && dq > 0)) continue;
     const Eigen::Vector3d pr = dr * ref.Unproject(ur, vr);
     const Eigen::Vector3d pq = dq * query.Unproject(uq, vq);
-    s.push_back((pq - R * pr).dot(t));
-    dist.push_back(0.5 * (pr.norm() + pq.norm()));
-    tau.push_back(std::max(opt.min_threshold_m, opt.relative_threshold * dist.back()));
+    c.s.push_back((pq - R * pr).dot(t));
+    c.dist.push_back(0.5 * (pr.norm() + pq.norm()));
+    c.tau.push_back(std::max(opt.min_threshold_m, opt.relative_threshold * c.dist.back()));
   }
-  res.num_candidates = static_cast<int>(s.size());
+  return c;
+}
 
-  if (s.empty()) {
-    res.reason = "no-valid-depth";
-    return res;
-  }
-  if (opt.method == ScaleMethod::kOfficial) {
-    int best = 0;
-    double best_s = 0;
-    for (double h : s) {
-      int n = 0;
-      for (double v : s) n += std::abs(v - h) < opt.official_threshold_m;
-      if (n > best) {
-        best = n;
-        best_s = h;
-      }
+// The benchmark's vote: the candidate with the most others within 0.1 m; its support is the confidence.
+void OfficialVote(const std::vector<double>& s, const ScaleOptions& opt, ScaleResult* res) {
+  int best = 0;
+  double best_s = 0;
+  for (double h : s) {
+    int n = 0;
+    for (double v : s) n += std::abs(v - h) < opt.official_threshold_m;
+    if (n > best) {
+      best = n;
+      best_s = h;
     }
-    res.success = true;
-    res.reason = "ok";
-    res.scale = best_s;
-    res.num_inliers = best;
-    res.confidence = best;
-    return res;
   }
-  // Robust: hypotheses = candidates (a subset when there are many); support = Σ [|s_j − h| < τ_j] / τ_j, a
-  // variable-bandwidth kernel density: each candidate has the same mass, so the wide windows of far (less precise)
-  // points do not outvote the near ones (bench/scale, bench/baseline: lower p90 error than a plain count).
-  const size_t n = s.size();
+  res->success = true;
+  res->reason = "ok";
+  res->scale = best_s;
+  res->num_inliers = best;
+  res->confidence = best;
+}
+
+// Robust: hypotheses = candidates (a subset when there are many); support = Σ [|s_j − h| < τ_j] / τ_j, a
+// variable-bandwidth kernel density: each candidate has the same mass, so the wide windows of far (less precise)
+// points do not outvote the near ones (bench/scale, bench/baseline: lower p90 error than a plain count).
+double BestHypothesis(const Candidates& c) {
+  const size_t n = c.s.size();
   const size_t stride = std::max<size_t>(1, n / 2000);
-  double best = -1;
-  double best_h = 0;
+  double best = -1, best_h = 0;
   for (size_t i = 0; i < n; i += stride) {
-    double c = 0;
-    for (size_t j = 0; j < n; ++j) c += std::abs(s[j] - s[i]) < tau[j] ? 1.0 / tau[j] : 0.0;
-    if (c > best || (c == best && s[i] < best_h)) {
-      best = c;
-      best_h = s[i];
+    double sup = 0;
+    for (size_t j = 0; j < n; ++j) sup += std::abs(c.s[j] - c.s[i]) < c.tau[j] ? 1.0 / c.tau[j] : 0.0;
+    if (sup > best || (sup == best && c.s[i] < best_h)) {
+      best = sup;
+      best_h = c.s[i];
     }
   }
+  return best_h;
+}
+
+void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) {
+  const size_t n = c.s.size();
   // Inverse-variance weighted refit on the consensus, iterated with the window re-centred.
-  double est = best_h, sw = 0;
+  double est = BestHypothesis(c), sw = 0;
   int in = 0;
   for (int it = 0; it <= opt.refit_iterations; ++it) {
     double swx = 0;
     sw = 0;
     in = 0;
     for (size_t j = 0; j < n; ++j) {
-      if (std::abs(s[j] - est) >= tau[j]) continue;
-      const double w = 1.0 / (tau[j] * tau[j]);
-      swx += w * s[j];
+      if (std::abs(c.s[j] - est) >= c.tau[j]) continue;
+      const double w = 1.0 / (c.tau[j] * c.tau[j]);
+      swx += w * c.s[j];
       sw += w;
       ++in;
     }
@@ -125,29 +124,50 @@ ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
     est = swx / sw;
   }
   if (in < 1) {
-    res.reason = "no-consensus";
-    return res;
+    res->reason = "no-consensus";
+    return;
   }
   // Standard error of the weighted mean from the residual scatter (in units of the windows).
   double chi2 = 0, dist_sum = 0;
   for (size_t j = 0; j < n; ++j) {
-    if (std::abs(s[j] - est) >= tau[j]) continue;
-    const double r = (s[j] - est) / tau[j];
+    if (std::abs(c.s[j] - est) >= c.tau[j]) continue;
+    const double r = (c.s[j] - est) / c.tau[j];
     chi2 += r * r;
-    dist_sum += dist[j];
+    dist_sum += c.dist[j];
   }
   const double dof = std::max(1, in - 1);
   const double se = std::sqrt(std::max(chi2 / dof, 1.0 / 12.0) / sw);  // ≥ the uniform-window floor
   const double inlier_ratio = static_cast<double>(in) / static_cast<double>(n);
-  res.success = true;
-  res.reason = "ok";
-  res.scale = est;
-  res.num_inliers = in;
-  res.relative_std_error = se / std::max(std::abs(est), 1e-9);
-  res.std_error_m = se;
-  res.mean_distance_m = dist_sum / in;
+  res->success = true;
+  res->reason = "ok";
+  res->scale = est;
+  res->num_inliers = in;
+  res->relative_std_error = se / std::max(std::abs(est), 1e-9);
+  res->std_error_m = se;
+  res->mean_distance_m = dist_sum / in;
   // Higher = more accurate: small relative standard error, large agreeing fraction.
-  res.confidence = inlier_ratio / (res.relative_std_error + 1e-3);
+  res->confidence = inlier_ratio / (res->relative_std_error + 1e-3);
+}
+
+}  // namespace
+
+ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
+                                const std::vector<Eigen::Vector2d>& px_query, const Rigid3d& query_from_ref,
+                                const DepthMap& depth_ref, const DepthMap& depth_query, const Camera& ref,
+                                const Camera& query, const ScaleOptions& opt) {
+  opt.Validate();
+  FREELOC_CHECK(px_ref.size() == px_query.size(), "metric scale: point lists differ in length");
+  FREELOC_CHECK(!depth_ref.empty() && !depth_query.empty(), "metric scale: both depth maps are needed");
+  ScaleResult res;
+  const Candidates c = ScaleCandidates(px_ref, px_query, query_from_ref, depth_ref, depth_query, ref, query, opt);
+  res.num_candidates = static_cast<int>(c.s.size());
+  if (c.s.empty()) {
+    res.reason = "no-valid-depth";
+  } else if (opt.method == ScaleMethod::kOfficial) {
+    OfficialVote(c.s, opt, &res);
+  } else {
+    RobustVote(c, opt, &res);
+  }
   return res;
 }
 

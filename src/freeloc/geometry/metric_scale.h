@@ -16,14 +16,13 @@
 #include <vector>
 
 #include "freeloc/core/camera.h"
+#include "freeloc/core/enum_table.h"
 #include "freeloc/core/depth_map.h"
 #include "freeloc/core/rigid3d.h"
 
 namespace freeloc::geometry {
 
-enum class ScaleMethod { kOfficial, kRobust };
-const char* ScaleMethodName(ScaleMethod m);
-ScaleMethod ParseScaleMethod(const std::string& s);  // "official" | "robust"; throws otherwise
+enum class ScaleMethod { kOfficial, kRobust };  // text forms: EnumTable<geometry::ScaleMethod> below
 
 struct ScaleOptions {
   ScaleMethod method = ScaleMethod::kRobust;
@@ -57,3 +56,12 @@ ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
 float BilinearDepth(const DepthMap& d, double x, double y);
 
 }  // namespace freeloc::geometry
+
+namespace freeloc {
+template <>
+struct EnumTable<geometry::ScaleMethod> {
+  static constexpr const char* kField = "scale";
+  static constexpr EnumEntry<geometry::ScaleMethod> kEntries[] = {{geometry::ScaleMethod::kRobust, "robust"},
+                                                                  {geometry::ScaleMethod::kOfficial, "official"}};
+};
+}  // namespace freeloc

@@ -82,7 +82,7 @@ TEST(MetricScale, NoValidDepthIsAStatus) {
   EXPECT_FALSE(r.success);
   EXPECT_EQ(r.reason, "no-valid-depth");
   EXPECT_THROW(EstimateMetricScale(p, {p[0]}, Rigid3d(), zero, zero, cam, cam), Error);
-  EXPECT_THROW(ParseScaleMethod("median"), Error);
+  EXPECT_THROW(ParseEnum<ScaleMethod>("median"), Error);
 }
 
 TEST(MetricScale, BilinearDepth) {

@@ -155,6 +155,22 @@ double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vec
   return cost;
 }
 
+namespace {
+// Degenerate support: the inliers cover (almost) a single pixel in either image — no geometry to speak of.
+bool InliersSpanAPixel(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                       const std::vector<char>& inliers) {
+  Eigen::Vector2d lo1 = Eigen::Vector2d::Constant(1e300), hi1 = -lo1, lo2 = lo1, hi2 = hi1;
+  for (size_t i = 0; i < px_ref.size(); ++i) {
+    if (!inliers[i]) continue;
+    lo1 = lo1.cwiseMin(px_ref[i]);
+    hi1 = hi1.cwiseMax(px_ref[i]);
+    lo2 = lo2.cwiseMin(px_query[i]);
+    hi2 = hi2.cwiseMax(px_query[i]);
+  }
+  return (hi1 - lo1).maxCoeff() < 2.0 || (hi2 - lo2).maxCoeff() < 2.0;
+}
+}  // namespace
+
 RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_ref,
                                         const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,
                                         const Camera& query, const RelativePoseOptions& opt) {
@@ -224,16 +240,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   }
   res.status.num_inliers = n_in;
   if (n_in < 5) return finish("no-consensus");
-  // Degenerate support: the inliers cover (almost) a single pixel in either image — no geometry to speak of.
-  Eigen::Vector2d lo1 = Eigen::Vector2d::Constant(1e300), hi1 = -lo1, lo2 = lo1, hi2 = hi1;
-  for (size_t i = 0; i < px_ref.size(); ++i) {
-    if (!res.inliers[i]) continue;
-    lo1 = lo1.cwiseMin(px_ref[i]);
-    hi1 = hi1.cwiseMax(px_ref[i]);
-    lo2 = lo2.cwiseMin(px_query[i]);
-    hi2 = hi2.cwiseMax(px_query[i]);
-  }
-  if ((hi1 - lo1).maxCoeff() < 2.0 || (hi2 - lo2).maxCoeff() < 2.0) {
+  if (InliersSpanAPixel(px_ref, px_query, res.inliers)) {
     res.inliers.assign(px_ref.size(), 0);
     res.status.num_inliers = 0;
     return finish("degenerate");

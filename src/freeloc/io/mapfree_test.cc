@@ -23,8 +23,7 @@ void MakeScene(const std::string& dir, const std::string& intrinsics, const std:
 }
 
 TEST(Mapfree, LoadsTumScene) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/intrinsics.txt");
-  const std::string split = ResolveSplitDir(testing::SharedPath("data/tum_mapfree"), "val");
+  const std::string split = ResolveSplitDir(testing::DemoPath(), "val");
   EXPECT_EQ(ListScenes(split), (std::vector<std::string>{"s00001", "s00002", "s00003"}));
   const MapfreeScene s = MapfreeScene::Load(split + "/s00002");
   EXPECT_EQ(s.name, "s00002");
@@ -69,8 +68,8 @@ TEST(Mapfree, DepthPngRoundTripFromTumDepth) {
     max_err = std::max(max_err, static_cast<double>(std::abs(back.data[i] - d.data[i])));
   }
   EXPECT_LE(max_err, 0.0005 + 1e-6);
-  if (testing::SharedExists("data/tum_mapfree/val/s00002/seq0/frame_00000.sensor.png")) {
-    const DepthMap ship = ReadDepthPng(testing::SharedPath("data/tum_mapfree/val/s00002/seq0/frame_00000.sensor.png"));
+  {
+    const DepthMap ship = ReadDepthPng(testing::DemoPath("val/s00002/seq0/frame_00000.sensor.png"));
     size_t diff = 0;
     for (size_t i = 0; i < raw.size(); ++i) diff += std::abs(ship.data[i] - back.data[i]) > 0.0011f;
     EXPECT_EQ(diff, 0u);

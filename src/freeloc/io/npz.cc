@@ -55,6 +55,55 @@ std::string DictValue(const std::string& h, const std::string& key, const std::s
   return v;
 }
 
+// "(2, 3)", "(4,)", "()" → dimensions.
+std::vector<int64_t> ParseShape(const std::string& shape, const std::string& what) {
+  FREELOC_CHECK(shape.size() >= 2 && shape.front() == '(', what << ": malformed .npy shape " << shape);
+  std::vector<int64_t> dims;
+  std::string num;
+  for (size_t i = 1; i < shape.size(); ++i) {
+    const char c = shape[i];
+    if (std::isdigit(static_cast<unsigned char>(c))) {
+      num.push_back(c);
+    } else if (c == ',' || c == ')') {
+      if (!num.empty()) dims.push_back(std::stoll(num));
+      num.clear();
+    } else if (c != ' ' && c != 'L') {
+      FREELOC_THROW(what << ": malformed .npy shape " << shape);
+    }
+  }
+  return dims;
+}
+
+// The dtype of a little-endian descr ("<f4", "|u1", …).
+DType NpyDType(const std::string& descr, const std::string& what) {
+  const char order = descr[0];
+  FREELOC_CHECK(order == '<' || order == '|' || order == '=',
+                what << ": .npy dtype " << descr << " is big-endian; only little-endian arrays are supported");
+  static const std::pair<const char*, DType> kTypes[] = {
+      {"f4", DType::kF32}, {"f8", DType::kF64}, {"f2", DType::kF16}, {"i8", DType::kI64}, {"i4", DType::kI32},
+      {"i2", DType::kI16}, {"i1", DType::kI8},  {"u1", DType::kU8},  {"b1", DType::kBool}};
+  for (const auto& [name, dt] : kTypes)
+    if (descr.compare(1, std::string::npos, name) == 0) return dt;
+  FREELOC_THROW(what << ": .npy dtype " << descr << " is not supported (float16/32/64, int8–64, uint8, bool)");
+}
+
+// Fortran order (the first index varies fastest) → C order.
+std::vector<double> FortranToC(const std::vector<double>& raw, const std::vector<int64_t>& shape) {
+  std::vector<double> out(raw.size());
+  const size_t nd = shape.size();
+  std::vector<int64_t> idx(nd, 0);
+  for (size_t c = 0; c < raw.size(); ++c) {  // c walks C order
+    int64_t f = 0;
+    for (size_t d = nd; d-- > 0;) f = f * shape[d] + idx[d];
+    out[c] = raw[static_cast<size_t>(f)];
+    for (size_t d = nd; d-- > 0;) {
+      if (++idx[d] < shape[d]) break;
+      idx[d] = 0;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 NpyArray ParseNpy(const uint8_t* b, size_t n, const std::string& what) {
@@ -79,46 +128,8 @@ NpyArray ParseNpy(const uint8_t* b, size_t n, const std::string& what) {
   a.descr = descr.substr(1, descr.size() - 2);
   a.fortran_order = DictValue(h, "fortran_order", what) == "True";
   const std::string shape = DictValue(h, "shape", what);
-  FREELOC_CHECK(shape.size() >= 2 && shape.front() == '(', what << ": malformed .npy shape " << shape);
-  {
-    std::string num;
-    for (size_t i = 1; i < shape.size(); ++i) {
-      const char c = shape[i];
-      if (std::isdigit(static_cast<unsigned char>(c))) {
-        num.push_back(c);
-      } else if (c == ',' || c == ')') {
-        if (!num.empty()) a.shape.push_back(std::stoll(num));
-        num.clear();
-      } else if (c != ' ' && c != 'L') {
-        FREELOC_THROW(what << ": malformed .npy shape " << shape);
-      }
-    }
-  }
-  const char order = a.descr[0];
-  FREELOC_CHECK(order == '<' || order == '|' || order == '=',
-                what << ": .npy dtype " << a.descr << " is big-endian; only little-endian arrays are supported");
-  const std::string t = a.descr.substr(1);
-  DType dt;
-  if (t == "f4")
-    dt = DType::kF32;
-  else if (t == "f8")
-    dt = DType::kF64;
-  else if (t == "f2")
-    dt = DType::kF16;
-  else if (t == "i8")
-    dt = DType::kI64;
-  else if (t == "i4")
-    dt = DType::kI32;
-  else if (t == "i2")
-    dt = DType::kI16;
-  else if (t == "i1")
-    dt = DType::kI8;
-  else if (t == "u1")
-    dt = DType::kU8;
-  else if (t == "b1")
-    dt = DType::kBool;
-  else
-    FREELOC_THROW(what << ": .npy dtype " << a.descr << " is not supported (float16/32/64, int8–64, uint8, bool)");
+  a.shape = ParseShape(shape, what);
+  const DType dt = NpyDType(a.descr, what);
   const int64_t numel = a.numel();
   const size_t es = DTypeSize(dt);
   const size_t data_start = hstart + hlen;
@@ -131,23 +142,7 @@ NpyArray ParseNpy(const uint8_t* b, size_t n, const std::string& what) {
   view.data = b + data_start;
   view.nbytes = static_cast<size_t>(numel) * es;
   std::vector<double> raw = view.ToDouble();
-  if (!a.fortran_order || a.shape.size() <= 1) {
-    a.data = std::move(raw);
-  } else {
-    // Fortran order: the first index varies fastest. Re-order to C order.
-    a.data.resize(raw.size());
-    const size_t nd = a.shape.size();
-    std::vector<int64_t> idx(nd, 0);
-    for (size_t c = 0; c < raw.size(); ++c) {  // c walks C order
-      int64_t f = 0;
-      for (size_t d = nd; d-- > 0;) f = f * a.shape[d] + idx[d];
-      a.data[c] = raw[static_cast<size_t>(f)];
-      for (size_t d = nd; d-- > 0;) {
-        if (++idx[d] < a.shape[d]) break;
-        idx[d] = 0;
-      }
-    }
-  }
+  a.data = a.fortran_order && a.shape.size() > 1 ? FortranToC(raw, a.shape) : std::move(raw);
   return a;
 }
 

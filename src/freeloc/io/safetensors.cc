@@ -12,7 +12,67 @@ namespace freeloc {
 
 namespace {
 constexpr uint64_t kMaxHeader = 100ull << 20;  // the official loaders refuse headers over 100 MB as well
+
+struct Range {
+  uint64_t begin, end;
+  std::string name;
+};
+
+// One tensor entry of the header: dtype, shape and data_offsets checked against each other and the data size.
+TensorView ParseEntry(const nlohmann::ordered_json& entry, const std::string& where, const std::string& fix,
+                      uint64_t data_size, uint64_t* begin, uint64_t* end) {
+  FREELOC_CHECK(entry.is_object(), where << "entry is not an object" << fix);
+  FREELOC_CHECK(entry.contains("dtype") && entry["dtype"].is_string(), where << "missing dtype" << fix);
+  FREELOC_CHECK(entry.contains("shape") && entry["shape"].is_array(), where << "missing shape" << fix);
+  FREELOC_CHECK(
+      entry.contains("data_offsets") && entry["data_offsets"].is_array() && entry["data_offsets"].size() == 2,
+      where << "missing data_offsets [begin, end]" << fix);
+  TensorView t;
+  const std::string dt = entry["dtype"].get<std::string>();
+  FREELOC_CHECK(DTypeFromName(dt, &t.dtype),
+                where << "dtype '" << dt << "' is not supported (F64, F32, F16, BF16, I64, I32, I16, I8, U8, BOOL)");
+  uint64_t numel = 1;
+  for (const auto& s : entry["shape"]) {
+    FREELOC_CHECK(s.is_number_unsigned() || (s.is_number_integer() && s.get<int64_t>() >= 0),
+                  where << "shape entries must be non-negative integers" << fix);
+    const uint64_t d = s.get<uint64_t>();
+    FREELOC_CHECK(d == 0 || numel <= std::numeric_limits<uint64_t>::max() / 16 / d,
+                  where << "shape is absurdly large" << fix);
+    numel *= d;
+    t.shape.push_back(static_cast<int64_t>(d));
+  }
+  const auto& off = entry["data_offsets"];
+  FREELOC_CHECK(off[0].is_number_unsigned() && off[1].is_number_unsigned(),
+                where << "data_offsets must be non-negative integers" << fix);
+  const uint64_t b = off[0].get<uint64_t>(), e = off[1].get<uint64_t>();
+  FREELOC_CHECK(b <= e, where << "data_offsets [" << b << ", " << e << ") are reversed" << fix);
+  FREELOC_CHECK(e <= data_size, where << "data_offsets [" << b << ", " << e << ") run past the end of the data ("
+                                      << data_size << " bytes)" << fix);
+  const uint64_t expected = numel * DTypeSize(t.dtype);
+  FREELOC_CHECK(e - b == expected, where << "holds " << (e - b) << " bytes but shape " << t.ShapeString() << " of "
+                                         << dt << " needs " << expected << fix);
+  t.nbytes = static_cast<size_t>(expected);
+  *begin = b;
+  *end = e;
+  return t;
 }
+
+// The tensors must tile the data section: no overlaps, no holes, nothing trailing (as the official loader checks).
+void CheckTiling(std::vector<Range> ranges, uint64_t data_size, const std::string& bad, const std::string& fix) {
+  std::sort(ranges.begin(), ranges.end(),
+            [](const Range& a, const Range& b) { return a.begin != b.begin ? a.begin < b.begin : a.end < b.end; });
+  uint64_t pos = 0;
+  for (const auto& r : ranges) {
+    FREELOC_CHECK(r.begin >= pos, bad << "tensor '" << r.name << "' overlaps the previous tensor's bytes" << fix);
+    FREELOC_CHECK(r.begin == pos,
+                  bad << "gap of " << (r.begin - pos) << " bytes before tensor '" << r.name << "'" << fix);
+    pos = r.end;
+  }
+  FREELOC_CHECK(pos == data_size,
+                bad << (data_size - pos) << " bytes after the last tensor are not described by the header" << fix);
+}
+
+}  // namespace
 
 SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::shared_ptr<const void> owner,
                                        const std::string& what) {
@@ -37,10 +97,6 @@ SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::s
   f.path = what;
   const uint8_t* data_start = bytes + 8 + n;
   const uint64_t data_size = size - 8 - n;
-  struct Range {
-    uint64_t begin, end;
-    std::string name;
-  };
   std::vector<Range> ranges;
   for (auto it = header.begin(); it != header.end(); ++it) {
     const std::string& name = it.key();
@@ -53,56 +109,15 @@ SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::s
       }
       continue;
     }
-    const std::string where = bad + "tensor '" + name + "': ";
-    FREELOC_CHECK(entry.is_object(), where << "entry is not an object" << fix);
-    FREELOC_CHECK(entry.contains("dtype") && entry["dtype"].is_string(), where << "missing dtype" << fix);
-    FREELOC_CHECK(entry.contains("shape") && entry["shape"].is_array(), where << "missing shape" << fix);
-    FREELOC_CHECK(
-        entry.contains("data_offsets") && entry["data_offsets"].is_array() && entry["data_offsets"].size() == 2,
-        where << "missing data_offsets [begin, end]" << fix);
-    TensorView t;
-    const std::string dt = entry["dtype"].get<std::string>();
-    FREELOC_CHECK(DTypeFromName(dt, &t.dtype),
-                  where << "dtype '" << dt << "' is not supported (F64, F32, F16, BF16, I64, I32, I16, I8, U8, BOOL)");
-    uint64_t numel = 1;
-    for (const auto& s : entry["shape"]) {
-      FREELOC_CHECK(s.is_number_unsigned() || (s.is_number_integer() && s.get<int64_t>() >= 0),
-                    where << "shape entries must be non-negative integers" << fix);
-      const uint64_t d = s.get<uint64_t>();
-      FREELOC_CHECK(d == 0 || numel <= std::numeric_limits<uint64_t>::max() / 16 / d,
-                    where << "shape is absurdly large" << fix);
-      numel *= d;
-      t.shape.push_back(static_cast<int64_t>(d));
-    }
-    const auto& off = entry["data_offsets"];
-    FREELOC_CHECK(off[0].is_number_unsigned() && off[1].is_number_unsigned(),
-                  where << "data_offsets must be non-negative integers" << fix);
-    const uint64_t b = off[0].get<uint64_t>(), e = off[1].get<uint64_t>();
-    FREELOC_CHECK(b <= e, where << "data_offsets [" << b << ", " << e << ") are reversed" << fix);
-    FREELOC_CHECK(e <= data_size, where << "data_offsets [" << b << ", " << e << ") run past the end of the data ("
-                                        << data_size << " bytes)" << fix);
-    const uint64_t expected = numel * DTypeSize(t.dtype);
-    FREELOC_CHECK(e - b == expected, where << "holds " << (e - b) << " bytes but shape " << t.ShapeString() << " of "
-                                           << dt << " needs " << expected << fix);
+    uint64_t b = 0, e = 0;
+    TensorView t = ParseEntry(entry, bad + "tensor '" + name + "': ", fix, data_size, &b, &e);
     t.data = data_start + b;
-    t.nbytes = static_cast<size_t>(expected);
     t.owner = owner;
     ranges.push_back({b, e, name});
     f.names.push_back(name);
     f.tensors.emplace(name, std::move(t));
   }
-  // The tensors must tile the data section: no overlaps, no holes, nothing trailing (as the official loader checks).
-  std::sort(ranges.begin(), ranges.end(),
-            [](const Range& a, const Range& b) { return a.begin != b.begin ? a.begin < b.begin : a.end < b.end; });
-  uint64_t pos = 0;
-  for (const auto& r : ranges) {
-    FREELOC_CHECK(r.begin >= pos, bad << "tensor '" << r.name << "' overlaps the previous tensor's bytes" << fix);
-    FREELOC_CHECK(r.begin == pos,
-                  bad << "gap of " << (r.begin - pos) << " bytes before tensor '" << r.name << "'" << fix);
-    pos = r.end;
-  }
-  FREELOC_CHECK(pos == data_size,
-                bad << (data_size - pos) << " bytes after the last tensor are not described by the header" << fix);
+  CheckTiling(ranges, data_size, bad, fix);
   return f;
 }
 

@@ -9,11 +9,6 @@
 
 namespace freeloc::matching {
 
-InstanceMode ParseInstanceMode(const std::string& s) {
-  if (s == "mask") return InstanceMode::kMask;
-  if (s == "crop") return InstanceMode::kCrop;
-  FREELOC_THROW("--instance-mode '" << s << "' is unknown; use mask or crop");
-}
 
 void InstanceOptions::Validate() const {
   FREELOC_CHECK(crop_margin >= 0 && crop_margin <= 2, "instance matching: crop margin must be in [0, 2]");

@@ -13,15 +13,16 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/core/enum_table.h"
 #include "freeloc/core/image.h"
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/matching/reciprocal.h"
 #include "freeloc/matching/sift.h"
 
 namespace freeloc::matching {
 
+// kMask: I ⊙ Mask (the paper); kCrop: the masks' bounding boxes. Text forms: EnumTable<matching::InstanceMode>.
 enum class InstanceMode { kMask, kCrop };
-InstanceMode ParseInstanceMode(const std::string& s);  // "mask" | "crop"
 
 struct Correspondence {
   Eigen::Vector2d ref, query;  // original pixels
@@ -76,3 +77,12 @@ std::vector<Correspondence> MergeMatches(const std::vector<Correspondence>& glob
 std::vector<std::pair<int, std::vector<uint8_t>>> SplitLabels(const std::vector<uint16_t>& labels);
 
 }  // namespace freeloc::matching
+
+namespace freeloc {
+template <>
+struct EnumTable<matching::InstanceMode> {
+  static constexpr const char* kField = "instance_mode";
+  static constexpr EnumEntry<matching::InstanceMode> kEntries[] = {{matching::InstanceMode::kMask, "mask"},
+                                                                   {matching::InstanceMode::kCrop, "crop"}};
+};
+}  // namespace freeloc

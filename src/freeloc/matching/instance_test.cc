@@ -120,7 +120,7 @@ TEST(Instance, SplitLabels) {
   EXPECT_EQ(s[0].first, 1);
   EXPECT_EQ(s[0].second, (std::vector<uint8_t>{0, 0, 0, 1, 0, 1}));
   EXPECT_EQ(s[1].first, 3);
-  EXPECT_THROW(ParseInstanceMode("bbox"), Error);
+  EXPECT_THROW(ParseEnum<InstanceMode>("bbox"), Error);
 }
 
 }  // namespace

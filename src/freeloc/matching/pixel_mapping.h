@@ -5,7 +5,7 @@
 
 #include <vector>
 
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/matching/reciprocal.h"
 #include "freeloc/matching/sift.h"
 

@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 
 namespace freeloc::matching {
 

@@ -29,8 +29,7 @@ Errors Compare(const Rigid3d& est, const Rigid3d& gt) {
 
 // ExtractSift once + MatchSiftFeatures per query gives exactly MatchSift's correspondences.
 TEST(Sift, CachedReferenceFeaturesGiveTheSameMatches) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00003/poses.txt");
-  const MapfreeScene s = MapfreeScene::Load(testing::SharedPath("data/tum_mapfree/val/s00003"));
+  const MapfreeScene s = MapfreeScene::Load(testing::DemoPath("val/s00003"));
   const Image ref = s.LoadImage(s.reference), query = s.LoadImage(s.queries.at(0));
   const matching::Correspondences a = matching::MatchSift(ref, query);
   const matching::SiftFeatures fr = matching::ExtractSift(ref);
@@ -46,12 +45,11 @@ TEST(Sift, CachedReferenceFeaturesGiveTheSameMatches) {
 }
 
 TEST(Sift, FreelocBeatsOfficialRecipeOnRealTumPairs) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
   const std::string out_dir = std::string(FREELOC_BINARY_DIR) + "/test_outputs";
   std::filesystem::create_directories(out_dir);
   for (const char* name : {"s00002", "s00003"}) {
     SCOPED_TRACE(name);
-    const MapfreeScene s = MapfreeScene::Load(testing::SharedPath(std::string("data/tum_mapfree/val/") + name));
+    const MapfreeScene s = MapfreeScene::Load(testing::DemoPath(std::string("val/") + name));
     const MapfreeFrame& q = s.queries.at(0);
     const matching::Correspondences c = matching::MatchSift(s.LoadImage(s.reference), s.LoadImage(q));
     ASSERT_GT(c.size(), 100u);

@@ -29,7 +29,7 @@ struct EncBlock {
   LayerNorm n1, n2;
   SelfAttention attn;
   Mlp mlp;
-  torch::Tensor operator()(torch::Tensor x, const Rope& r, const Precision& p) const {
+  torch::Tensor operator()(torch::Tensor x, const Rope& r, const PrecisionPolicy& p) const {
     x = x + attn(n1(x), r, p);
     return x + mlp(n2(x), p);
   }
@@ -42,7 +42,7 @@ struct DecBlock {
   CrossAttention cross;
   Mlp mlp;
   torch::Tensor operator()(torch::Tensor x, const torch::Tensor& y, const Rope& rx, const Rope& ry,
-                           const Precision& p) const {
+                           const PrecisionPolicy& p) const {
     x = x + attn(n1(x), rx, p);
     const torch::Tensor yn = ny(y);
     x = x + cross(n2(x), yn, rx, ry, p);
@@ -54,7 +54,7 @@ struct DecBlock {
 // ResidualConvUnit_custom).
 struct Rcu {
   Conv c1, c2;
-  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const {
+  torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
     // The first ReLU must not touch x (the skip connection uses it); the second may work in place.
     torch::Tensor h = c1(torch::relu(x), p);
     h.relu_();
@@ -67,7 +67,7 @@ struct Fusion {
   Rcu rcu1, rcu2;
   Conv out;
   bool has_rcu1 = true;
-  torch::Tensor operator()(const torch::Tensor& x0, const torch::Tensor* x1, const Precision& p) const {
+  torch::Tensor operator()(const torch::Tensor& x0, const torch::Tensor* x1, const PrecisionPolicy& p) const {
     torch::Tensor o = x0;
     if (x1) o = o + rcu1(*x1, p);
     o = rcu2(o, p);
@@ -96,8 +96,8 @@ struct Dust3rModel::Impl {
   Dust3rConfig cfg;
   RuntimeOptions rt;
   torch::Device device = torch::kCPU;
-  Precision prec;
-  Precision head_prec;  // the heads run in fp32, as upstream (autocast disabled in the head wrapper)
+  PrecisionPolicy prec;
+  PrecisionPolicy head_prec;  // the heads run in fp32, as upstream (autocast disabled in the head wrapper)
   Rope2D rope;
   Conv patch;
   std::vector<EncBlock> enc;
@@ -142,7 +142,7 @@ struct Dust3rModel::Impl {
   // dust3r/heads/dpt_head.py: hooks → act_postprocess → layer_rn → refinenet4..1 (path4 cropped) → head.
   torch::Tensor RunHead(int which, const std::vector<torch::Tensor>& list, int64_t h, int64_t w, int view) const {
     const DptHead& hd = head[which];
-    const Precision& p = head_prec;
+    const PrecisionPolicy& p = head_prec;
     const std::string tp = "head" + std::to_string(view) + ".";
     torch::Tensor layers[4];
     for (int i = 0; i < 4; ++i) {
@@ -276,19 +276,20 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, co
     kw = ParseConstructorKwargs(m);
     source = model_path + " (args.model)";
   }
-  return Create(sd, kw, source, runtime);
+  return Create(sd, kw, source, runtime, model_path);
 }
 
 std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, TensorView>& sd,
                                                  const std::map<std::string, std::string>& kw,
-                                                 const std::string& source, const RuntimeOptions& runtime) {
+                                                 const std::string& source, const RuntimeOptions& runtime,
+                                                 const std::string& weights) {
   ApplyRuntime(runtime);
-  const std::string& model_path = source;
+  const std::string& model_path = weights.empty() ? source : weights;  // weight errors name the weights file
   auto impl = std::make_unique<Impl>();
   impl->cfg = MakeDust3rConfig(sd, kw, source);
   impl->rt = runtime;
   impl->device = DeviceOf(runtime);
-  impl->prec.bf16 = runtime.precision == "bf16";
+  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
   impl->rope = Rope2D(impl->cfg.rope_base);
   const Dust3rConfig& c = impl->cfg;
   std::map<std::string, torch::Tensor> tensors;
@@ -303,7 +304,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, Ten
     tensors.insert(add.begin(), add.end());
   }
   WeightStore ws(std::move(tensors), model_path, impl->device);
-  const Precision& p = impl->prec;
+  const PrecisionPolicy& p = impl->prec;
   impl->patch.Load(ws, "patch_embed.proj", {c.enc_dim, 3, c.patch_size, c.patch_size}, true, c.patch_size, 0, false, p);
   impl->enc.resize(static_cast<size_t>(c.enc_depth));
   for (int i = 0; i < c.enc_depth; ++i) {
@@ -332,7 +333,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, Ten
     }
   }
   impl->dec_norm.Load(ws, "dec_norm", c.dec_dim, c.ln_eps);
-  const Precision hp = impl->head_prec;
+  const PrecisionPolicy hp = impl->head_prec;
   const int64_t F = c.dpt_feature_dim;
   const int64_t dims_in[4] = {c.enc_dim, c.dec_dim, c.dec_dim, c.dec_dim};
   for (int h = 0; h < 2; ++h) {

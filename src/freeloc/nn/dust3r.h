@@ -40,9 +40,11 @@ class Dust3rModel {
   static std::shared_ptr<Dust3rModel> Load(const std::string& model_path, const std::string& config_path = "",
                                            const RuntimeOptions& runtime = {});
   // The same from a state dict already in memory (upstream key names) and constructor kwargs (may be empty).
+  // `source`: where the kwargs came from (config().source); `weights`: what weight errors name (default: source).
   static std::shared_ptr<Dust3rModel> Create(const std::map<std::string, TensorView>& state_dict,
                                              const std::map<std::string, std::string>& kwargs,
-                                             const std::string& source, const RuntimeOptions& runtime = {});
+                                             const std::string& source, const RuntimeOptions& runtime = {},
+                                             const std::string& weights = "");
   ~Dust3rModel();
 
   const Dust3rConfig& config() const;
@@ -50,7 +52,8 @@ class Dust3rModel {
 
   std::shared_ptr<const Encoding> Encode(const Dust3rView& view) const;
   Dust3rPrediction Decode(const Encoding& view1, const Encoding& view2) const;
-  // One shot: encodes both views (as one batch when their shapes agree, like upstream) and decodes.
+  // One shot: encodes each view on its own (upstream batches same-shape pairs; the results agree within float
+  // rounding, and this way the cached-reference path gives identical outputs) and decodes.
   Dust3rPrediction Run(const Dust3rView& view1, const Dust3rView& view2) const;
 
   // Debugging/parity: when set, intermediate tensors are stored under the fixture names ("enc1.out",

@@ -10,7 +10,7 @@
 #include <filesystem>
 
 #include "freeloc/core/error.h"
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/safetensors.h"
 #include "testing/tensor_compare.h"
@@ -196,7 +196,7 @@ TEST(Dust3r, BadWeightsAndInputs) {
   std::vector<float> img(3 * 50 * 64, 0.f);
   EXPECT_THROW(m->Run({img.data(), 50, 64}, {img.data(), 50, 64}), Error);  // 50 not a multiple of 16
   RuntimeOptions bad;
-  bad.precision = "fp8";
+  bad.threads = -1;
   EXPECT_THROW(Dust3rModel::Load(SharedPath("fixtures/dust3r/weights.safetensors"),
                                  SharedPath("fixtures/dust3r/config.json"), bad),
                Error);

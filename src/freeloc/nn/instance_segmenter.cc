@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "freeloc/core/error.h"
-#include "freeloc/io/seggpt_preprocess.h"
+#include "freeloc/vision/seggpt_preprocess.h"
 
 namespace freeloc::nn {
 

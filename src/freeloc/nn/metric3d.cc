@@ -43,7 +43,7 @@ struct VitBlock {
   torch::Tensor ls1, ls2;
   bool swiglu = false;
   int64_t heads = 1;
-  torch::Tensor operator()(torch::Tensor x, const Precision& p) const {
+  torch::Tensor operator()(torch::Tensor x, const PrecisionPolicy& p) const {
     const int64_t B = x.size(0), T = x.size(1), C = x.size(2), hd = C / heads;
     const torch::Tensor t = qkv(n1(x), p).reshape({B, T, 3, heads, hd}).permute({2, 0, 3, 1, 4});
     const torch::Tensor a = ScaledDotProduct(t[0], t[1], t[2], std::pow(static_cast<double>(hd), -0.5), p);
@@ -69,7 +69,7 @@ struct Readout {
 // DPT ConvBlock with the in-place ReLU of the input: relu(x) + conv2(relu(conv1(relu(x)))).
 struct ConvBlock {
   Conv c1, c2;
-  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const {
+  torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
     const torch::Tensor r = torch::relu(x);
     return r + c2(torch::relu(c1(r, p)), p);
   }
@@ -80,7 +80,7 @@ struct FuseBlock {
   bool has_branch = false;
   double scale = 0;  // 0: no upsampling
   Conv out;
-  torch::Tensor operator()(torch::Tensor x, const torch::Tensor* skip, const Precision& p) const {
+  torch::Tensor operator()(torch::Tensor x, const torch::Tensor* skip, const PrecisionPolicy& p) const {
     if (skip) x = x + branch(*skip, p);
     x = trunk(x, p);
     if (scale > 0) {
@@ -97,7 +97,7 @@ struct ContextHead {
   Conv c1, c2, down, post;
   torch::Tensor n1w, n1b, n2w, n2b, ndw, ndb;
   bool has_down = false;
-  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const {
+  torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
     constexpr double eps = 1e-5;
     torch::Tensor y = torch::relu(Ln2d(c1(x, p), n1w, n1b, eps));
     y = torch::relu(Ln2d(c2(y, p), n2w, n2b, eps));
@@ -109,7 +109,7 @@ struct ContextHead {
 struct ConvGru {
   Conv z, r, q;
   torch::Tensor operator()(const torch::Tensor& h, const std::vector<torch::Tensor>& cx,
-                           const std::vector<torch::Tensor>& xs, const Precision& p) const {
+                           const std::vector<torch::Tensor>& xs, const PrecisionPolicy& p) const {
     const torch::Tensor x = torch::cat(xs, 1);
     const torch::Tensor hx = torch::cat({h, x}, 1);
     const torch::Tensor zz = torch::sigmoid(z(hx, p) + cx[0]);
@@ -142,7 +142,7 @@ struct Metric3dModel::Impl {
   std::string source;
   RuntimeOptions rt;
   torch::Device device = torch::kCPU;
-  Precision prec;
+  PrecisionPolicy prec;
   Conv patch;
   torch::Tensor cls, regs, pos_embed;
   std::vector<VitBlock> blocks;
@@ -208,7 +208,7 @@ struct Metric3dModel::Impl {
 
   void Decode(const std::vector<torch::Tensor>& feats, int64_t h14, int64_t w14, torch::Tensor* depth,
               torch::Tensor* conf, torch::Tensor* normal) const {
-    const Precision& p = prec;
+    const PrecisionPolicy& p = prec;
     torch::Tensor r[4];
     for (int k = 0; k < 4; ++k) {
       r[k] = RunReadout(k, feats[static_cast<size_t>(k)], h14, w14);
@@ -372,9 +372,9 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string,
   impl->rt = runtime;
   impl->source = source;
   impl->device = DeviceOf(runtime);
-  impl->prec.bf16 = runtime.precision == "bf16";
+  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
   WeightStore ws(std::move(tensors), source, impl->device);
-  const Precision& p = impl->prec;
+  const PrecisionPolicy& p = impl->prec;
   const int64_t C = c.embed_dim, F = c.ffn_hidden, hd = c.hidden;
   impl->patch.Load(ws, "encoder.patch_embed.proj", {C, 3, c.patch, c.patch}, true, c.patch, 0, false, p);
   impl->cls = ws.Take("encoder.cls_token", {1, 1, C});
@@ -537,7 +537,7 @@ Metric3dOutput Metric3dModel::Estimate(const Image& image, const Camera& camera)
   out.normal.assign(nm.data_ptr<float>(), nm.data_ptr<float>() + nm.numel());
   out.metadata = {{"model", impl_->source},
                   {"variant", impl_->cfg.variant},
-                  {"precision", impl_->rt.precision},
+                  {"precision", ToString(impl_->rt.precision)},
                   {"input_size", std::to_string(H) + "x" + std::to_string(W)},
                   {"scale", std::to_string(out.input.scale)},
                   {"focal_factor", std::to_string(factor)},

@@ -12,7 +12,7 @@
 #include "freeloc/core/camera.h"
 #include "freeloc/core/depth_map.h"
 #include "freeloc/core/image.h"
-#include "freeloc/io/metric3d_preprocess.h"
+#include "freeloc/vision/metric3d_preprocess.h"
 #include "freeloc/io/tensor.h"
 #include "freeloc/nn/runtime.h"
 
@@ -71,22 +71,6 @@ class Metric3dModel {
   struct Impl;
   explicit Metric3dModel(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
-};
-
-// The pipeline's depth stage: metric depth in original pixels from one image and its own intrinsics.
-class DepthEstimator {
- public:
-  explicit DepthEstimator(std::shared_ptr<const Metric3dModel> model) : model_(std::move(model)) {}
-  DepthMap Estimate(const Image& image, const Camera& camera,
-                    std::map<std::string, std::string>* metadata = nullptr) const {
-    Metric3dOutput o = model_->Estimate(image, camera);
-    if (metadata) *metadata = o.metadata;
-    return std::move(o.depth);
-  }
-  const Metric3dModel& model() const { return *model_; }
-
- private:
-  std::shared_ptr<const Metric3dModel> model_;
 };
 
 }  // namespace freeloc::nn

@@ -1,18 +1,40 @@
-// Where and how the networks run. Plain options (DESIGN §2); applied by each model at load time.
+// Where and how the networks run (DESIGN §2): typed options with one string table per enum; applied by each model
+// at load time.
 #pragma once
 
 #include <string>
 
+#include "freeloc/core/enum_table.h"
+
 namespace freeloc::nn {
 
+enum class Device { kCpu, kCuda };
+// fp32 (parity) | bf16: matmuls and convolutions in bf16, norms/softmax/postprocessing in fp32.
+enum class Precision { kFp32, kBf16 };
+
 struct RuntimeOptions {
-  std::string device = "cpu";      // cpu | cuda
-  std::string precision = "fp32";  // fp32 | bf16 (matmuls/convs in bf16, norms/softmax/postprocess in fp32)
-  int threads = 0;                 // 0 = LibTorch default
-  void Validate() const;           // throws freeloc::Error (e.g. cuda without a CUDA build of LibTorch)
+  Device device = Device::kCpu;
+  Precision precision = Precision::kFp32;
+  int threads = 0;        // 0 = LibTorch default
+  void Validate() const;  // throws freeloc::Error naming the field (e.g. cuda without a CUDA build of LibTorch)
+  std::string Key() const;  // "cpu|fp32|0": what makes two runtimes different (model caches key on it)
 };
 
 // Whether this LibTorch build can run on CUDA here.
 bool CudaAvailable();
 
 }  // namespace freeloc::nn
+
+namespace freeloc {
+template <>
+struct EnumTable<nn::Device> {
+  static constexpr const char* kField = "device";
+  static constexpr EnumEntry<nn::Device> kEntries[] = {{nn::Device::kCpu, "cpu"}, {nn::Device::kCuda, "cuda"}};
+};
+template <>
+struct EnumTable<nn::Precision> {
+  static constexpr const char* kField = "precision";
+  static constexpr EnumEntry<nn::Precision> kEntries[] = {{nn::Precision::kFp32, "fp32"},
+                                                          {nn::Precision::kBf16, "bf16"}};
+};
+}  // namespace freeloc

@@ -58,7 +58,7 @@ struct Block {
 
   // models_seggpt.Attention with use_rel_pos (vitdet add_decomposed_rel_pos): logits = (q·scale)·kᵀ + rel terms of the
   // UNSCALED q, global over all tokens.
-  torch::Tensor Attend(const torch::Tensor& x, const Precision& p) const {
+  torch::Tensor Attend(const torch::Tensor& x, const PrecisionPolicy& p) const {
     const int64_t B = x.size(0), H = x.size(1), W = x.size(2), C = x.size(3), hd = C / heads, N = H * W;
     const torch::Tensor t =
         qkv(x, p).reshape({B, N, 3, heads, hd}).permute({2, 0, 3, 1, 4}).reshape({3, B * heads, N, hd});
@@ -90,7 +90,7 @@ struct SegGptModel::Impl {
   SegGptConfig cfg;
   RuntimeOptions rt;
   torch::Device device = torch::kCPU;
-  Precision prec;
+  PrecisionPolicy prec;
   Conv patch;
   torch::Tensor mask_token, seg_x, seg_y, type_cls, type_ins, pos_embed;
   std::vector<Block> blocks;
@@ -281,9 +281,9 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, Ten
   const int64_t dec_in = static_cast<int64_t>(c.out_indices.size()) * c.embed_dim;
   impl->rt = runtime;
   impl->device = DeviceOf(runtime);
-  impl->prec.bf16 = runtime.precision == "bf16";
+  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
   WeightStore ws(std::move(tensors), source, impl->device);
-  const Precision& p = impl->prec;
+  const PrecisionPolicy& p = impl->prec;
   const int64_t C = c.embed_dim;
   impl->patch.Load(ws, "patch_embed.proj", {C, 3, c.patch, c.patch}, true, c.patch, 0, false, p);
   impl->mask_token = ws.Take("mask_token", {1, 1, 1, C});

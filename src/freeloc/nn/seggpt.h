@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "freeloc/core/image.h"
-#include "freeloc/io/seggpt_preprocess.h"
+#include "freeloc/vision/seggpt_preprocess.h"
 #include "freeloc/io/tensor.h"
 #include "freeloc/nn/runtime.h"
 

@@ -12,9 +12,8 @@ namespace {
 // The caching function encodes each distinct reference input once and gives the pointmaps of the one-shot path.
 TEST(CachingDust3r, ReusesReferenceEncodingsAndMatchesTheOneShotPath) {
   FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/seq0/frame_00000.png");
   const auto model = nn::Dust3rModel::Load(testing::SharedPath("fixtures/pth/dust3r_tiny.pth"));
-  const std::string s = testing::SharedPath("data/tum_mapfree/val/s00001/");
+  const std::string s = testing::DemoPath("val/s00001/");
   Dust3rPreprocessOptions po;
   po.size = 224;
   const Dust3rInput ref = PreprocessForDust3r(ReadImage(s + "seq0/frame_00000.png"), po);

@@ -21,11 +21,11 @@ const char* NetworkName(Network n) {
   return "?";
 }
 
-const char* NetworkFlag(Network n) {
+const char* NetworkOption(Network n) {
   switch (n) {
-    case Network::kDust3r: return "--dust3r";
-    case Network::kSegGpt: return "--seggpt";
-    case Network::kMetric3d: return "--metric3d";
+    case Network::kDust3r: return "dust3r_model";
+    case Network::kSegGpt: return "seggpt_model";
+    case Network::kMetric3d: return "metric3d_model";
   }
   return "?";
 }
@@ -69,9 +69,9 @@ std::string MissingModelMessage(Network n, const std::string& preset, const std:
   for (const auto& s : PublishedNames(n)) names += (names.empty() ? "" : " or ") + s;
   for (const auto& d : dirs) where += (where.empty() ? "" : ", ") + d;
   return std::string("preset ") + preset + " needs the " + NetworkName(n) + " weights: looked for " + names +
-         (dirs.empty() ? " but no --models DIR or $FREELOC_MODELS is set" : " in " + where) +
-         "; download them as docs/models.md says and pass --models DIR (or " + NetworkFlag(n) +
-         " FILE); presets that need no weights: sift-essential, sift-pnp, sift-procrustes, "
+         (dirs.empty() ? " but neither models_dir nor $FREELOC_MODELS is set" : " in " + where) +
+         "; download them as docs/models.md says and set models_dir to their folder (or " + NetworkOption(n) +
+         " to the file); presets that need no weights: sift-essential, sift-pnp, sift-procrustes, "
          "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>";
 }
 
@@ -80,7 +80,7 @@ template <typename Model>
 std::shared_ptr<Model> Cached(const std::string& path, const std::string& config, const nn::RuntimeOptions& rt) {
   static std::mutex mu;
   static std::map<std::string, std::shared_ptr<Model>> cache;
-  const std::string key = path + "|" + config + "|" + rt.device + "|" + rt.precision + "|" + std::to_string(rt.threads);
+  const std::string key = path + "|" + config + "|" + rt.Key();
   std::lock_guard<std::mutex> lock(mu);
   auto& m = cache[key];
   if (!m) m = Model::Load(path, config, rt);

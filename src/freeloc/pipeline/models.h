@@ -18,7 +18,7 @@ namespace freeloc::pipeline {
 
 enum class Network { kDust3r, kSegGpt, kMetric3d };
 const char* NetworkName(Network n);  // "DUSt3R", "SegGPT", "Metric3D v2"
-const char* NetworkFlag(Network n);  // "--dust3r", "--seggpt", "--metric3d"
+const char* NetworkOption(Network n);  // the PipelineOptions field: "dust3r_model", "seggpt_model", "metric3d_model"
 
 // The published file names freeloc looks for, in order of preference (relative to a models folder).
 std::vector<std::string> PublishedNames(Network n);

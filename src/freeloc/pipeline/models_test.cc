@@ -91,7 +91,7 @@ TEST(Models, MissingWeightsNameTheFileWhereToGetItAndTheAlternatives) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("metric_depth_vit_giant2_800k.pth"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("no --models DIR or $FREELOC_MODELS"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("neither models_dir nor $FREELOC_MODELS"), std::string::npos) << e.what();
   }
   PipelineOptions p = ResolvePreset("seed-provided-depth");
   p.dust3r_model = "d.pth";

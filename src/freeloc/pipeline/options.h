@@ -1,48 +1,108 @@
-// The pipeline's plain types: the options (stages, networks, presets resolve into them), a query's result, and the
-// per-scene cache counters. Light header.
+// The pipeline's plain types (DESIGN §2): typed options (each enum with one string table; text is parsed once,
+// where it enters — CLI, preset table, JSON, Python), a query's result with its status enum, and the per-scene
+// cache counters. Light header.
 #pragma once
 
 #include <string>
+#include <vector>
 
+#include "freeloc/core/enum_table.h"
 #include "freeloc/core/rigid3d.h"
+#include "freeloc/geometry/metric_scale.h"
+#include "freeloc/matching/instance.h"
 #include "freeloc/matching/proposals.h"
 #include "freeloc/nn/instance_segmenter.h"
+#include "freeloc/nn/runtime.h"
 
 namespace freeloc::pipeline {
 
+// sift (the benchmark's extractor) | dust3r (global reciprocal 3D matches) | dust3r+instances (+ the paper's
+// instance knowledge, Eq. 3) | precomputed:<name> (the scene's correspondences_<name>.npz, or rows handed in).
+enum class MatcherKind { kSift, kDust3r, kDust3rInstances, kPrecomputed };
+// provided:<suffix> (frame_xxxxx.<suffix>.png beside each frame, or maps handed in) | metric3d | none.
+enum class DepthKind { kProvided, kMetric3d, kNone };
+// essential (5-point LO-RANSAC + metric scale from both depths) | pnp (reference depth) | procrustes (both).
+enum class SolverKind { kEssential, kPnp, kProcrustes };
+// Where dust3r+instances gets its instance masks: kPropagate — the reference's given labels or proposals from its
+// own pointmap, propagated into each query by SegGPT; kGiven — label images given for both frames (no SegGPT).
+enum class InstanceSource { kPropagate, kGiven };
+
+struct MatcherSpec {
+  MatcherKind kind = MatcherKind::kSift;
+  std::string correspondences;  // kPrecomputed: the name in correspondences_<name>.npz (SIFT, SG, LoFTR, …)
+  // "sift" | "dust3r" | "dust3r+instances" | "precomputed:<name>"; throws naming the field "matcher".
+  static MatcherSpec FromString(const std::string& text);
+  std::string ToString() const;
+  bool operator==(const MatcherSpec& o) const { return kind == o.kind && correspondences == o.correspondences; }
+};
+
+struct DepthSpec {
+  DepthKind kind = DepthKind::kProvided;
+  std::string suffix = "sensor";  // kProvided: frame_xxxxx.<suffix>.png
+  // "provided:<suffix>" | "metric3d" | "none"; throws naming the field "depth".
+  static DepthSpec FromString(const std::string& text);
+  std::string ToString() const;
+  bool operator==(const DepthSpec& o) const { return kind == o.kind && suffix == o.suffix; }
+};
+
 struct PipelineOptions {
-  std::string preset = "sift-essential";
-  std::string matcher = "sift";           // sift | dust3r | dust3r+instances | precomputed:<SIFT|SG|LoFTR|…>
-  std::string depth = "provided:sensor";  // provided:<suffix> | metric3d | none
-  std::string solver = "essential";       // essential | pnp | procrustes
-  std::string scale = "robust";           // robust | official (essential only)
-  double threshold_px = -1;               // < 0: the solver's default
+  std::string preset = "sift-essential";  // the preset these options started from (reported, not interpreted)
+  MatcherSpec matcher;
+  DepthSpec depth;
+  SolverKind solver = SolverKind::kEssential;
+  geometry::ScaleMethod scale = geometry::ScaleMethod::kRobust;  // essential only
+  double threshold_px = -1;                                      // < 0: the solver's default
   // Networks. Paths left empty are looked up by their published file names in `models_dir`, then in the folders of
   // $FREELOC_MODELS (FindModels); Validate names what is still missing.
   std::string models_dir;
   std::string dust3r_model;    // official .pth or model.safetensors (+ config.json beside it)
+  std::string dust3r_config;   // optional config.json with the constructor arguments
   std::string seggpt_model;    // seggpt_vit_large.pth or HF model.safetensors
   std::string metric3d_model;  // metric_depth_vit_{small,large,giant2}_800k.pth or safetensors
-  int dust3r_size = 512;       // load_images size
-  std::string instance_mode = "mask";     // mask (I ⊙ Mask, the paper) | crop
-  int min_instance_matches = 16;          // instances with fewer matches keep the global ones
-  matching::ProposalOptions proposals;    // reference instances from the reference pointmap
+  int dust3r_size = 512;       // load_images size (long side)
+  double match_conf_threshold = 0;  // reciprocal matching: a pixel is valid if conf >= this
+  int match_subsample = 1;          // keep every k-th query pixel
+  matching::InstanceMode instance_mode = matching::InstanceMode::kMask;
+  InstanceSource instance_source = InstanceSource::kPropagate;
+  int min_instance_matches = 16;           // instances with fewer matches keep the global ones
+  matching::ProposalOptions proposals;     // reference instances from the reference pointmap
   nn::InstanceSegmenterOptions segmenter;  // SegGPT propagation and its filters
-  std::string device = "cpu";
-  int threads = 0;  // 0 = library default
+  nn::RuntimeOptions runtime;              // device, precision, threads of every network stage
 
-  bool UsesDust3r() const { return matcher == "dust3r" || matcher == "dust3r+instances"; }
-  bool UsesSegGpt() const { return matcher == "dust3r+instances"; }
-  bool UsesMetric3d() const { return depth == "metric3d"; }
-  bool UsesProvidedDepth() const { return depth.rfind("provided:", 0) == 0; }
-  void Validate() const;  // throws freeloc::Error naming the option (or the missing weights file)
-  std::string Summary() const;
+  bool UsesDust3r() const {
+    return matcher.kind == MatcherKind::kDust3r || matcher.kind == MatcherKind::kDust3rInstances;
+  }
+  bool UsesInstances() const { return matcher.kind == MatcherKind::kDust3rInstances; }
+  bool UsesSegGpt() const { return UsesInstances() && instance_source == InstanceSource::kPropagate; }
+  bool UsesMetric3d() const { return depth.kind == DepthKind::kMetric3d; }
+  bool UsesProvidedDepth() const { return depth.kind == DepthKind::kProvided; }
+  bool UsesPrecomputed() const { return matcher.kind == MatcherKind::kPrecomputed; }
+  // Throws freeloc::Error naming the option field and the allowed values (or the missing weights file).
+  void Validate() const;
+  std::string Summary() const;  // one line for people: "preset …: matcher …, depth …, solver …"
+};
+
+// What happened to a query: one text form each (EnumTable<QueryStatus>), used by the log, JSON records, the CLI
+// and the submission (only kOk and kOkUnitTranslation poses are submitted).
+enum class QueryStatus {
+  kOk,                 // metric pose
+  kOkUnitTranslation,  // essential without depth: rotation + translation direction (unit norm)
+  kTooFewMatches,
+  kNoConsensus,        // the robust estimator found no model
+  kDegenerate,         // the inliers span (almost) a single pixel: no geometry
+  kNoDepth,            // the depth stage needs provided depth and a frame has none
+  kScaleNoValidDepth,  // essential: no inlier has depth in both frames
+  kScaleNoConsensus,   // essential: the depths disagree on the scale
+  kError,              // an exception inside the query (bad image, bad depth, a network error): see `message`
 };
 
 struct QueryResult {
   std::string frame;
-  bool ok = false;
-  std::string status;  // "ok" or why not (too-few-matches, no-consensus, no-depth, scale-…, error: …)
+  QueryStatus status = QueryStatus::kError;
+  std::string message;  // kError: which file and what went wrong
+  bool ok() const { return status == QueryStatus::kOk || status == QueryStatus::kOkUnitTranslation; }
+  bool metric() const { return status == QueryStatus::kOk; }
+  std::string StatusText() const;  // "ok", "no-consensus", "error: <message>" — for people
   Rigid3d query_from_ref;
   double confidence = 0;  // essential + robust scale: confidence.h; official scale: its support; pnp/procrustes: inliers
   int matches = 0, inliers = 0;
@@ -62,5 +122,73 @@ struct CacheStats {
   int depth_estimates = 0;      // Metric3D passes (reference once per scene + one per query)
   double reference_ms = 0;      // time spent on the current reference's own work
 };
+
+}  // namespace freeloc::pipeline
+
+namespace freeloc {
+template <>
+struct EnumTable<pipeline::MatcherKind> {
+  static constexpr const char* kField = "matcher";
+  static constexpr EnumEntry<pipeline::MatcherKind> kEntries[] = {
+      {pipeline::MatcherKind::kSift, "sift"},
+      {pipeline::MatcherKind::kDust3r, "dust3r"},
+      {pipeline::MatcherKind::kDust3rInstances, "dust3r+instances"},
+      {pipeline::MatcherKind::kPrecomputed, "precomputed"}};
+};
+template <>
+struct EnumTable<pipeline::DepthKind> {
+  static constexpr const char* kField = "depth";
+  static constexpr EnumEntry<pipeline::DepthKind> kEntries[] = {{pipeline::DepthKind::kProvided, "provided"},
+                                                                {pipeline::DepthKind::kMetric3d, "metric3d"},
+                                                                {pipeline::DepthKind::kNone, "none"}};
+};
+template <>
+struct EnumTable<pipeline::SolverKind> {
+  static constexpr const char* kField = "solver";
+  static constexpr EnumEntry<pipeline::SolverKind> kEntries[] = {{pipeline::SolverKind::kEssential, "essential"},
+                                                                 {pipeline::SolverKind::kPnp, "pnp"},
+                                                                 {pipeline::SolverKind::kProcrustes, "procrustes"}};
+};
+template <>
+struct EnumTable<pipeline::InstanceSource> {
+  static constexpr const char* kField = "instance_source";
+  static constexpr EnumEntry<pipeline::InstanceSource> kEntries[] = {
+      {pipeline::InstanceSource::kPropagate, "propagate"}, {pipeline::InstanceSource::kGiven, "given"}};
+};
+template <>
+struct EnumTable<pipeline::QueryStatus> {
+  static constexpr const char* kField = "status";
+  static constexpr EnumEntry<pipeline::QueryStatus> kEntries[] = {
+      {pipeline::QueryStatus::kOk, "ok"},
+      {pipeline::QueryStatus::kOkUnitTranslation, "ok-unit-translation"},
+      {pipeline::QueryStatus::kTooFewMatches, "too-few-matches"},
+      {pipeline::QueryStatus::kNoConsensus, "no-consensus"},
+      {pipeline::QueryStatus::kDegenerate, "degenerate"},
+      {pipeline::QueryStatus::kNoDepth, "no-depth"},
+      {pipeline::QueryStatus::kScaleNoValidDepth, "scale-no-valid-depth"},
+      {pipeline::QueryStatus::kScaleNoConsensus, "scale-no-consensus"},
+      {pipeline::QueryStatus::kError, "error"}};
+};
+}  // namespace freeloc
+
+namespace freeloc::pipeline {
+
+// Every option field by name — the names the JSON records, the CLI's overrides and Python keywords use (nested
+// options with a dot: "proposals.max_instances", "segmenter.min_score"). Values are text, parsed by the field's
+// type; errors name the field and what it takes.
+enum class OptionType { kText, kInt, kReal };
+struct OptionField {
+  const char* name;
+  OptionType type;
+  const char* help;
+};
+const std::vector<OptionField>& OptionFields();
+void SetOption(PipelineOptions* options, const std::string& name, const std::string& value);
+std::string GetOption(const PipelineOptions& options, const std::string& name);
+
+// Presets (the paper's method, its ablations and the benchmark's baselines) as option sets; overridable field by
+// field. Throws freeloc::Error naming the preset and the available ones when unknown.
+PipelineOptions ResolvePreset(const std::string& name);
+std::vector<std::string> PresetNames();  // with "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>" as one
 
 }  // namespace freeloc::pipeline

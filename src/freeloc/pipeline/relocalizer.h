@@ -1,12 +1,7 @@
-// The relocalization pipeline (DESIGN §1–3). Stages, each chosen by a plain option:
-//   matcher  — sift (the benchmark's extractor), dust3r (global reciprocal 3D matches of DUSt3R pointmaps),
-//              dust3r+instances (the paper: reference instances proposed on the reference's own pointmap, propagated
-//              into the query by SegGPT, DUSt3R re-run per masked instance pair, merged by Eq. 3), precomputed:<name>;
-//   depth    — provided:<suffix> (the scene's depth PNGs), metric3d (Metric3D v2 on each image), none;
-//   solver   — essential (+ metric scale from depth), pnp, procrustes.
-// A `Relocalizer` runs the stages (stages.h: Matcher, DepthEstimator, PoseSolver — built in, or your own): the
-// reference frame's work once (its depth, SIFT features or DUSt3R encoding, instance proposals), then only query
-// work per query.
+// The relocalization pipeline (DESIGN §1–3). A `Relocalizer` runs the stages (stages.h: Matcher, DepthEstimator,
+// PoseSolver — built in from PipelineOptions, or your own): the reference frame's work once (its depth, SIFT
+// features or DUSt3R encoding, instance proposals), then only query work per query. Every entry point — `freeloc
+// relocalize`, `pose`, `match`, `run` (benchmark_run.h) and the Python bindings — goes through it.
 #pragma once
 
 #include <functional>
@@ -25,10 +20,6 @@
 
 namespace freeloc::pipeline {
 
-// Resolves a preset name into options (then overridable). Throws freeloc::Error naming the preset when unknown.
-PipelineOptions ResolvePreset(const std::string& name);
-std::vector<std::string> PresetNames();
-
 // Fills the empty model paths that `options` needs from `models_dir` and $FREELOC_MODELS (models.h).
 void FindModels(PipelineOptions* options);
 
@@ -43,15 +34,29 @@ class Relocalizer {
   Relocalizer(const Relocalizer&) = delete;
   Relocalizer& operator=(const Relocalizer&) = delete;
 
-  // The reference frame; its work (Metric3D depth, instance proposals) runs here, once. `depth`: the provided depth
-  // (may be empty; ignored unless the depth stage is provided:<suffix>).
-  void SetReference(const Image& image, const Camera& camera, DepthMap depth = {});
-  // One query against the current reference. `depth`: the provided query depth (as above); `precomputed`: the
-  // correspondences (x_ref, y_ref, x_query, y_query) when the matcher is precomputed; `matches` (optional) receives
-  // the correspondences the solver got (original pixels).
+  // The reference frame; its work (depth, features or encoding, instance proposals) runs here, once.
+  void SetReference(const Image& image, const Camera& camera, FrameInputs inputs);
+  void SetReference(const Image& image, const Camera& camera, DepthMap depth = {}) {
+    FrameInputs in;
+    in.depth = std::move(depth);
+    SetReference(image, camera, std::move(in));
+  }
+  // One query against the current reference. `matches` (optional) receives the correspondences the solver got
+  // (original pixels). Estimator failures are statuses; exceptions (bad input, network errors) propagate.
+  QueryResult Relocalize(const Image& image, const Camera& camera, FrameInputs inputs,
+                         matching::Correspondences* matches = nullptr);
   QueryResult Relocalize(const Image& image, const Camera& camera, DepthMap depth = {},
                          const std::vector<Eigen::Vector4d>* precomputed = nullptr,
-                         matching::Correspondences* matches = nullptr);
+                         matching::Correspondences* matches = nullptr) {
+    FrameInputs in;
+    in.depth = std::move(depth);
+    in.correspondences = precomputed;
+    return Relocalize(image, camera, std::move(in), matches);
+  }
+  // Only the matching stage (what `freeloc match` runs): the correspondences of the query against the reference.
+  matching::Correspondences Match(const Image& image, const Camera& camera, const FrameInputs& inputs,
+                                  QueryResult* r);
+
   const CacheStats& stats() const;
   const PipelineOptions& options() const;
 
@@ -70,8 +75,16 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
 // one error before any work starts rather than a failure of every query. Throws freeloc::Error naming the file.
 void LoadModels(const PipelineOptions& options);
 
-// Every query of a map-free scene; the reference's image, depth, encodings and instances are computed once.
-// `stats` (optional) receives the scene's cache counters; `on_query` (optional) is called after each query.
+// Every query of a map-free scene through `reloc`; the reference's image, depth, encodings and instances are
+// computed once. A failing reference fails every query of the scene; a failing query fails alone (status kError,
+// `message` naming the file and the cause) — any exception, LibTorch's included. `on_query` (optional) is called
+// after each query.
+// `on_matches` (optional) receives each query's correspondences (original pixels) before `on_query`.
+using MatchesCallback = std::function<void(const QueryResult&, const matching::Correspondences&)>;
+std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer& reloc,
+                                         const std::function<void(const QueryResult&)>& on_query = nullptr,
+                                         const MatchesCallback& on_matches = nullptr);
+// The same with a Relocalizer made from `options`; `stats` (optional) receives the scene's cache counters.
 std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& options,
                                          CacheStats* stats = nullptr,
                                          const std::function<void(const QueryResult&)>& on_query = nullptr);

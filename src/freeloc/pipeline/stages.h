@@ -1,10 +1,12 @@
 // The pipeline's stages as interfaces (DESIGN §1–3), so a library user can plug in their own: a Matcher gives
 // correspondences between the reference and a query, a DepthEstimator the metric depth of a frame, a PoseSolver the
 // pose from both. Each does its reference-frame share once in SetReference; the rest runs per query. The built-in
-// implementations are made from PipelineOptions (MakeMatcher, MakeDepthEstimator, MakePoseSolver). Light header.
+// implementations are made from PipelineOptions (MakeMatcher, MakeDepthEstimator, MakePoseSolver) — the same
+// objects behind `freeloc run`, `relocalize`, `pose`, `match` and the Python bindings. Light header.
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -16,16 +18,28 @@
 
 namespace freeloc::pipeline {
 
+// What a frame brings besides its image and camera; everything optional.
+struct FrameInputs {
+  DepthMap depth;  // provided depth (used when the depth stage is provided:<suffix>)
+  // Instance label image at the frame's resolution (0 = none, k = instance k): the reference's instances for
+  // dust3r+instances (instead of proposals), and the query's with instance_source given.
+  const std::vector<uint16_t>* instance_labels = nullptr;
+  // Query only, matcher precomputed: the correspondences (x_ref, y_ref, x_query, y_query) in original pixels.
+  const std::vector<Eigen::Vector4d>* correspondences = nullptr;
+};
+
 // sift (the benchmark's extractor; reference features once) | dust3r (global reciprocal 3D matches; reference
-// encoding once) | dust3r+instances (+ SegGPT-propagated reference instances, per-instance DUSt3R, Eq. 3 merge;
-// proposals once) | precomputed:<name> (the rows handed in).
+// encoding once) | dust3r+instances (+ reference instances — given or proposed — propagated by SegGPT or given
+// for the query, per-instance DUSt3R, Eq. 3 merge) | precomputed (the rows handed in).
 class Matcher {
  public:
   virtual ~Matcher() = default;
-  virtual void SetReference(const Image& image, const Camera& camera) = 0;
+  // `instance_labels`: the reference's label image, or nullptr.
+  virtual void SetReference(const Image& image, const Camera& camera,
+                            const std::vector<uint16_t>* instance_labels) = 0;
   // Correspondences in original pixels; fills r->global_matches, instances, instances_used, match_ms, instance_ms.
-  virtual matching::Correspondences Match(const Image& query, const Camera& camera,
-                                          const std::vector<Eigen::Vector4d>* precomputed, QueryResult* r) = 0;
+  virtual matching::Correspondences Match(const Image& query, const Camera& camera, const FrameInputs& inputs,
+                                          QueryResult* r) = 0;
   virtual void AddStats(CacheStats* /*stats*/) const {}
 };
 
@@ -40,7 +54,7 @@ class DepthEstimator {
 };
 
 // essential (+ metric scale when both depths exist) | pnp (reference depth) | procrustes (both depths). Fills
-// r->ok, status, query_from_ref, confidence, matches, inliers, scale_inliers, predicted errors, solve_ms.
+// r->status, query_from_ref, confidence, matches, inliers, scale_inliers, predicted errors, solve_ms.
 class PoseSolver {
  public:
   virtual ~PoseSolver() = default;

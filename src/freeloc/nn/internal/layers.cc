@@ -5,7 +5,7 @@
 
 namespace freeloc::nn::internal {
 
-void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const Precision& p) {
+void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const PrecisionPolicy& p) {
   w = ws.Take(prefix + ".weight", {out, in});
   if (bias) b = ws.Take(prefix + ".bias", {out});
   if (p.bf16 && w.defined()) {
@@ -14,7 +14,7 @@ void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64
   }
 }
 
-torch::Tensor Linear::operator()(const torch::Tensor& x, const Precision& p) const {
+torch::Tensor Linear::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
   if (p.bf16) return torch::linear(x.to(torch::kBFloat16), w_lp, b_lp).to(torch::kFloat32);
   return torch::linear(x, w, b);
 }
@@ -29,12 +29,12 @@ torch::Tensor LayerNorm::operator()(const torch::Tensor& x) const {
   return torch::layer_norm(x, {x.size(-1)}, w, b, eps);
 }
 
-void Mlp::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t hidden, const Precision& p) {
+void Mlp::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t hidden, const PrecisionPolicy& p) {
   fc1.Load(ws, prefix + ".fc1", hidden, dim, true, p);
   fc2.Load(ws, prefix + ".fc2", dim, hidden, true, p);
 }
 
-torch::Tensor Mlp::operator()(const torch::Tensor& x, const Precision& p) const {
+torch::Tensor Mlp::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
   return fc2(torch::gelu(fc1(x, p)), p);
 }
 
@@ -77,7 +77,7 @@ torch::Tensor ScaledDotProductReference(const torch::Tensor& q, const torch::Ten
 }
 
 torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
-                               const Precision& p, int64_t block_rows) {
+                               const PrecisionPolicy& p, int64_t block_rows) {
   const int64_t B = q.size(0), H = q.size(1), Nq = q.size(2), Nk = k.size(2), D = q.size(3), Dv = v.size(3);
   if (p.bf16) {
     // bf16 matmuls, fp32 softmax (the autocast policy), heads in 16 MB chunks of logits.
@@ -117,14 +117,14 @@ torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, c
   return o.view({B, H, Nq, Dv});
 }
 
-void SelfAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const Precision& p) {
+void SelfAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const PrecisionPolicy& p) {
   qkv.Load(ws, prefix + ".qkv", 3 * dim, dim, true, p);
   proj.Load(ws, prefix + ".proj", dim, dim, true, p);
   heads = h;
 }
 
 torch::Tensor SelfAttention::operator()(const torch::Tensor& x, const std::pair<torch::Tensor, torch::Tensor>& rope,
-                                        const Precision& p) const {
+                                        const PrecisionPolicy& p) const {
   const int64_t B = x.size(0), N = x.size(1), C = x.size(2), dh = C / heads;
   const torch::Tensor t = qkv(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});  // 3,B,H,N,dh
   const torch::Tensor q = Rope2D::Apply(t[0], rope), k = Rope2D::Apply(t[1], rope);
@@ -132,7 +132,7 @@ torch::Tensor SelfAttention::operator()(const torch::Tensor& x, const std::pair<
   return proj(o.transpose(1, 2).reshape({B, N, C}), p);
 }
 
-void CrossAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const Precision& p) {
+void CrossAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const PrecisionPolicy& p) {
   q.Load(ws, prefix + ".projq", dim, dim, true, p);
   k.Load(ws, prefix + ".projk", dim, dim, true, p);
   v.Load(ws, prefix + ".projv", dim, dim, true, p);
@@ -143,7 +143,7 @@ void CrossAttention::Load(WeightStore& ws, const std::string& prefix, int64_t di
 torch::Tensor CrossAttention::operator()(const torch::Tensor& x, const torch::Tensor& y,
                                          const std::pair<torch::Tensor, torch::Tensor>& rope_x,
                                          const std::pair<torch::Tensor, torch::Tensor>& rope_y,
-                                         const Precision& p) const {
+                                         const PrecisionPolicy& p) const {
   const int64_t B = x.size(0), Nq = x.size(1), C = x.size(2), Nk = y.size(1), dh = C / heads;
   const torch::Tensor qq = Rope2D::Apply(q(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2), rope_x);
   const torch::Tensor kk = Rope2D::Apply(k(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2), rope_y);
@@ -153,7 +153,7 @@ torch::Tensor CrossAttention::operator()(const torch::Tensor& x, const torch::Te
 }
 
 void Conv::Load(WeightStore& ws, const std::string& prefix, const std::vector<int64_t>& shape, bool bias, int64_t s,
-                int64_t pad, bool tr, const Precision& p) {
+                int64_t pad, bool tr, const PrecisionPolicy& p) {
   w = ws.Take(prefix + ".weight", shape);
   if (bias) b = ws.Take(prefix + ".bias", {tr ? shape[1] : shape[0]});
   stride = s;
@@ -165,7 +165,7 @@ void Conv::Load(WeightStore& ws, const std::string& prefix, const std::vector<in
   }
 }
 
-torch::Tensor Conv::operator()(const torch::Tensor& x, const Precision& p) const {
+torch::Tensor Conv::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
   const bool lp = p.bf16;
   const torch::Tensor in = lp ? x.to(torch::kBFloat16) : x;
   const torch::Tensor& ww = lp ? w_lp : w;

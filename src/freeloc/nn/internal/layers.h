@@ -1,5 +1,5 @@
 // ViT building blocks shared by DUSt3R, SegGPT and Metric3D (nn/ .cc files only). Each block names the upstream
-// function it reproduces. `Precision` implements the autocast-style policy: matmuls and convolutions in bf16 when
+// function it reproduces. `PrecisionPolicy` implements the autocast-style policy: matmuls and convolutions in bf16 when
 // asked, norms, softmax and everything else in fp32.
 #pragma once
 
@@ -13,15 +13,15 @@
 
 namespace freeloc::nn::internal {
 
-struct Precision {
+struct PrecisionPolicy {
   bool bf16 = false;
 };
 
 // torch.nn.Linear.
 struct Linear {
   torch::Tensor w, b, w_lp, b_lp;  // *_lp: bf16 copies when running in bf16
-  void Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const Precision& p);
-  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const;
+  void Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const PrecisionPolicy& p);
+  torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const;
 };
 
 // torch.nn.LayerNorm over the last dimension (biased variance).
@@ -35,8 +35,8 @@ struct LayerNorm {
 // croco/models/blocks.py Mlp: fc2(GELU_erf(fc1(x))).
 struct Mlp {
   Linear fc1, fc2;
-  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t hidden, const Precision& p);
-  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const;
+  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t hidden, const PrecisionPolicy& p);
+  torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const;
 };
 
 // croco/models/pos_embed.py RoPE2D (and its CUDA kernel curope): the first half of each head rotated by the y
@@ -57,7 +57,7 @@ class Rope2D {
 
 // softmax(q·kᵀ·scale)·v for [B, heads, N, dh] tensors (croco Attention / CrossAttention core).
 torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
-                               const Precision& p, int64_t block_rows = 128);
+                               const PrecisionPolicy& p, int64_t block_rows = 128);
 // softmax(q·kᵀ·scale)·v in three whole-tensor ops (the upstream formulation): the reference for bench/attention.
 torch::Tensor ScaledDotProductReference(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v,
                                         double scale);
@@ -66,19 +66,19 @@ torch::Tensor ScaledDotProductReference(const torch::Tensor& q, const torch::Ten
 struct SelfAttention {
   Linear qkv, proj;
   int64_t heads = 1;
-  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t heads, const Precision& p);
+  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t heads, const PrecisionPolicy& p);
   torch::Tensor operator()(const torch::Tensor& x, const std::pair<torch::Tensor, torch::Tensor>& rope,
-                           const Precision& p) const;
+                           const PrecisionPolicy& p) const;
 };
 
 // croco/models/blocks.py CrossAttention (projq/projk/projv, RoPE on q and k with their own positions).
 struct CrossAttention {
   Linear q, k, v, proj;
   int64_t heads = 1;
-  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t heads, const Precision& p);
+  void Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t heads, const PrecisionPolicy& p);
   torch::Tensor operator()(const torch::Tensor& x, const torch::Tensor& y,
                            const std::pair<torch::Tensor, torch::Tensor>& rope_x,
-                           const std::pair<torch::Tensor, torch::Tensor>& rope_y, const Precision& p) const;
+                           const std::pair<torch::Tensor, torch::Tensor>& rope_y, const PrecisionPolicy& p) const;
 };
 
 // torch.nn.Conv2d / ConvTranspose2d with bf16 policy.
@@ -87,8 +87,8 @@ struct Conv {
   int64_t stride = 1, padding = 0;
   bool transpose = false;
   void Load(WeightStore& ws, const std::string& prefix, const std::vector<int64_t>& shape, bool bias, int64_t stride,
-            int64_t padding, bool transpose, const Precision& p);
-  torch::Tensor operator()(const torch::Tensor& x, const Precision& p) const;
+            int64_t padding, bool transpose, const PrecisionPolicy& p);
+  torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const;
 };
 
 // F.interpolate(x, scale_factor=2, mode='bilinear', align_corners=True).

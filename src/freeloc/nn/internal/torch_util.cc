@@ -9,13 +9,13 @@
 namespace freeloc::nn {
 
 void RuntimeOptions::Validate() const {
-  FREELOC_CHECK(device == "cpu" || device == "cuda", "--device '" << device << "' is unknown; use cpu or cuda");
-  FREELOC_CHECK(precision == "fp32" || precision == "bf16",
-                "--precision '" << precision << "' is unknown; use fp32 or bf16");
-  FREELOC_CHECK(device != "cuda" || CudaAvailable(),
-                "--device cuda: this LibTorch build has no CUDA device available; run on cpu or install a CUDA "
-                "build of LibTorch");
-  FREELOC_CHECK(threads >= 0, "--threads must be >= 0");
+  FREELOC_CHECK(device != Device::kCuda || CudaAvailable(),
+                "device: cuda is not available in this LibTorch build; run on cpu or install a CUDA build of LibTorch");
+  FREELOC_CHECK(threads >= 0, "threads: " << threads << " is negative; use 0 (library default) or a count");
+}
+
+std::string RuntimeOptions::Key() const {
+  return ToString(device) + "|" + ToString(precision) + "|" + std::to_string(threads);
 }
 
 bool CudaAvailable() { return torch::cuda::is_available(); }
@@ -83,7 +83,7 @@ std::string ReadModelConfig(const std::string& model_path, const std::string& co
 }
 
 torch::Device DeviceOf(const RuntimeOptions& r) {
-  return r.device == "cuda" ? torch::Device(torch::kCUDA) : torch::kCPU;
+  return r.device == Device::kCuda ? torch::Device(torch::kCUDA) : torch::kCPU;
 }
 
 WeightStore::WeightStore(std::map<std::string, torch::Tensor> tensors, std::string source, torch::Device device)

@@ -1,4 +1,4 @@
-#include "freeloc/io/resize.h"
+#include "freeloc/vision/resize.h"
 
 #include <algorithm>
 #include <cmath>

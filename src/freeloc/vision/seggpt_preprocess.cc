@@ -1,9 +1,9 @@
-#include "freeloc/io/seggpt_preprocess.h"
+#include "freeloc/vision/seggpt_preprocess.h"
 
 #include <algorithm>
 
 #include "freeloc/core/error.h"
-#include "freeloc/io/resize.h"
+#include "freeloc/vision/resize.h"
 
 namespace freeloc {
 

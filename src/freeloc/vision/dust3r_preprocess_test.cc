@@ -1,4 +1,4 @@
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 
 #include <gtest/gtest.h>
 

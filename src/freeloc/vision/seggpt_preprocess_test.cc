@@ -1,4 +1,4 @@
-#include "freeloc/io/seggpt_preprocess.h"
+#include "freeloc/vision/seggpt_preprocess.h"
 
 #include <gtest/gtest.h>
 

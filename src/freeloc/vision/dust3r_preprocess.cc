@@ -1,11 +1,11 @@
-#include "freeloc/io/dust3r_preprocess.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 
 #include <algorithm>
 #include <cfenv>
 #include <cmath>
 
 #include "freeloc/core/error.h"
-#include "freeloc/io/resize.h"
+#include "freeloc/vision/resize.h"
 
 namespace freeloc {
 

@@ -1,4 +1,4 @@
-#include "freeloc/io/metric3d_preprocess.h"
+#include "freeloc/vision/metric3d_preprocess.h"
 
 #include <algorithm>
 #include <opencv2/core.hpp>

@@ -1,0 +1,125 @@
+// `freeloc relocalize`: the pose of one query image relative to one reference image, through the pipeline's
+// Relocalizer (the same stages as `freeloc run`).
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+
+#include "freeloc/cli/commands.h"
+#include "freeloc/core/error.h"
+#include "freeloc/io/correspondence_file.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/mapfree.h"
+#include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/relocalizer.h"
+
+namespace freeloc::cli {
+
+namespace {
+
+struct RelocArgs {
+  PipelineArgs pipeline;
+  std::string ref, query, ref_k, query_k, intrinsics, ref_depth, query_depth, ref_masks, query_masks, save_matches;
+  bool json = false;
+};
+
+// The camera of `image` in an intrinsics file (map-free `intrinsics.txt` lines: path fx fy cx cy W H): the line
+// whose path is the image's path, a suffix of it, or has its file name.
+Camera CameraFromFile(const std::string& file, const std::string& image) {
+  const std::vector<MapfreeFrame> frames = ReadIntrinsicsFile(file);
+  const std::string base = std::filesystem::path(image).filename().string();
+  const MapfreeFrame* by_name = nullptr;
+  for (const auto& f : frames) {
+    if (image == f.name || (image.size() > f.name.size() && image.compare(image.size() - f.name.size() - 1,
+                                                                         f.name.size() + 1, "/" + f.name) == 0))
+      return f.camera;
+    if (!by_name && std::filesystem::path(f.name).filename().string() == base) by_name = &f;
+  }
+  FREELOC_CHECK(by_name != nullptr, file << ": no line for " << image
+                                         << "; each line is 'path fx fy cx cy width height' with the image's path "
+                                            "or file name");
+  return by_name->camera;
+}
+
+std::pair<Camera, Camera> Cameras(const RelocArgs& a) {
+  FREELOC_CHECK(a.intrinsics.empty() != (a.ref_k.empty() && a.query_k.empty()),
+                "give --ref-intrinsics and --query-intrinsics (fx,fy,cx,cy), or --intrinsics FILE, not both");
+  FREELOC_CHECK(!a.intrinsics.empty() || (!a.ref_k.empty() && !a.query_k.empty()),
+                "give both --ref-intrinsics and --query-intrinsics (fx,fy,cx,cy), or --intrinsics FILE");
+  if (!a.intrinsics.empty()) return {CameraFromFile(a.intrinsics, a.ref), CameraFromFile(a.intrinsics, a.query)};
+  return {Camera::FromString(a.ref_k, "--ref-intrinsics"), Camera::FromString(a.query_k, "--query-intrinsics")};
+}
+
+pipeline::PipelineOptions Options(const RelocArgs& a, const GlobalOptions& g) {
+  return ResolvePipelineArgs(a.pipeline, g, "sift-essential", [&](pipeline::PipelineOptions* o) {
+    // No depth files and no --depth: the provided-depth presets answer with a unit translation.
+    if (a.ref_depth.empty() && a.query_depth.empty() && a.pipeline.depth.empty() && o->UsesProvidedDepth())
+      o->depth.kind = pipeline::DepthKind::kNone;
+    FREELOC_CHECK(!o->UsesPrecomputed(), "matcher: relocalize works on images: use sift, dust3r or dust3r+instances "
+                                         "(precomputed correspondences go to freeloc pose)");
+    ApplyMaskArgs(o, !a.ref_masks.empty(), !a.query_masks.empty());
+  });
+}
+
+void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, bool json) {
+  if (json) {
+    std::printf("%s\n", pipeline::QueryRecordJson("", q, &o, 2).c_str());
+    return;
+  }
+  const auto qv = q.query_from_ref.QuaternionWxyz();
+  const auto& t = q.query_from_ref.translation;
+  std::printf(
+      "%s\nstatus:      %s\nqvec (wxyz): %.9f %.9f %.9f %.9f\ntvec:        %.6f %.6f %.6f %s\n"
+      "confidence:  %.6g\nmatches:     %d (%d inliers)\ninstances:   %d of %d used\n"
+      "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n",
+      o.Summary().c_str(), q.StatusText().c_str(), qv[0], qv[1], qv[2], qv[3], t.x(), t.y(), t.z(),
+      q.metric() ? "(metres)" : "(unit norm: no depth)", q.confidence, q.matches, q.inliers, q.instances_used,
+      q.instances, q.depth_ms, q.match_ms, q.instance_ms, q.solve_ms);
+}
+
+int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
+  const pipeline::PipelineOptions o = Options(a, g);
+  const auto [kr, kq] = Cameras(a);
+  const Image ref = ReadImage(a.ref), query = ReadImage(a.query);
+  std::vector<uint16_t> ref_labels, query_labels;
+  pipeline::FrameInputs in_ref, in_query;
+  if (!a.ref_depth.empty()) in_ref.depth = ReadDepthPng(a.ref_depth);
+  if (!a.query_depth.empty()) in_query.depth = ReadDepthPng(a.query_depth);
+  if (!a.ref_masks.empty()) in_ref.instance_labels = &(ref_labels = ReadLabels(a.ref_masks, ref.width, ref.height));
+  if (!a.query_masks.empty())
+    in_query.instance_labels = &(query_labels = ReadLabels(a.query_masks, query.width, query.height));
+  pipeline::Relocalizer reloc(o);
+  reloc.SetReference(ref, kr, std::move(in_ref));
+  matching::Correspondences c;
+  const pipeline::QueryResult q = reloc.Relocalize(query, kq, std::move(in_query), &c);
+  if (!a.save_matches.empty()) {
+    std::vector<Eigen::Vector4d> rows;
+    for (size_t i = 0; i < c.size(); ++i) rows.emplace_back(c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y());
+    WriteCorrespondenceFile(a.save_matches, rows);
+  }
+  Print(q, o, a.json);
+  return q.ok() ? 0 : 1;
+}
+
+}  // namespace
+
+void RegisterRelocalize(CLI::App& app, const GlobalOptions& global, RunFn* run) {
+  auto a = std::make_shared<RelocArgs>();
+  auto* rs = app.add_subcommand("relocalize", "Pose of one query image relative to one reference image");
+  rs->add_option("--ref", a->ref, "reference image")->required();
+  rs->add_option("--query", a->query, "query image")->required();
+  rs->add_option("--ref-intrinsics", a->ref_k, "fx,fy,cx,cy");
+  rs->add_option("--query-intrinsics", a->query_k, "fx,fy,cx,cy");
+  rs->add_option("--intrinsics", a->intrinsics,
+                 "instead of the two above: a file of 'path fx fy cx cy W H' lines (map-free intrinsics.txt)");
+  rs->add_option("--save-matches", a->save_matches, "write the correspondences (x_ref y_ref x_query y_query per line)");
+  rs->add_option("--ref-depth", a->ref_depth, "reference depth PNG (uint16 mm)");
+  rs->add_option("--query-depth", a->query_depth, "query depth PNG (uint16 mm)");
+  rs->add_option("--ref-masks", a->ref_masks,
+                 "reference instance label PNG (0 = background, k = instance k) for dust3r+instances");
+  rs->add_option("--query-masks", a->query_masks, "query instance label PNG (same labels; else SegGPT propagates)");
+  rs->add_flag("--json", a->json, "one JSON record (docs/formats.md) with the resolved options");
+  AddPipelineArgs(rs, &a->pipeline, "sift-essential");
+  rs->callback([a, run, &global] { *run = [a, &global] { return RunRelocalize(*a, global); }; });
+}
+
+}  // namespace freeloc::cli

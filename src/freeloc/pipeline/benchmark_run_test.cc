@@ -1,0 +1,184 @@
+// The run controller on synthetic map-free scenes: outputs and provenance, per-query isolation of any exception
+// (a LibTorch one included), per-scene isolation of a damaged scene, resume after a journal, the bundled demo data.
+#include "freeloc/pipeline/benchmark_run.h"
+
+#include <c10/util/Exception.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/version.h"
+#include "freeloc/io/submission.h"
+#include "freeloc/pipeline/record.h"
+#include "testing/mapfree_writer.h"
+#include "testing/testing.h"
+
+namespace freeloc::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Split {
+  testing::TempDir tmp;
+  std::string root() const { return tmp.File("data"); }
+  std::string out() const { return tmp.File("sub.zip"); }
+  Split() {
+    for (uint32_t s : {3u, 4u}) testing::WriteSyntheticMapfreeScene(tmp.File("data/val/s0000" + std::to_string(s)), 90 + s);
+  }
+};
+
+PipelineOptions Options() {
+  PipelineOptions o = ResolvePreset("precomputed:SIFT-essential");
+  o.depth = DepthSpec::FromString("provided:gt");
+  return o;
+}
+
+RunSpec Spec(const Split& split) {
+  RunSpec spec;
+  spec.data = split.root();
+  spec.out = split.out();
+  spec.log = split.tmp.File("run.jsonl");
+  spec.progress_bar = false;
+  return spec;
+}
+
+TEST(BenchmarkRun, WritesSubmissionLogAndProvenance) {
+  Split split;
+  const RunResult r = RunBenchmark(Spec(split), Options());
+  ASSERT_EQ(r.scenes, (std::vector<std::string>{"s00003", "s00004"}));
+  EXPECT_EQ(r.queries, 8u);
+  for (const auto& name : r.scenes) {
+    const auto& res = r.results.at(name);
+    EXPECT_EQ(res[0].status, QueryStatus::kTooFewMatches);
+    int ok = 0;
+    for (size_t i = 1; i < res.size(); ++i) {
+      ok += res[i].metric();
+      if (!res[i].metric()) continue;
+      const Rigid3d& gt = r.loaded.at(name).gt.at(res[i].frame);
+      EXPECT_LT(RotationAngleDeg(res[i].query_from_ref.rotation, gt.rotation), 5.0) << res[i].frame;  // 160×120 px, 30 % outliers
+    }
+    EXPECT_GE(ok, 2) << name;
+  }
+  // Submission: the answered queries; log: header then one record per query; sidecar: header + summary.
+  const auto zip = ZipContents::Read(split.out()).files;
+  EXPECT_EQ(zip.size(), 2u);
+  const std::string log = testing::ReadText(split.tmp.File("run.jsonl"));
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1 + 8);
+  const std::string header = log.substr(0, log.find('\n'));
+  EXPECT_NE(header.find(std::string("\"freeloc_version\":\"") + Version() + "\""), std::string::npos) << header;
+  std::string why;
+  EXPECT_TRUE(SameResultOptions(header, Options(), &why)) << why;
+  for (const OptionField& f : OptionFields())
+    EXPECT_NE(header.find(std::string("\"") + f.name + "\":"), std::string::npos) << f.name;
+  const std::string sidecar = testing::ReadText(split.out() + ".json");
+  EXPECT_EQ(sidecar.rfind(header.substr(0, header.size() - 1), 0), 0u) << sidecar;
+  EXPECT_NE(sidecar.find("\"summary\":{\"scenes\":2,\"queries\":8,\"relocalized\":" + std::to_string(r.relocalized)),
+            std::string::npos)
+      << sidecar;
+  EXPECT_FALSE(fs::exists(split.out() + ".progress.jsonl"));
+  // Deterministic: the same run gives the same bytes.
+  RunSpec again = Spec(split);
+  again.out = split.tmp.File("again.zip");
+  RunBenchmark(again, Options());
+  EXPECT_EQ(testing::ReadText(again.out), testing::ReadText(split.out()));
+}
+
+// The precomputed matcher, failing one query with a LibTorch error (what a network stage throws).
+class ThrowingMatcher : public Matcher {
+ public:
+  explicit ThrowingMatcher(int fail_at) : fail_at_(fail_at) {}
+  void SetReference(const Image&, const Camera&, const std::vector<uint16_t>*) override {}
+  matching::Correspondences Match(const Image&, const Camera&, const FrameInputs& in, QueryResult*) override {
+    TORCH_CHECK(calls_++ != fail_at_, "simulated: DefaultCPUAllocator: not enough memory");
+    matching::Correspondences c;
+    for (const auto& v : *in.correspondences) {
+      c.ref.emplace_back(v(0), v(1));
+      c.query.emplace_back(v(2), v(3));
+    }
+    return c;
+  }
+
+ private:
+  int fail_at_, calls_ = 0;
+};
+
+TEST(BenchmarkRun, ALibTorchExceptionFailsOnlyItsQuery) {
+  Split split;
+  const RunResult clean = RunBenchmark(Spec(split), Options());
+  RunSpec spec = Spec(split);
+  spec.out = split.tmp.File("t.zip");
+  const RelocalizerFactory factory = [](const PipelineOptions& o) {
+    return std::make_unique<Relocalizer>(o, std::make_unique<ThrowingMatcher>(2), MakeDepthEstimator(o),
+                                         MakePoseSolver(o));
+  };
+  const RunResult r = RunBenchmark(spec, Options(), factory);
+  const auto& s3 = r.results.at("s00003");
+  // Query 0 has too few correspondences but is matched (call 0); call 2 is seq1/frame_00002.
+  ASSERT_EQ(s3[2].status, QueryStatus::kError);
+  EXPECT_NE(s3[2].message.find("s00003/seq1/frame_00002.png: "), std::string::npos) << s3[2].message;
+  EXPECT_NE(s3[2].message.find("not enough memory"), std::string::npos) << s3[2].message;
+  EXPECT_EQ(s3[2].message.find('\n'), std::string::npos) << s3[2].message;  // one line, no backtrace
+  for (const auto& name : r.scenes)
+    for (size_t i = 0; i < r.results.at(name).size(); ++i) {
+      if (name == "s00003" && i == 2) continue;
+      const QueryResult &a = r.results.at(name)[i], &b = clean.results.at(name)[i];
+      EXPECT_EQ(a.status, b.status) << name << " " << i;
+      EXPECT_EQ(a.query_from_ref.translation, b.query_from_ref.translation) << name << " " << i;
+    }
+  EXPECT_TRUE(fs::exists(spec.out));
+}
+
+TEST(BenchmarkRun, ADamagedSceneFailsItsQueriesAndTheRunGoesOn) {
+  Split split;
+  testing::WriteText(split.root() + "/val/s00003/correspondences_SIFT.npz", "not a zip");
+  const RunResult r = RunBenchmark(Spec(split), Options());
+  for (const auto& q : r.results.at("s00003")) {
+    EXPECT_EQ(q.status, QueryStatus::kError);
+    EXPECT_EQ(q.message.rfind("reference: ", 0), 0u) << q.message;
+    EXPECT_NE(q.message.find("correspondences_SIFT.npz"), std::string::npos) << q.message;
+  }
+  int ok = 0;
+  for (const auto& q : r.results.at("s00004")) ok += q.ok();
+  EXPECT_GE(ok, 2);
+}
+
+TEST(BenchmarkRun, RefusesBadSpecsBeforeAnyWork) {
+  Split split;
+  RunSpec spec = Spec(split);
+  spec.out.clear();
+  EXPECT_THROW(RunBenchmark(spec, Options()), Error);
+  spec = Spec(split);
+  spec.scenes = {"s09999"};
+  EXPECT_THROW(RunBenchmark(spec, Options()), Error);
+  PipelineOptions o = Options();
+  o.depth.suffix = "nope";
+  try {
+    RunBenchmark(Spec(split), o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("depth provided:nope: no scene has this depth", 0), 0u) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(split.out()));
+  EXPECT_FALSE(fs::exists(split.out() + ".progress.jsonl"));
+  EXPECT_EQ(Shard::FromString("2/3").Select({"a", "b", "c", "d", "e"}), (std::vector<std::string>{"b", "e"}));
+  EXPECT_THROW(Shard::FromString("0/2"), Error);
+  EXPECT_THROW(Shard::FromString("3/2"), Error);
+  EXPECT_THROW(Shard::FromString("1/2x"), Error);
+}
+
+// The bundled TUM scenes (data/demo, present in every checkout): sift-essential with the sensor depth.
+TEST(BenchmarkRun, BundledDemoScenes) {
+  testing::TempDir tmp;
+  RunSpec spec;
+  spec.data = testing::DemoPath();
+  spec.out = tmp.File("demo.zip");
+  spec.progress_bar = false;
+  const RunResult r = RunBenchmark(spec, ResolvePreset("sift-essential"));
+  EXPECT_EQ(r.queries, 7u);
+  EXPECT_EQ(r.relocalized, 2u);  // s00001 has no depth maps
+  for (const auto& q : r.results.at("s00001")) EXPECT_EQ(q.status, QueryStatus::kNoDepth);
+}
+
+}  // namespace
+}  // namespace freeloc::pipeline

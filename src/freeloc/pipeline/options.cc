@@ -1,0 +1,88 @@
+#include "freeloc/pipeline/options.h"
+
+#include "freeloc/core/error.h"
+#include "freeloc/pipeline/models.h"
+
+namespace freeloc::pipeline {
+
+namespace {
+const char kMatcherChoices[] = "sift, dust3r, dust3r+instances, precomputed:<name>";
+const char kDepthChoices[] = "provided:<suffix>, metric3d, none";
+
+// "head:tail" → {head, tail}; {text, ""} without a colon.
+std::pair<std::string, std::string> SplitColon(const std::string& text) {
+  const size_t c = text.find(':');
+  if (c == std::string::npos) return {text, ""};
+  return {text.substr(0, c), text.substr(c + 1)};
+}
+}  // namespace
+
+MatcherSpec MatcherSpec::FromString(const std::string& text) {
+  const auto [head, tail] = SplitColon(text);
+  MatcherSpec m;
+  FREELOC_CHECK(TryParseEnum(head, &m.kind), "matcher: '" << text << "' is not one of " << kMatcherChoices);
+  FREELOC_CHECK((m.kind == MatcherKind::kPrecomputed) == (text.find(':') != std::string::npos),
+                "matcher: '" << text << "' is not one of " << kMatcherChoices);
+  FREELOC_CHECK(m.kind != MatcherKind::kPrecomputed || !tail.empty(),
+                "matcher: '" << text << "' names no correspondences; write precomputed:<name> (SIFT, SG, LoFTR, …)");
+  m.correspondences = tail;
+  return m;
+}
+
+std::string MatcherSpec::ToString() const {
+  return freeloc::ToString(kind) + (kind == MatcherKind::kPrecomputed ? ":" + correspondences : "");
+}
+
+DepthSpec DepthSpec::FromString(const std::string& text) {
+  const auto [head, tail] = SplitColon(text);
+  DepthSpec d;
+  FREELOC_CHECK(TryParseEnum(head, &d.kind), "depth: '" << text << "' is not one of " << kDepthChoices);
+  FREELOC_CHECK((d.kind == DepthKind::kProvided) == (text.find(':') != std::string::npos),
+                "depth: '" << text << "' is not one of " << kDepthChoices);
+  FREELOC_CHECK(d.kind != DepthKind::kProvided || !tail.empty(),
+                "depth: '" << text << "' names no suffix; write provided:<suffix> (e.g. provided:sensor)");
+  d.suffix = d.kind == DepthKind::kProvided ? tail : "";
+  return d;
+}
+
+std::string DepthSpec::ToString() const {
+  return freeloc::ToString(kind) + (kind == DepthKind::kProvided ? ":" + suffix : "");
+}
+
+std::string QueryResult::StatusText() const {
+  return freeloc::ToString(status) + (message.empty() ? "" : ": " + message);
+}
+
+void PipelineOptions::Validate() const {
+  FREELOC_CHECK(matcher.kind != MatcherKind::kPrecomputed || !matcher.correspondences.empty(),
+                "matcher: precomputed needs a name (precomputed:<SIFT|SG|LoFTR|…>)");
+  FREELOC_CHECK(depth.kind != DepthKind::kProvided || !depth.suffix.empty(),
+                "depth: provided needs a suffix (provided:<suffix>, e.g. provided:sensor)");
+  FREELOC_CHECK(dust3r_size >= 224, "dust3r_size: " << dust3r_size << " is too small; use 224 or 512");
+  FREELOC_CHECK(match_subsample >= 1, "match_subsample: " << match_subsample << " must be >= 1");
+  FREELOC_CHECK(min_instance_matches >= 0, "min_instance_matches: " << min_instance_matches << " is negative");
+  FREELOC_CHECK(solver == SolverKind::kEssential || depth.kind != DepthKind::kNone,
+                "solver: " << ToString(solver) << " needs depth (depth provided:<suffix> or metric3d)");
+  proposals.Validate();
+  runtime.Validate();
+  const auto dirs = ModelDirs(models_dir);
+  FREELOC_CHECK(!UsesDust3r() || !dust3r_model.empty(), MissingModelMessage(Network::kDust3r, preset, dirs));
+  FREELOC_CHECK(!UsesSegGpt() || !seggpt_model.empty(), MissingModelMessage(Network::kSegGpt, preset, dirs));
+  FREELOC_CHECK(!UsesMetric3d() || !metric3d_model.empty(), MissingModelMessage(Network::kMetric3d, preset, dirs));
+}
+
+std::string PipelineOptions::Summary() const {
+  std::string s = "preset " + preset + ": matcher " + matcher.ToString() + ", depth " + depth.ToString() +
+                  ", solver " + ToString(solver) +
+                  (solver == SolverKind::kEssential ? ", scale " + ToString(scale) : "") +
+                  (threshold_px > 0 ? ", threshold " + std::to_string(threshold_px) + " px" : "");
+  if (UsesDust3r()) s += ", dust3r " + dust3r_model + " at " + std::to_string(dust3r_size);
+  if (UsesInstances())
+    s += ", instances " + ToString(instance_source) + ", instance-mode " + ToString(instance_mode);
+  if (UsesSegGpt()) s += ", seggpt " + seggpt_model;
+  if (UsesMetric3d()) s += ", metric3d " + metric3d_model;
+  if (UsesDust3r() || UsesMetric3d()) s += ", " + ToString(runtime.device) + " " + ToString(runtime.precision);
+  return s;
+}
+
+}  // namespace freeloc::pipeline

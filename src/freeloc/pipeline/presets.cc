@@ -1,0 +1,78 @@
+// The presets (options.h): the paper's method and its ablations (Table 2), the DUSt3R baseline, and the map-free
+// benchmark's baselines, each a set of typed options.
+#include "freeloc/core/error.h"
+#include "freeloc/pipeline/options.h"
+
+namespace freeloc::pipeline {
+
+namespace {
+
+struct Preset {
+  const char* name;
+  MatcherKind matcher;
+  DepthKind depth;
+  SolverKind solver;
+  double threshold_px;  // < 0: the solver's default
+};
+
+// The benchmark's SIFT baseline uses a 3 px essential threshold; dense DUSt3R matches the solver default (1 px).
+constexpr Preset kPresets[] = {
+    {"sift-essential", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kEssential, 3.0},
+    {"sift-pnp", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kPnp, -1},
+    {"sift-procrustes", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kProcrustes, -1},
+    {"seed", MatcherKind::kDust3rInstances, DepthKind::kMetric3d, SolverKind::kEssential, -1},
+    {"seed-no-instance", MatcherKind::kDust3r, DepthKind::kMetric3d, SolverKind::kEssential, -1},
+    {"seed-provided-depth", MatcherKind::kDust3rInstances, DepthKind::kProvided, SolverKind::kEssential, -1},
+    {"dust3r", MatcherKind::kDust3r, DepthKind::kProvided, SolverKind::kEssential, -1},
+};
+const char kPrecomputedForm[] = "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>";
+
+std::string AvailablePresets() {
+  std::string s;
+  for (const Preset& p : kPresets) s += std::string(p.name) + ", ";
+  return s + kPrecomputedForm;
+}
+
+// precomputed:<name>-<solver>: the scene's correspondences_<name>.npz with that solver; the benchmark's essential
+// threshold is 3 px for SIFT and 2 px for the learned matchers.
+PipelineOptions ResolvePrecomputed(const std::string& name) {
+  const std::string rest = name.substr(12);
+  const size_t dash = rest.rfind('-');
+  FREELOC_CHECK(dash != std::string::npos && dash > 0, "preset: '" << name << "' is not of the form " << kPrecomputedForm);
+  PipelineOptions o;
+  o.preset = name;
+  o.matcher.kind = MatcherKind::kPrecomputed;
+  o.matcher.correspondences = rest.substr(0, dash);
+  FREELOC_CHECK(TryParseEnum(rest.substr(dash + 1), &o.solver),
+                "preset: '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of "
+                            << EnumNames<SolverKind>());
+  if (o.solver == SolverKind::kEssential) o.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
+  return o;
+}
+
+}  // namespace
+
+std::vector<std::string> PresetNames() {
+  std::vector<std::string> names;
+  for (const Preset& p : kPresets) names.push_back(p.name);
+  names.insert(names.begin() + 3, kPrecomputedForm);
+  return names;
+}
+
+PipelineOptions ResolvePreset(const std::string& name) {
+  if (name.rfind("precomputed:", 0) == 0) return ResolvePrecomputed(name);
+  for (const Preset& p : kPresets) {
+    if (name != p.name) continue;
+    PipelineOptions o;
+    o.preset = name;
+    o.matcher.kind = p.matcher;
+    o.depth.kind = p.depth;
+    o.depth.suffix = p.depth == DepthKind::kProvided ? "sensor" : "";
+    o.solver = p.solver;
+    o.threshold_px = p.threshold_px;
+    return o;
+  }
+  FREELOC_THROW("preset: '" << name << "' is unknown; available: " << AvailablePresets());
+}
+
+}  // namespace freeloc::pipeline

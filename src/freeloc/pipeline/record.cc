@@ -1,0 +1,161 @@
+#include "freeloc/pipeline/record.h"
+
+#include <nlohmann/json.hpp>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/version.h"
+
+namespace freeloc::pipeline {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+Json OptionsObject(const PipelineOptions& o) {
+  Json j = Json::object();
+  for (const OptionField& f : OptionFields()) {
+    const std::string v = GetOption(o, f.name);
+    switch (f.type) {
+      case OptionType::kText: j[f.name] = v; break;
+      case OptionType::kInt: j[f.name] = std::stoll(v); break;
+      case OptionType::kReal: j[f.name] = std::stod(v); break;
+    }
+  }
+  return j;
+}
+
+PipelineOptions OptionsFromObject(const Json& j) {
+  FREELOC_CHECK(j.is_object(), "options: expected a JSON object");
+  PipelineOptions o;
+  for (const auto& [name, value] : j.items()) {
+    if (value.is_string()) {
+      SetOption(&o, name, value.get<std::string>());
+    } else if (value.is_number_integer()) {
+      SetOption(&o, name, std::to_string(value.get<long long>()));
+    } else if (value.is_number()) {
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), "%.17g", value.get<double>());
+      SetOption(&o, name, buf);
+    } else {
+      FREELOC_THROW(name << ": expected a string or a number in the options");
+    }
+  }
+  return o;
+}
+
+Json Parse(const std::string& text, const char* what) {
+  Json j = Json::parse(text, nullptr, /*allow_exceptions=*/false);
+  FREELOC_CHECK(!j.is_discarded() && j.is_object(), what << ": not a JSON object");
+  return j;
+}
+
+// "ok", "error", …, and the 0.1 form "error: <message>".
+void ParseStatus(const std::string& text, QueryResult* r) {
+  if (TryParseEnum(text, &r->status)) return;
+  const size_t colon = text.find(": ");
+  FREELOC_CHECK(colon != std::string::npos && TryParseEnum(text.substr(0, colon), &r->status),
+                "status: '" << text << "' is not one of " << EnumNames<QueryStatus>());
+  r->message = text.substr(colon + 2);
+}
+
+}  // namespace
+
+std::string OptionsJson(const PipelineOptions& o) { return OptionsObject(o).dump(); }
+
+PipelineOptions OptionsFromJson(const std::string& json) { return OptionsFromObject(Parse(json, "options")); }
+
+std::string QueryRecordJson(const std::string& scene, const QueryResult& r, const PipelineOptions* options,
+                            int indent) {
+  const auto q = r.query_from_ref.QuaternionWxyz();
+  const auto& t = r.query_from_ref.translation;
+  Json j = Json::object();
+  if (!scene.empty()) j["scene"] = scene;
+  if (!r.frame.empty()) j["frame"] = r.frame;
+  j["status"] = ToString(r.status);
+  if (!r.message.empty()) j["message"] = r.message;
+  j["ok"] = r.ok();
+  j["metric"] = r.metric();
+  j["qvec"] = {q[0], q[1], q[2], q[3]};
+  j["tvec"] = {t.x(), t.y(), t.z()};
+  j["confidence"] = r.confidence;
+  j["matches"] = r.matches;
+  j["inliers"] = r.inliers;
+  j["global_matches"] = r.global_matches;
+  j["instances"] = r.instances;
+  j["instances_used"] = r.instances_used;
+  j["scale_inliers"] = r.scale_inliers;
+  j["predicted_translation_m"] = r.predicted_translation_m;
+  j["predicted_rotation_deg"] = r.predicted_rotation_deg;
+  j["depth_ms"] = r.depth_ms;
+  j["match_ms"] = r.match_ms;
+  j["instance_ms"] = r.instance_ms;
+  j["solve_ms"] = r.solve_ms;
+  if (options) j["options"] = OptionsObject(*options);
+  return j.dump(indent);
+}
+
+QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
+  const Json j = Parse(json, "query record");
+  QueryResult r;
+  try {
+    if (scene) *scene = j.value("scene", std::string());
+    r.frame = j.value("frame", std::string());
+    ParseStatus(j.at("status").get<std::string>(), &r);
+    if (j.contains("message")) r.message = j.at("message").get<std::string>();
+    r.confidence = j.at("confidence").get<double>();
+    r.matches = j.at("matches").get<int>();
+    r.inliers = j.at("inliers").get<int>();
+    r.global_matches = j.value("global_matches", 0);
+    r.instances = j.value("instances", 0);
+    r.instances_used = j.value("instances_used", 0);
+    r.scale_inliers = j.value("scale_inliers", 0);
+    r.predicted_translation_m = j.value("predicted_translation_m", 0.0);
+    r.predicted_rotation_deg = j.value("predicted_rotation_deg", 0.0);
+    r.depth_ms = j.value("depth_ms", 0.0);
+    r.match_ms = j.value("match_ms", 0.0);
+    r.instance_ms = j.value("instance_ms", 0.0);
+    r.solve_ms = j.value("solve_ms", 0.0);
+    const auto q = j.at("qvec").get<std::array<double, 4>>();
+    const auto t = j.at("tvec").get<std::array<double, 3>>();
+    r.query_from_ref = Rigid3d::FromWxyz(q, Eigen::Vector3d(t[0], t[1], t[2]));
+  } catch (const nlohmann::json::exception& e) {
+    FREELOC_THROW("query record: " << e.what());
+  }
+  return r;
+}
+
+std::string RunHeaderJson(const RunHeader& h, const std::string& extra) {
+  Json j = Json::object();
+  j["freeloc_run"] = 1;
+  j["freeloc_version"] = std::string(Version());
+  j["options"] = OptionsObject(h.options);
+  j["data"] = h.data;
+  j["split"] = h.split;
+  j["shard"] = h.shard.empty() ? Json(nullptr) : Json(h.shard);
+  j["scenes"] = h.scenes;
+  if (!extra.empty()) {
+    const Json more = Parse(extra, "run header extra");  // named: items() must not outlive it
+    for (const auto& [k, v] : more.items()) j[k] = v;
+  }
+  return j.dump();
+}
+
+bool SameResultOptions(const std::string& header_json, const PipelineOptions& options, std::string* why) {
+  const Json j = Json::parse(header_json, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("freeloc_run") || !j.contains("options") ||
+      !j["options"].is_object()) {
+    if (why) *why = "not a freeloc run header";
+    return false;
+  }
+  Json mine = OptionsObject(options), theirs = j["options"];
+  mine.erase("threads");
+  theirs.erase("threads");
+  for (const auto& [k, v] : mine.items())
+    if (!theirs.contains(k) || theirs[k] != v) {
+      if (why) *why = k + " " + (theirs.contains(k) ? theirs[k].dump() : "absent") + " vs " + v.dump();
+      return false;
+    }
+  return true;
+}
+
+}  // namespace freeloc::pipeline
