@@ -21,13 +21,15 @@ struct PoseArgs {
   bool json = false;
 };
 
-// Without --preset: the solver's own defaults (essential: 1 px threshold, robust scale). The correspondences are
-// the file's; depth is the files given (provided) or none.
+// Without --preset: the solver's own defaults (pipeline::CorrespondenceDefaults); the correspondences are the file's,
+// depth the files given (provided) or none.
 pipeline::PipelineOptions Options(const PoseArgs& a, const GlobalOptions& g) {
-  return ResolvePipelineArgs(a.pipeline, g, "precomputed:file-essential", [&](pipeline::PipelineOptions* o) {
-    if (a.pipeline.preset.empty() && a.pipeline.threshold <= 0) o->threshold_px = -1;
-    o->matcher = pipeline::MatcherSpec::FromString("precomputed:file");
-    o->depth = pipeline::DepthSpec::FromString(a.ref_depth.empty() ? "none" : "provided:png");
+  return ResolvePipelineArgs(a.pipeline, g, "precomputed:given-essential", [&](pipeline::PipelineOptions* o) {
+    if (a.pipeline.preset.empty()) {
+      o->preset = pipeline::CorrespondenceDefaults().preset;
+      if (a.pipeline.threshold <= 0) o->threshold_px = pipeline::CorrespondenceDefaults().threshold_px;
+    }
+    *o = pipeline::ForCorrespondences(*o, !a.ref_depth.empty());
     FREELOC_CHECK(a.ref_depth.empty() == a.query_depth.empty() || o->solver == pipeline::SolverKind::kPnp,
                   "give both --ref-depth and --query-depth (or neither); only --solver pnp uses the reference depth "
                   "alone");

@@ -82,7 +82,57 @@ struct DptHead {
   Conv head0, head2, head4;
 };
 
+// downstream_head{h+1}.dpt: act_postprocess, scratch layers, the four refinenets and the head convolutions.
+void LoadDptHead(WeightStore& ws, const Dust3rConfig& c, int h, const PrecisionPolicy& hp, DptHead* head) {
+  DptHead& hd = *head;
+  const int64_t F = c.dpt_feature_dim;
+  const int64_t dims_in[4] = {c.enc_dim, c.dec_dim, c.dec_dim, c.dec_dim};
+  const std::string pre = "downstream_head" + std::to_string(h + 1) + ".dpt.";
+  for (int i = 0; i < 4; ++i) {
+    const int64_t L = c.dpt_layer_dims[i];
+    const std::string ap = pre + "act_postprocess." + std::to_string(i);
+    hd.act_proj[i].Load(ws, ap + ".0", {L, dims_in[i], 1, 1}, true, 1, 0, false, hp);
+    if (i == 0) hd.act_resize[i].Load(ws, ap + ".1", {L, L, 4, 4}, true, 4, 0, true, hp);
+    if (i == 1) hd.act_resize[i].Load(ws, ap + ".1", {L, L, 2, 2}, true, 2, 0, true, hp);
+    if (i == 3) hd.act_resize[i].Load(ws, ap + ".1", {L, L, 3, 3}, true, 2, 1, false, hp);
+    // scratch.layer{i+1}_rn and scratch.layer_rn.{i} name the same tensor; accept either spelling.
+    const std::string a = pre + "scratch.layer" + std::to_string(i + 1) + "_rn",
+                      b = pre + "scratch.layer_rn." + std::to_string(i);
+    const bool use_a = ws.Has(a + ".weight");
+    hd.layer_rn[i].Load(ws, use_a ? a : b, {F, L, 3, 3}, false, 1, 1, false, hp);
+    if (use_a) ws.Ignore(b + ".weight");
+    const std::string rf = pre + "scratch.refinenet" + std::to_string(i + 1);
+    Fusion& fu = hd.refine[i];
+    if (i < 3) {
+      fu.rcu1.c1.Load(ws, rf + ".resConfUnit1.conv1", {F, F, 3, 3}, true, 1, 1, false, hp);
+      fu.rcu1.c2.Load(ws, rf + ".resConfUnit1.conv2", {F, F, 3, 3}, true, 1, 1, false, hp);
+    } else {
+      // refinenet4.resConfUnit1 exists in the checkpoint but is never used.
+      for (const char* n : {".resConfUnit1.conv1.weight", ".resConfUnit1.conv1.bias", ".resConfUnit1.conv2.weight",
+                            ".resConfUnit1.conv2.bias"})
+        ws.Ignore(rf + n);
+    }
+    fu.rcu2.c1.Load(ws, rf + ".resConfUnit2.conv1", {F, F, 3, 3}, true, 1, 1, false, hp);
+    fu.rcu2.c2.Load(ws, rf + ".resConfUnit2.conv2", {F, F, 3, 3}, true, 1, 1, false, hp);
+    fu.out.Load(ws, rf + ".out_conv", {F, F, 1, 1}, true, 1, 0, false, hp);
+  }
+  hd.head0.Load(ws, pre + "head.0", {c.dpt_head0_dim, F, 3, 3}, true, 1, 1, false, hp);
+  hd.head2.Load(ws, pre + "head.2", {c.dpt_last_dim, c.dpt_head0_dim, 3, 3}, true, 1, 1, false, hp);
+  hd.head4.Load(ws, pre + "head.4", {c.dpt_channels, c.dpt_last_dim, 1, 1}, true, 1, 0, false, hp);
+}
+
+// load_model(): dec_blocks copied into dec_blocks2 when the checkpoint has none.
+void AddSecondDecoder(std::map<std::string, torch::Tensor>* tensors) {
+  for (const auto& [k, v] : *tensors)
+    if (k.rfind("dec_blocks2.", 0) == 0) return;
+  std::map<std::string, torch::Tensor> add;
+  for (const auto& [k, v] : *tensors)
+    if (k.rfind("dec_blocks.", 0) == 0) add["dec_blocks2." + k.substr(11)] = v;
+  tensors->insert(add.begin(), add.end());
+}
+
 }  // namespace
+
 
 class Dust3rModel::Encoding {
  public:
@@ -294,15 +344,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, Ten
   const Dust3rConfig& c = impl->cfg;
   std::map<std::string, torch::Tensor> tensors;
   for (const auto& [k, v] : sd) tensors[k] = ToTorch(v);
-  // load_model(): copy dec_blocks into dec_blocks2 when the checkpoint has none.
-  bool has2 = false;
-  for (const auto& [k, v] : tensors) has2 |= k.rfind("dec_blocks2.", 0) == 0;
-  if (!has2) {
-    std::map<std::string, torch::Tensor> add;
-    for (const auto& [k, v] : tensors)
-      if (k.rfind("dec_blocks.", 0) == 0) add["dec_blocks2." + k.substr(11)] = v;
-    tensors.insert(add.begin(), add.end());
-  }
+  AddSecondDecoder(&tensors);
   WeightStore ws(std::move(tensors), model_path, impl->device);
   const PrecisionPolicy& p = impl->prec;
   impl->patch.Load(ws, "patch_embed.proj", {c.enc_dim, 3, c.patch_size, c.patch_size}, true, c.patch_size, 0, false, p);
@@ -333,44 +375,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, Ten
     }
   }
   impl->dec_norm.Load(ws, "dec_norm", c.dec_dim, c.ln_eps);
-  const PrecisionPolicy hp = impl->head_prec;
-  const int64_t F = c.dpt_feature_dim;
-  const int64_t dims_in[4] = {c.enc_dim, c.dec_dim, c.dec_dim, c.dec_dim};
-  for (int h = 0; h < 2; ++h) {
-    DptHead& hd = impl->head[h];
-    const std::string pre = "downstream_head" + std::to_string(h + 1) + ".dpt.";
-    for (int i = 0; i < 4; ++i) {
-      const int64_t L = c.dpt_layer_dims[i];
-      const std::string ap = pre + "act_postprocess." + std::to_string(i);
-      hd.act_proj[i].Load(ws, ap + ".0", {L, dims_in[i], 1, 1}, true, 1, 0, false, hp);
-      if (i == 0) hd.act_resize[i].Load(ws, ap + ".1", {L, L, 4, 4}, true, 4, 0, true, hp);
-      if (i == 1) hd.act_resize[i].Load(ws, ap + ".1", {L, L, 2, 2}, true, 2, 0, true, hp);
-      if (i == 3) hd.act_resize[i].Load(ws, ap + ".1", {L, L, 3, 3}, true, 2, 1, false, hp);
-      // scratch.layer{i+1}_rn and scratch.layer_rn.{i} name the same tensor; accept either spelling.
-      const std::string a = pre + "scratch.layer" + std::to_string(i + 1) + "_rn",
-                        b = pre + "scratch.layer_rn." + std::to_string(i);
-      const bool use_a = ws.Has(a + ".weight");
-      hd.layer_rn[i].Load(ws, use_a ? a : b, {F, L, 3, 3}, false, 1, 1, false, hp);
-      if (use_a) ws.Ignore(b + ".weight");
-      const std::string rf = pre + "scratch.refinenet" + std::to_string(i + 1);
-      Fusion& fu = hd.refine[i];
-      if (i < 3) {
-        fu.rcu1.c1.Load(ws, rf + ".resConfUnit1.conv1", {F, F, 3, 3}, true, 1, 1, false, hp);
-        fu.rcu1.c2.Load(ws, rf + ".resConfUnit1.conv2", {F, F, 3, 3}, true, 1, 1, false, hp);
-      } else {
-        // refinenet4.resConfUnit1 exists in the checkpoint but is never used.
-        for (const char* n : {".resConfUnit1.conv1.weight", ".resConfUnit1.conv1.bias", ".resConfUnit1.conv2.weight",
-                              ".resConfUnit1.conv2.bias"})
-          ws.Ignore(rf + n);
-      }
-      fu.rcu2.c1.Load(ws, rf + ".resConfUnit2.conv1", {F, F, 3, 3}, true, 1, 1, false, hp);
-      fu.rcu2.c2.Load(ws, rf + ".resConfUnit2.conv2", {F, F, 3, 3}, true, 1, 1, false, hp);
-      fu.out.Load(ws, rf + ".out_conv", {F, F, 1, 1}, true, 1, 0, false, hp);
-    }
-    hd.head0.Load(ws, pre + "head.0", {c.dpt_head0_dim, F, 3, 3}, true, 1, 1, false, hp);
-    hd.head2.Load(ws, pre + "head.2", {c.dpt_last_dim, c.dpt_head0_dim, 3, 3}, true, 1, 1, false, hp);
-    hd.head4.Load(ws, pre + "head.4", {c.dpt_channels, c.dpt_last_dim, 1, 1}, true, 1, 0, false, hp);
-  }
+  for (int h = 0; h < 2; ++h) LoadDptHead(ws, c, h, impl->head_prec, &impl->head[h]);
   ws.Ignore("mask_token");
   ws.Finish();
   FREELOC_LOG(DEBUG) << "loaded " << c.Summary() << " from " << model_path << " (" << source << ")";

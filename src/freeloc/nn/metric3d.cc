@@ -157,6 +157,9 @@ struct Metric3dModel::Impl {
   Conv fh1d, fh2d, fh1n, fh2n, mask0, mask2;
   torch::Tensor bins;
   mutable std::map<std::string, TensorView>* taps = nullptr;
+  void LoadEncoder(WeightStore& ws);
+  void LoadDecoder(WeightStore& ws);
+  void LoadRefiner(WeightStore& ws);
   void Tap(const std::string& n, const torch::Tensor& t) const {
     if (taps) (*taps)[n] = ToView(t);
   }
@@ -300,28 +303,18 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Load(const std::string& model_path
   return Create(sd, json, model_path, runtime);
 }
 
-std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string, TensorView>& sd_in,
-                                                     const std::string& config_json, const std::string& source,
-                                                     const RuntimeOptions& runtime) {
-  ApplyRuntime(runtime);
-  const nlohmann::json j = ParseModelConfig(config_json, source, "Metric3D");
-  const nlohmann::json je = j.value("encoder", nlohmann::json::object());
-  const nlohmann::json jd = j.value("decoder", nlohmann::json::object());
-  const nlohmann::json jdata = j.value("data", nlohmann::json::object());
-  std::map<std::string, torch::Tensor> tensors;
-  for (const auto& [k, v] : sd_in) {
-    std::string n = k;
-    if (n.rfind("depth_model.", 0) == 0) n = n.substr(12);
-    tensors[n] = ToTorch(v);
-  }
+namespace {
+
+// The architecture from the tensors' shapes (and the config.json sections where they say more).
+Metric3dConfig ConfigFromTensors(const std::map<std::string, torch::Tensor>& tensors, const nlohmann::json& je,
+                                 const nlohmann::json& jd, const nlohmann::json& jdata, const std::string& source) {
   auto shape = [&](const std::string& n) {
     auto it = tensors.find(n);
     FREELOC_CHECK(it != tensors.end(),
                   source << ": tensor 'depth_model." << n << "' is missing; is this a Metric3D ViT checkpoint?");
     return it->second.sizes().vec();
   };
-  auto impl = std::make_unique<Impl>();
-  Metric3dConfig& c = impl->cfg;
+  Metric3dConfig c;
   const auto pe = shape("encoder.patch_embed.proj.weight");
   c.embed_dim = static_cast<int>(pe[0]);
   c.patch = static_cast<int>(pe[2]);
@@ -369,22 +362,33 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string,
                 source << ": embed_dim " << c.embed_dim << " not divisible by " << c.heads << " heads");
   FREELOC_CHECK(!c.multi_output || c.feature_blocks.size() == 4, source << ": need 4 intermediate feature blocks");
   FREELOC_CHECK(c.input_h % 28 == 0 && c.input_w % 28 == 0, source << ": input size must be multiples of 28");
-  impl->rt = runtime;
-  impl->source = source;
-  impl->device = DeviceOf(runtime);
-  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
-  WeightStore ws(std::move(tensors), source, impl->device);
-  const PrecisionPolicy& p = impl->prec;
-  const int64_t C = c.embed_dim, F = c.ffn_hidden, hd = c.hidden;
-  impl->patch.Load(ws, "encoder.patch_embed.proj", {C, 3, c.patch, c.patch}, true, c.patch, 0, false, p);
-  impl->cls = ws.Take("encoder.cls_token", {1, 1, C});
-  impl->regs = ws.Take("encoder.register_tokens", {1, c.registers, C});
-  impl->pos_embed = ws.Take("encoder.pos_embed", {1, static_cast<int64_t>(c.pos_grid) * c.pos_grid + 1, C});
+  return c;
+}
+
+// Conv2d loaders: 3×3 (padding 1) and 1×1.
+void Conv3(WeightStore& ws, const PrecisionPolicy& p, Conv& cv, const std::string& n, int64_t out, int64_t in) {
+  cv.Load(ws, n, {out, in, 3, 3}, true, 1, 1, false, p);
+}
+void Conv1(WeightStore& ws, const PrecisionPolicy& p, Conv& cv, const std::string& n, int64_t out, int64_t in) {
+  cv.Load(ws, n, {out, in, 1, 1}, true, 1, 0, false, p);
+}
+
+}  // namespace
+
+// The DINOv2 encoder: patch embedding, tokens, blocks, final norm.
+void Metric3dModel::Impl::LoadEncoder(WeightStore& ws) {
+  const Metric3dConfig& c = cfg;
+  const PrecisionPolicy& p = prec;
+  const int64_t C = c.embed_dim, F = c.ffn_hidden;
+  patch.Load(ws, "encoder.patch_embed.proj", {C, 3, c.patch, c.patch}, true, c.patch, 0, false, p);
+  cls = ws.Take("encoder.cls_token", {1, 1, C});
+  regs = ws.Take("encoder.register_tokens", {1, c.registers, C});
+  pos_embed = ws.Take("encoder.pos_embed", {1, static_cast<int64_t>(c.pos_grid) * c.pos_grid + 1, C});
   ws.Ignore("encoder.mask_token");
-  impl->blocks.resize(static_cast<size_t>(c.depth));
+  blocks.resize(static_cast<size_t>(c.depth));
   for (int i = 0; i < c.depth; ++i) {
     const std::string b = "encoder.blocks.0." + std::to_string(i) + ".";
-    VitBlock& k = impl->blocks[static_cast<size_t>(i)];
+    VitBlock& k = blocks[static_cast<size_t>(i)];
     k.heads = c.heads;
     k.swiglu = c.swiglu;
     k.n1.Load(ws, b + "norm1", C, c.ln_eps);
@@ -402,89 +406,124 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string,
     }
   }
   if (ws.Has("encoder.norm.weight")) {
-    impl->norm.Load(ws, "encoder.norm", C, c.ln_eps);  // present (and unused) in the giant2 layout too
+    norm.Load(ws, "encoder.norm", C, c.ln_eps);  // present (and unused) in the giant2 layout too
   }
+}
+
+// The decoder's readouts, fusion blocks and the depth and normal heads.
+void Metric3dModel::Impl::LoadDecoder(WeightStore& ws) {
+  const Metric3dConfig& c = cfg;
+  const PrecisionPolicy& p = prec;
+  const int64_t C = c.embed_dim;
+  const int dc1 = c.decoder_channels[1], dc2 = c.decoder_channels[2];
   const int64_t fc0 = c.feature_channels[0], fc1 = c.feature_channels[1];
   for (int k = 0; k < 4; ++k) {
     const std::string r = "decoder.token2feature.read_" + std::to_string(k) + ".";
-    impl->read[k].patch.Load(ws, r + "readoper.project_patch", C, C, true, p);
-    impl->read[k].learn.Load(ws, r + "readoper.project_learn", C, (1 + c.registers) * C, false, p);
+    read[k].patch.Load(ws, r + "readoper.project_patch", C, C, true, p);
+    read[k].learn.Load(ws, r + "readoper.project_learn", C, (1 + c.registers) * C, false, p);
     if (k == 1) {
-      impl->read[k].kind = 1;
-      impl->read[k].sample.Load(ws, r + "sample", {C, fc1, 2, 2}, true, 2, 0, true, p);
+      read[k].kind = 1;
+      read[k].sample.Load(ws, r + "sample", {C, fc1, 2, 2}, true, 2, 0, true, p);
     } else if (k == 0) {
-      impl->read[k].kind = 2;
-      impl->read[k].sample.Load(ws, r + "sample.0", {fc0, C, 1, 1}, true, 1, 0, false, p);
+      read[k].kind = 2;
+      read[k].sample.Load(ws, r + "sample.0", {fc0, C, 1, 1}, true, 1, 0, false, p);
     }
   }
-  auto conv3 = [&](Conv& cv, const std::string& n, int64_t out, int64_t in) {
-    cv.Load(ws, n, {out, in, 3, 3}, true, 1, 1, false, p);
-  };
-  auto conv1 = [&](Conv& cv, const std::string& n, int64_t out, int64_t in) {
-    cv.Load(ws, n, {out, in, 1, 1}, true, 1, 0, false, p);
-  };
   auto block = [&](ConvBlock& b, const std::string& n, int64_t ch) {
-    conv3(b.c1, n + ".conv1", ch, ch);
-    conv3(b.c2, n + ".conv2", ch, ch);
+    Conv3(ws, p, b.c1, n + ".conv1", ch, ch);
+    Conv3(ws, p, b.c2, n + ".conv2", ch, ch);
   };
   const std::string dm = "decoder.decoder_mono.";
-  block(impl->up3.trunk, dm + "upconv_3.way_trunk", C);
-  conv1(impl->up3.out, dm + "upconv_3.out_conv", C, C);
-  block(impl->up2.trunk, dm + "upconv_2.way_trunk", C);
-  block(impl->up2.branch, dm + "upconv_2.way_branch", C);
-  impl->up2.has_branch = true;
-  impl->up2.scale = 2.0;
-  conv1(impl->up2.out, dm + "upconv_2.out_conv", dc2, C);
-  block(impl->up1.trunk, dm + "upconv_1.way_trunk", fc1);
-  block(impl->up1.branch, dm + "upconv_1.way_branch", fc1);
-  impl->up1.has_branch = true;
-  impl->up1.scale = 1.75;
-  conv1(impl->up1.out, dm + "upconv_1.out_conv", dc1 + 2, fc1);
-  conv3(impl->dr0, "decoder.depth_regressor.0", 256, dc1);
-  conv1(impl->dr2, "decoder.depth_regressor.2", c.num_bins, 256);
-  conv3(impl->np0, "decoder.normal_predictor.0", 128, dc1);
-  conv1(impl->np2, "decoder.normal_predictor.2", 128, 128);
-  conv1(impl->np4, "decoder.normal_predictor.4", 128, 128);
-  conv1(impl->np6, "decoder.normal_predictor.6", 3, 128);
+  block(up3.trunk, dm + "upconv_3.way_trunk", C);
+  Conv1(ws, p, up3.out, dm + "upconv_3.out_conv", C, C);
+  block(up2.trunk, dm + "upconv_2.way_trunk", C);
+  block(up2.branch, dm + "upconv_2.way_branch", C);
+  up2.has_branch = true;
+  up2.scale = 2.0;
+  Conv1(ws, p, up2.out, dm + "upconv_2.out_conv", dc2, C);
+  block(up1.trunk, dm + "upconv_1.way_trunk", fc1);
+  block(up1.branch, dm + "upconv_1.way_branch", fc1);
+  up1.has_branch = true;
+  up1.scale = 1.75;
+  Conv1(ws, p, up1.out, dm + "upconv_1.out_conv", dc1 + 2, fc1);
+  Conv3(ws, p, dr0, "decoder.depth_regressor.0", 256, dc1);
+  Conv1(ws, p, dr2, "decoder.depth_regressor.2", c.num_bins, 256);
+  Conv3(ws, p, np0, "decoder.normal_predictor.0", 128, dc1);
+  Conv1(ws, p, np2, "decoder.normal_predictor.2", 128, 128);
+  Conv1(ws, p, np4, "decoder.normal_predictor.4", 128, 128);
+  Conv1(ws, p, np6, "decoder.normal_predictor.6", 3, 128);
+}
+
+// The RAFT-style refiner: context encoders, zqr convolutions, ConvGRUs, flow and mask heads.
+void Metric3dModel::Impl::LoadRefiner(WeightStore& ws) {
+  const Metric3dConfig& c = cfg;
+  const PrecisionPolicy& p = prec;
+  const int64_t C = c.embed_dim, hd = c.hidden, fc0 = c.feature_channels[0], fc1 = c.feature_channels[1];
   const int64_t level_in[3] = {fc0, fc1, C};
   const char* lv[3] = {"04", "08", "16"};
   for (int l = 0; l < 3; ++l) {
     for (int h = 0; h < 2; ++h) {
       const std::string b =
           "decoder.context_feature_encoder.outputs" + std::string(lv[l]) + "." + std::to_string(h) + ".";
-      ContextHead& ch = impl->ctx[l][h];
-      conv3(ch.c1, b + "0.conv1", hd, level_in[l]);
-      conv3(ch.c2, b + "0.conv2", hd, hd);
+      ContextHead& ch = ctx[l][h];
+      Conv3(ws, p, ch.c1, b + "0.conv1", hd, level_in[l]);
+      Conv3(ws, p, ch.c2, b + "0.conv2", hd, hd);
       ch.n1w = ws.Take(b + "0.norm1.weight", {hd});
       ch.n1b = ws.Take(b + "0.norm1.bias", {hd});
       ch.n2w = ws.Take(b + "0.norm2.weight", {hd});
       ch.n2b = ws.Take(b + "0.norm2.bias", {hd});
       ch.has_down = ws.Has(b + "0.downsample.0.weight");
       if (ch.has_down) {
-        conv1(ch.down, b + "0.downsample.0", hd, level_in[l]);
+        Conv1(ws, p, ch.down, b + "0.downsample.0", hd, level_in[l]);
         ch.ndw = ws.Take(b + "0.downsample.1.weight", {hd});
         ch.ndb = ws.Take(b + "0.downsample.1.bias", {hd});
         ws.Ignore(b + "0.norm3.weight");  // the same module as downsample.1, registered twice
         ws.Ignore(b + "0.norm3.bias");
       }
-      conv3(ch.post, b + "1", hd, hd);
+      Conv3(ws, p, ch.post, b + "1", hd, hd);
     }
-    conv3(impl->zqr[l], "decoder.context_zqr_convs." + std::to_string(l), 3 * hd, hd);
+    Conv3(ws, p, zqr[l], "decoder.context_zqr_convs." + std::to_string(l), 3 * hd, hd);
   }
   auto gru = [&](ConvGru& g, const std::string& n, int64_t in) {
-    conv3(g.z, n + ".convz", hd, hd + in);
-    conv3(g.r, n + ".convr", hd, hd + in);
-    conv3(g.q, n + ".convq", hd, hd + in);
+    Conv3(ws, p, g.z, n + ".convz", hd, hd + in);
+    Conv3(ws, p, g.r, n + ".convr", hd, hd + in);
+    Conv3(ws, p, g.q, n + ".convq", hd, hd + in);
   };
-  gru(impl->gru08, "decoder.update_block.gru08", 2 * hd + 6 - hd);
-  gru(impl->gru16, "decoder.update_block.gru16", 2 * hd);
-  gru(impl->gru32, "decoder.update_block.gru32", hd);
-  conv3(impl->fh1d, "decoder.update_block.flow_head.conv1d", hd, hd);
-  conv3(impl->fh2d, "decoder.update_block.flow_head.conv2d", 2, hd);
-  conv3(impl->fh1n, "decoder.update_block.flow_head.conv1n", hd, hd);
-  conv3(impl->fh2n, "decoder.update_block.flow_head.conv2n", 4, hd);
-  conv3(impl->mask0, "decoder.update_block.mask.0", hd, hd);
-  conv1(impl->mask2, "decoder.update_block.mask.2", 144, hd);
+  gru(gru08, "decoder.update_block.gru08", 2 * hd + 6 - hd);
+  gru(gru16, "decoder.update_block.gru16", 2 * hd);
+  gru(gru32, "decoder.update_block.gru32", hd);
+  Conv3(ws, p, fh1d, "decoder.update_block.flow_head.conv1d", hd, hd);
+  Conv3(ws, p, fh2d, "decoder.update_block.flow_head.conv2d", 2, hd);
+  Conv3(ws, p, fh1n, "decoder.update_block.flow_head.conv1n", hd, hd);
+  Conv3(ws, p, fh2n, "decoder.update_block.flow_head.conv2n", 4, hd);
+  Conv3(ws, p, mask0, "decoder.update_block.mask.0", hd, hd);
+  Conv1(ws, p, mask2, "decoder.update_block.mask.2", 144, hd);
+}
+
+std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string, TensorView>& sd_in,
+                                                     const std::string& config_json, const std::string& source,
+                                                     const RuntimeOptions& runtime) {
+  ApplyRuntime(runtime);
+  const nlohmann::json j = ParseModelConfig(config_json, source, "Metric3D");
+  std::map<std::string, torch::Tensor> tensors;
+  for (const auto& [k, v] : sd_in) {
+    std::string n = k;
+    if (n.rfind("depth_model.", 0) == 0) n = n.substr(12);
+    tensors[n] = ToTorch(v);
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->cfg = ConfigFromTensors(tensors, j.value("encoder", nlohmann::json::object()),
+                                j.value("decoder", nlohmann::json::object()), j.value("data", nlohmann::json::object()),
+                                source);
+  const Metric3dConfig& c = impl->cfg;
+  impl->rt = runtime;
+  impl->source = source;
+  impl->device = DeviceOf(runtime);
+  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
+  WeightStore ws(std::move(tensors), source, impl->device);
+  impl->LoadEncoder(ws);
+  impl->LoadDecoder(ws);
+  impl->LoadRefiner(ws);
   ws.Finish();
   impl->bins = torch::exp(torch::linspace(std::log(c.min_depth), std::log(c.max_depth), c.num_bins, torch::kFloat32))
                    .to(impl->device);

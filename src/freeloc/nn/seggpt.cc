@@ -229,20 +229,17 @@ std::shared_ptr<SegGptModel> SegGptModel::Load(const std::string& model_path, co
   return Create(sd, json, model_path, runtime);
 }
 
-std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, TensorView>& sd_in,
-                                                 const std::string& config_json, const std::string& source,
-                                                 const RuntimeOptions& runtime) {
-  ApplyRuntime(runtime);
-  const nlohmann::json j = ParseModelConfig(config_json, source, "SegGPT");
-  std::map<std::string, torch::Tensor> tensors;
-  for (const auto& [k, v] : sd_in) tensors[FromHfName(k)] = ToTorch(v);
+namespace {
+
+// The architecture from the tensors' shapes and the config (HF or Painter key names).
+SegGptConfig ConfigFromTensors(const std::map<std::string, torch::Tensor>& tensors, const nlohmann::json& j,
+                               const std::string& source) {
   auto shape = [&](const std::string& n) {
     auto it = tensors.find(n);
     FREELOC_CHECK(it != tensors.end(), source << ": tensor '" << n << "' is missing; is this a SegGPT checkpoint?");
     return it->second.sizes().vec();
   };
-  auto impl = std::make_unique<Impl>();
-  SegGptConfig& c = impl->cfg;
+  SegGptConfig c;
   c.source = source;
   const auto pe = shape("patch_embed.proj.weight");
   c.embed_dim = static_cast<int>(pe[0]);
@@ -277,6 +274,21 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, Ten
                 source << ": merge_index " << c.merge_index << " outside the blocks");
   for (int i : c.out_indices)
     FREELOC_CHECK(i >= 0 && i < c.depth, source << ": out index " << i << " outside the blocks");
+  return c;
+}
+
+}  // namespace
+
+std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, TensorView>& sd_in,
+                                                 const std::string& config_json, const std::string& source,
+                                                 const RuntimeOptions& runtime) {
+  ApplyRuntime(runtime);
+  const nlohmann::json j = ParseModelConfig(config_json, source, "SegGPT");
+  std::map<std::string, torch::Tensor> tensors;
+  for (const auto& [k, v] : sd_in) tensors[FromHfName(k)] = ToTorch(v);
+  auto impl = std::make_unique<Impl>();
+  impl->cfg = ConfigFromTensors(tensors, j, source);
+  const SegGptConfig& c = impl->cfg;
   const int64_t hd_dim = c.embed_dim / c.heads;
   const int64_t dec_in = static_cast<int64_t>(c.out_indices.size()) * c.embed_dim;
   impl->rt = runtime;

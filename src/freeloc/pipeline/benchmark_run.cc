@@ -195,14 +195,20 @@ void RunScenes(const RunSpec& spec, Relocalizer& reloc, Journal& journal, RunRes
   auto label = [&] { bar.SetLabel("scene " + std::to_string(done) + "/" + std::to_string(res->scenes.size()) +
                                   ", queries"); };
   label();
+  int64_t queries_done = 0;
+  auto advance = [&](int64_t n) {
+    bar.Increment(n);
+    queries_done += n;
+    if (spec.on_progress) spec.on_progress(queries_done, total);
+  };
   for (const auto& name : res->scenes) {
     if (res->results.count(name)) {
-      bar.Increment(static_cast<int64_t>(res->results[name].size()));
+      advance(static_cast<int64_t>(res->results[name].size()));
     } else {
       MatchesCallback save;
       if (!spec.save_matches.empty())
         save = [&](const QueryResult& r, const matching::Correspondences& c) { SaveMatches(spec.save_matches, name, r, c); };
-      res->results[name] = RelocalizeScene(res->loaded.at(name), reloc, [&](const QueryResult&) { bar.Increment(); }, save);
+      res->results[name] = RelocalizeScene(res->loaded.at(name), reloc, [&](const QueryResult&) { advance(1); }, save);
       const CacheStats& cs = reloc.stats();
       FREELOC_LOG(DEBUG) << name << ": reference work " << cs.reference_ms << " ms, " << cs.reference_instances
                          << " reference instances, DUSt3R reference encodings " << cs.reference_encodings

@@ -36,6 +36,8 @@ struct RunSpec {
   bool resume = false;              // continue from <out>.progress.jsonl
   Shard shard;
   bool progress_bar = true;         // one bar over the queries on stderr (when it is a terminal)
+  // Called after each query (and once for each resumed scene) with the queries done and the total.
+  std::function<void(int64_t done, int64_t total)> on_progress;
   void Validate() const;            // throws naming the field
 };
 

@@ -106,6 +106,7 @@ struct QueryResult {
   Rigid3d query_from_ref;
   double confidence = 0;  // essential + robust scale: confidence.h; official scale: its support; pnp/procrustes: inliers
   int matches = 0, inliers = 0;
+  std::vector<char> inlier_mask;          // per correspondence into the solver (not in the JSON records)
   int global_matches = 0;                 // dust3r matchers: before the instance merge
   int instances = 0, instances_used = 0;  // reference instances tried / whose matches replaced global ones
   int scale_inliers = 0;                  // correspondences agreeing on the metric scale
@@ -190,5 +191,11 @@ std::string GetOption(const PipelineOptions& options, const std::string& name);
 // field. Throws freeloc::Error naming the preset and the available ones when unknown.
 PipelineOptions ResolvePreset(const std::string& name);
 std::vector<std::string> PresetNames();  // with "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>" as one
+
+// A pose from correspondences handed in (`freeloc pose`, Python's estimate_relative_pose): without a preset the
+// solver's own defaults (essential, robust scale, the solver's threshold); ForCorrespondences then points the
+// matcher at the rows handed in and the depth stage at the maps handed in (provided) or none.
+PipelineOptions CorrespondenceDefaults();
+PipelineOptions ForCorrespondences(PipelineOptions options, bool have_depth);
 
 }  // namespace freeloc::pipeline

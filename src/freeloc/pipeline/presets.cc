@@ -75,4 +75,17 @@ PipelineOptions ResolvePreset(const std::string& name) {
   FREELOC_THROW("preset: '" << name << "' is unknown; available: " << AvailablePresets());
 }
 
+PipelineOptions CorrespondenceDefaults() {
+  PipelineOptions o = ResolvePreset("precomputed:given-essential");
+  o.preset = "none";
+  o.threshold_px = -1;
+  return o;
+}
+
+PipelineOptions ForCorrespondences(PipelineOptions o, bool have_depth) {
+  o.matcher = MatcherSpec::FromString("precomputed:given");
+  o.depth = DepthSpec::FromString(have_depth ? "provided:given" : "none");
+  return o;
+}
+
 }  // namespace freeloc::pipeline

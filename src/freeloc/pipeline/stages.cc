@@ -255,6 +255,7 @@ class EssentialSolver : public PoseSolver {
     if (threshold_px_ > 0) ro.threshold_px = threshold_px_;
     const auto rel = geometry::EstimateRelativePose(c.ref, c.query, k_ref, k_query, ro);
     r->inliers = rel.status.num_inliers;
+    r->inlier_mask = rel.inliers;
     r->solve_ms = Ms(t0);
     r->status = StatusOf(rel.status.reason);
     if (!rel.status.success) return;
@@ -311,6 +312,7 @@ class AbsoluteSolver : public PoseSolver {
     const auto m = pnp_ ? geometry::EstimatePnP(c.ref, c.query, d_ref, k_ref, k_query, pnp_options_)
                         : geometry::EstimateProcrustes(c.ref, c.query, d_ref, d_query, k_ref, k_query);
     r->inliers = m.status.num_inliers;
+    r->inlier_mask = m.inliers;
     r->status = StatusOf(m.status.reason);
     r->query_from_ref = m.query_from_ref;
     r->confidence = m.confidence;
