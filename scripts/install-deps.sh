@@ -12,6 +12,7 @@ PACKAGES=(
   libnanoflann-dev
   nlohmann-json3-dev libcli11-dev libzip-dev zip unzip
   libgtest-dev libgmock-dev libbenchmark-dev
+  pybind11-dev python3-dev python3-numpy python3-pytest
   clang-format
 )
 

@@ -167,4 +167,21 @@ OfficialPoses ParseOfficialPoses(const std::string& text, bool with_confidence) 
   return out;
 }
 
+size_t MergeSubmissions(const std::vector<std::string>& inputs, const std::string& out) {
+  std::map<std::string, std::string> files, owner;  // entry → bytes, entry → the input it came from
+  for (const auto& path : inputs) {
+    const ZipContents zip = ZipContents::Read(path);
+    for (const auto& name : zip.names) {
+      FREELOC_CHECK(name.size() > 9 && name.rfind("pose_", 0) == 0 && name.substr(name.size() - 4) == ".txt",
+                    path << ": entry '" << name << "' is not a pose_<scene>.txt file; merge only submission ZIPs");
+      FREELOC_CHECK(!owner.count(name), path << ": " << name << " is also in " << owner[name]
+                                             << "; the inputs must be disjoint shards of one run");
+      owner[name] = path;
+      files[name] = zip.files.at(name);
+    }
+  }
+  WriteZipAtomic(out, files);
+  return files.size();
+}
+
 }  // namespace freeloc

@@ -33,6 +33,10 @@ std::string FormatPoseFile(const std::vector<SubmissionEntry>& entries);
 void WriteZipAtomic(const std::string& path, const std::map<std::string, std::string>& files);
 // Writes a submission: scene name → its entries. Entry names are `pose_<scene>.txt`.
 void WriteSubmission(const std::string& path, const std::map<std::string, std::vector<SubmissionEntry>>& scenes);
+// Joins submissions of disjoint scene sets (the shards of one run) into `out`, atomically; returns the number of
+// scenes. Throws naming the input when an entry is not a pose_<scene>.txt or a scene repeats. The result is
+// byte-identical to the submission of the whole run.
+size_t MergeSubmissions(const std::vector<std::string>& inputs, const std::string& out);
 
 // A ZIP read into memory (name → bytes), in archive order. Throws naming the file when it is not a ZIP.
 struct ZipContents {

@@ -82,7 +82,9 @@ TEST(Options, PresetsResolveToTypedOptions) {
   EXPECT_THROW(ResolvePreset("precomputed:SIFT"), Error);
   EXPECT_THROW(ResolvePreset("precomputed:SIFT-ransac"), Error);
   for (const std::string& p : PresetNames())
-    if (p.find('<') == std::string::npos) EXPECT_EQ(ResolvePreset(p).preset, p);
+    if (p.find('<') == std::string::npos) {
+      EXPECT_EQ(ResolvePreset(p).preset, p);
+    }
 }
 
 TEST(Records, OptionsAndQueryResultsRoundTrip) {

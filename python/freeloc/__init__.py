@@ -1,0 +1,46 @@
+"""freeloc — map-free metric relocalization: the pose of a query photo relative to a reference photo, in metres.
+
+The same C++ pipeline as the ``freeloc`` command, numpy in and out. Poses are ``query_from_ref``
+(``x_query = R @ x_ref + t``). Keyword options take the pipeline's option names (``freeloc.option_names()``):
+``preset``, ``solver``, ``scale``, ``threshold_px``, ``depth``, ``matcher``, …; an unknown name or value raises
+``ValueError`` naming it. Library errors (unreadable files, bad checkpoints) raise ``freeloc.Error``.
+
+    import freeloc, numpy as np
+    r = freeloc.estimate_relative_pose(x_ref, x_query, K_ref, K_query, depth_ref, depth_query)
+    print(r.status, r.R, r.t, r.confidence)
+    reloc = freeloc.Relocalizer("sift-essential")
+    r = reloc.relocalize("ref.png", "query.png", K, K, "ref.depth.png", "query.depth.png")
+    metrics = freeloc.evaluate("data/mapfree", "submission.zip")
+"""
+
+import json as _json
+import os as _os
+
+from ._freeloc import (  # noqa: F401
+    Dust3r,
+    Error,
+    Metric3D,
+    PoseResult,
+    Relocalizer,
+    SegGPT,
+    __version__,
+    estimate_relative_pose,
+    option_names,
+    preset_names,
+    read_depth,
+    read_image,
+    run,
+)
+from . import _freeloc
+
+__all__ = [
+    "Dust3r", "Error", "Metric3D", "PoseResult", "Relocalizer", "SegGPT", "__version__", "estimate_relative_pose",
+    "evaluate", "option_names", "preset_names", "read_depth", "read_image", "run",
+]
+
+
+def evaluate(data, submission, split="val", scenes=None):
+    """Map-free metrics of a submission ZIP, as ``freeloc eval --json``: a dict keyed by the official metric names."""
+    if isinstance(scenes, str):
+        scenes = [s for s in scenes.split(",") if s]
+    return _json.loads(_freeloc._evaluate(_os.fspath(data), _os.fspath(submission), split, list(scenes or [])))

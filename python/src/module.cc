@@ -1,0 +1,557 @@
+// The `freeloc._freeloc` extension (pybind11): the same pipeline as the CLI behind a numpy-in, numpy-out API. Only
+// argument translation lives here — options go through pipeline::SetOption (the typed option table), poses through
+// the pipeline's PoseSolver and Relocalizer, runs through the run controller, metrics through eval. The GIL is
+// released during every long call. python/freeloc/__init__.py adds the pure-Python conveniences.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/version.h"
+#include "freeloc/eval/report.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/mapfree.h"
+#include "freeloc/nn/dust3r.h"
+#include "freeloc/nn/metric3d.h"
+#include "freeloc/nn/seggpt.h"
+#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/vision/dust3r_preprocess.h"
+
+namespace py = pybind11;
+
+namespace freeloc::python {
+
+namespace {
+
+// Errors in what the caller passed (options, shapes, dtypes) are ValueErrors; everything else freeloc.Error.
+[[noreturn]] void BadValue(const std::string& text) { throw py::value_error(text); }
+
+// ---------------------------------------------------------------------------------------------------------------
+// Arguments
+
+// A keyword value as the option table's text: str as is, int and float exactly, bool refused.
+std::string OptionText(const std::string& name, const py::handle& v) {
+  if (py::isinstance<py::bool_>(v)) BadValue(name + ": expected a number or a string, got a bool");
+  if (py::isinstance<py::int_>(v)) return std::to_string(v.cast<long long>());
+  if (py::isinstance<py::float_>(v)) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%.17g", v.cast<double>());
+    return buf;
+  }
+  if (py::isinstance<py::str>(v)) return v.cast<std::string>();
+  BadValue(name + ": expected a number or a string, got " + std::string(py::str(v.get_type().attr("__name__"))));
+}
+
+// Applies keyword options by their pipeline names; an unknown name or a bad value is a ValueError naming it.
+void ApplyOptions(pipeline::PipelineOptions* o, const py::kwargs& kw, const std::vector<std::string>& skip = {}) {
+  for (const auto& [k, v] : kw) {
+    const std::string name = py::str(k);
+    if (std::find(skip.begin(), skip.end(), name) != skip.end()) continue;
+    try {
+      pipeline::SetOption(o, name, OptionText(name, v));
+    } catch (const Error& e) {
+      BadValue(e.what());
+    }
+  }
+}
+
+void Validate(const pipeline::PipelineOptions& o) {
+  try {
+    o.Validate();
+  } catch (const Error& e) {
+    BadValue(e.what());
+  }
+}
+
+// A 3×3 intrinsics matrix (any real dtype) → Camera; `width`/`height` when known.
+Camera CameraOf(const py::handle& k, const char* what, int width = 0, int height = 0) {
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(k);
+  if (!a || a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3) BadValue(std::string(what) + ": expected a 3x3 matrix");
+  const auto m = a.unchecked<2>();
+  Camera c{m(0, 0), m(1, 1), m(0, 2), m(1, 2), width, height};
+  if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy)) || c.fx <= 0 ||
+      c.fy <= 0 || m(2, 0) != 0 || m(2, 1) != 0 || m(2, 2) != 1)
+    BadValue(std::string(what) + ": expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with positive finite focals");
+  return c;
+}
+
+// N×2 pixel coordinates (any real dtype, any strides).
+std::vector<Eigen::Vector2d> Points(const py::handle& x, const char* what) {
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(x);
+  if (!a || a.ndim() != 2 || a.shape(1) != 2) BadValue(std::string(what) + ": expected an N x 2 array of pixels");
+  const auto m = a.unchecked<2>();
+  std::vector<Eigen::Vector2d> p(static_cast<size_t>(a.shape(0)));
+  for (py::ssize_t i = 0; i < a.shape(0); ++i) {
+    p[static_cast<size_t>(i)] = {m(i, 0), m(i, 1)};
+    if (!std::isfinite(m(i, 0)) || !std::isfinite(m(i, 1)))
+      BadValue(std::string(what) + ": row " + std::to_string(i) + " is not finite");
+  }
+  return p;
+}
+
+bool IsPath(const py::handle& v) {
+  return py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__");
+}
+std::string PathOf(const py::handle& v) { return py::str(py::module_::import("os").attr("fspath")(v)); }
+
+// A path, or an H×W float array of metres (0 = invalid); None → empty.
+DepthMap DepthOf(const py::handle& d, const char* what) {
+  if (d.is_none()) return {};
+  if (IsPath(d)) return ReadDepthPng(PathOf(d));
+  const auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(d);
+  if (!a || a.ndim() != 2) BadValue(std::string(what) + ": expected a path or an H x W array of metres");
+  DepthMap m;
+  m.width = static_cast<int>(a.shape(1));
+  m.height = static_cast<int>(a.shape(0));
+  m.data.assign(a.data(), a.data() + a.size());
+  for (float& v : m.data) v = (v > 0.f && v <= std::numeric_limits<float>::max()) ? v : 0.f;  // NaN, inf, ≤ 0: invalid
+  return m;
+}
+
+// A path, or an H×W×3 uint8 RGB array.
+Image ImageOf(const py::handle& v, const char* what) {
+  if (IsPath(v)) return ReadImage(PathOf(v));
+  const py::array arr = py::array::ensure(v);
+  if (!arr || !arr.dtype().is(py::dtype::of<uint8_t>()) || arr.ndim() != 3 || arr.shape(2) != 3)
+    BadValue(std::string(what) + ": expected a path or an H x W x 3 uint8 RGB array");
+  const auto a = py::array_t<uint8_t, py::array::c_style | py::array::forcecast>::ensure(arr);
+  Image im(static_cast<int>(a.shape(1)), static_cast<int>(a.shape(0)));
+  std::memcpy(im.data.data(), a.data(), im.data.size());
+  return im;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Results
+
+struct PoseResult {
+  pipeline::QueryResult r;
+  pipeline::PipelineOptions options;
+  size_t n = 0;  // correspondences into the solver
+};
+
+py::array_t<bool> InlierArray(const PoseResult& p) {
+  py::array_t<bool> a(static_cast<py::ssize_t>(p.n));
+  auto m = a.mutable_unchecked<1>();
+  for (size_t i = 0; i < p.n; ++i) m(static_cast<py::ssize_t>(i)) = i < p.r.inlier_mask.size() && p.r.inlier_mask[i];
+  return a;
+}
+
+py::array_t<double> Array(const std::vector<double>& v, std::vector<py::ssize_t> shape) {
+  py::array_t<double> a(shape);
+  std::memcpy(a.mutable_data(), v.data(), v.size() * sizeof(double));
+  return a;
+}
+
+py::array TensorArray(const TensorView& t) {
+  std::vector<py::ssize_t> shape(t.shape.begin(), t.shape.end());
+  if (t.dtype == DType::kU8) {
+    py::array_t<uint8_t> a(shape);
+    std::memcpy(a.mutable_data(), t.data, t.nbytes);
+    return a;
+  }
+  const std::vector<float> f = t.ToFloat();
+  py::array_t<float> a(shape);
+  std::memcpy(a.mutable_data(), f.data(), f.size() * sizeof(float));
+  return a;
+}
+
+py::dict AsDict(const PoseResult& p) {
+  return py::module_::import("json").attr("loads")(pipeline::QueryRecordJson("", p.r, &p.options));
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Entry points
+
+PoseResult EstimateRelativePose(const py::handle& x_ref, const py::handle& x_query, const py::handle& k_ref,
+                                const py::handle& k_query, const py::handle& depth_ref, const py::handle& depth_query,
+                                const py::kwargs& kw) {
+  const std::vector<Eigen::Vector2d> a = Points(x_ref, "x_ref"), b = Points(x_query, "x_query");
+  if (a.size() != b.size())
+    BadValue("x_ref and x_query differ in length (" + std::to_string(a.size()) + " vs " + std::to_string(b.size()) + ")");
+  const Camera kr = CameraOf(k_ref, "K_ref"), kq = CameraOf(k_query, "K_query");
+  const DepthMap dr = DepthOf(depth_ref, "depth_ref"), dq = DepthOf(depth_query, "depth_query");
+  pipeline::PipelineOptions o = pipeline::CorrespondenceDefaults();
+  if (kw.contains("preset")) {
+    try {
+      o = pipeline::ResolvePreset(OptionText("preset", kw["preset"]));
+    } catch (const Error& e) {
+      BadValue(e.what());
+    }
+  }
+  ApplyOptions(&o, kw, {"preset"});
+  o = pipeline::ForCorrespondences(o, !dr.empty());
+  if (dr.empty() != dq.empty() && o.solver != pipeline::SolverKind::kPnp)
+    BadValue("give both depth_ref and depth_query (or neither); only solver='pnp' uses the reference depth alone");
+  Validate(o);
+  PoseResult p;
+  p.options = o;
+  p.n = a.size();
+  const auto solver = pipeline::MakePoseSolver(o);
+  matching::Correspondences c;
+  c.ref = a;
+  c.query = b;
+  {
+    py::gil_scoped_release nogil;
+    solver->Solve(c, kr, kq, dr, dq, &p.r);
+  }
+  return p;
+}
+
+// A Relocalizer over the pipeline: the reference's work is redone only when another reference comes.
+class PyRelocalizer {
+ public:
+  PyRelocalizer(const std::string& preset, const py::object& models, const py::kwargs& kw) {
+    try {
+      options_ = pipeline::ResolvePreset(preset);
+    } catch (const Error& e) {
+      BadValue(e.what());
+    }
+    if (!models.is_none()) options_.models_dir = PathOf(models);
+    ApplyOptions(&options_, kw);
+    depth_overridden_ = kw.contains("depth");
+    pipeline::FindModels(&options_);
+    Validate(options_);
+  }
+
+  PoseResult Relocalize(const py::handle& ref, const py::handle& query, const py::handle& k_ref,
+                        const py::handle& k_query, const py::handle& depth_ref, const py::handle& depth_query) {
+    const Image ri = ImageOf(ref, "ref_image"), qi = ImageOf(query, "query_image");
+    const Camera kr = CameraOf(k_ref, "K_ref", ri.width, ri.height), kq = CameraOf(k_query, "K_query", qi.width, qi.height);
+    pipeline::FrameInputs in_ref, in_query;
+    in_ref.depth = DepthOf(depth_ref, "depth_ref");
+    in_query.depth = DepthOf(depth_query, "depth_query");
+    // As `freeloc relocalize`: no depth given and none overridden → the provided-depth presets answer without depth.
+    const bool no_depth = in_ref.depth.empty() && in_query.depth.empty() && !depth_overridden_ &&
+                          options_.UsesProvidedDepth();
+    PoseResult p;
+    p.options = options_;
+    if (no_depth) p.options.depth = pipeline::DepthSpec::FromString("none");
+    pipeline::Relocalizer& reloc = Get(no_depth);
+    matching::Correspondences c;
+    {
+      py::gil_scoped_release nogil;
+      if (!SameReference(no_depth, ri, kr, in_ref.depth)) reloc.SetReference(ri, kr, std::move(in_ref));
+      p.r = reloc.Relocalize(qi, kq, std::move(in_query), &c);
+    }
+    p.n = c.size();
+    return p;
+  }
+
+  const pipeline::PipelineOptions& options() const { return options_; }
+
+ private:
+  struct Slot {
+    std::unique_ptr<pipeline::Relocalizer> reloc;
+    Image ref;
+    Camera k;
+    DepthMap depth;
+    bool set = false;
+  };
+
+  pipeline::Relocalizer& Get(bool no_depth) {
+    Slot& s = slots_[no_depth];
+    if (!s.reloc) {
+      pipeline::PipelineOptions o = options_;
+      if (no_depth) o.depth = pipeline::DepthSpec::FromString("none");
+      s.reloc = std::make_unique<pipeline::Relocalizer>(o);
+    }
+    return *s.reloc;
+  }
+
+  // Whether the slot's reference is this one (same pixels, camera and depth); remembers it when not.
+  bool SameReference(bool no_depth, const Image& im, const Camera& k, const DepthMap& d) {
+    Slot& s = slots_[no_depth];
+    const bool same = s.set && s.ref.width == im.width && s.ref.height == im.height && s.ref.data == im.data &&
+                      s.k.fx == k.fx && s.k.fy == k.fy && s.k.cx == k.cx && s.k.cy == k.cy &&
+                      s.depth.width == d.width && s.depth.data == d.data;
+    if (!same) {
+      s.ref = im;
+      s.k = k;
+      s.depth = d;
+      s.set = true;
+    }
+    return same;
+  }
+
+  pipeline::PipelineOptions options_;
+  bool depth_overridden_ = false;
+  std::map<bool, Slot> slots_;
+};
+
+std::string Evaluate(const std::string& data, const std::string& submission, const std::string& split,
+                     const std::vector<std::string>& scenes) {
+  py::gil_scoped_release nogil;
+  std::string split_dir;
+  const std::vector<std::string> list = pipeline::ResolveScenes(data, split, scenes, &split_dir);
+  return eval::JsonReport(eval::RunEvaluation(split_dir, list, submission));
+}
+
+py::dict Run(const std::string& data, const std::string& out, const std::string& preset, const std::string& split,
+             const std::vector<std::string>& scenes, const std::string& log, bool resume, const std::string& shard,
+             const std::string& save_matches, const py::object& models, const py::object& progress,
+             const py::kwargs& kw) {
+  pipeline::PipelineOptions o;
+  try {
+    o = pipeline::ResolvePreset(preset);
+  } catch (const Error& e) {
+    BadValue(e.what());
+  }
+  if (!models.is_none()) o.models_dir = PathOf(models);
+  ApplyOptions(&o, kw);
+  pipeline::FindModels(&o);
+  Validate(o);
+  pipeline::RunSpec spec;
+  spec.data = data;
+  spec.out = out;
+  spec.split = split;
+  spec.scenes = scenes;
+  spec.log = log;
+  spec.resume = resume;
+  spec.save_matches = save_matches;
+  spec.progress_bar = false;
+  if (!shard.empty()) {
+    try {
+      spec.shard = pipeline::Shard::FromString(shard);
+    } catch (const Error& e) {
+      BadValue(e.what());
+    }
+  }
+  if (!progress.is_none()) {
+    spec.on_progress = [progress](int64_t done, int64_t total) {
+      py::gil_scoped_acquire gil;
+      progress(done, total);
+    };
+  }
+  pipeline::RunResult r;
+  {
+    py::gil_scoped_release nogil;
+    r = pipeline::RunBenchmark(spec, o);
+  }
+  py::dict d;
+  d["scenes"] = r.scenes;
+  d["queries"] = r.queries;
+  d["relocalized"] = r.relocalized;
+  d["resumed_scenes"] = r.resumed_scenes;
+  py::dict per_scene;
+  for (const auto& [name, results] : r.results) {
+    py::list l;
+    for (const auto& q : results) l.append(py::module_::import("json").attr("loads")(pipeline::QueryRecordJson(name, q)));
+    per_scene[py::str(name)] = l;
+  }
+  d["results"] = per_scene;
+  return d;
+}
+
+nn::RuntimeOptions RuntimeOf(const std::string& device, const std::string& precision, int threads) {
+  nn::RuntimeOptions rt;
+  try {
+    rt.device = ParseEnum<nn::Device>(device);
+    rt.precision = ParseEnum<nn::Precision>(precision);
+  } catch (const Error& e) {
+    BadValue(e.what());
+  }
+  rt.threads = threads;
+  return rt;
+}
+
+// DUSt3R on a pair: the `freeloc pointmap --raw` outputs.
+py::dict Dust3rPair(const nn::Dust3rModel& m, const py::handle& img1, const py::handle& img2, int size) {
+  const Image a = ImageOf(img1, "image_1"), b = ImageOf(img2, "image_2");
+  Dust3rPreprocessOptions po;
+  po.size = size;
+  Dust3rInput ia, ib;
+  nn::Dust3rPrediction pr;
+  {
+    py::gil_scoped_release nogil;
+    ia = PreprocessForDust3r(a, po);
+    ib = PreprocessForDust3r(b, po);
+    pr = m.Run({ia.normalized.data(), ia.height(), ia.width()}, {ib.normalized.data(), ib.height(), ib.width()});
+  }
+  py::dict d;
+  d["pts3d_1"] = TensorArray(pr.pts3d_1);
+  d["conf_1"] = TensorArray(pr.conf_1);
+  d["pts3d_2"] = TensorArray(pr.pts3d_2);
+  d["conf_2"] = TensorArray(pr.conf_2);
+  d["image_1"] = TensorArray(MakeTensor(DType::kU8, {ia.height(), ia.width(), 3}, ia.image.data.data(), ia.image.data.size()));
+  d["image_2"] = TensorArray(MakeTensor(DType::kU8, {ib.height(), ib.width(), 3}, ib.image.data.data(), ib.image.data.size()));
+  return d;
+}
+
+// Metric3D v2 on one image: the `freeloc depth --raw` outputs.
+py::dict Metric3dEstimate(const nn::Metric3dModel& m, const py::handle& image, const py::handle& k) {
+  const Image im = ImageOf(image, "image");
+  const Camera cam = CameraOf(k, "K", im.width, im.height);
+  nn::Metric3dOutput o;
+  {
+    py::gil_scoped_release nogil;
+    o = m.Estimate(im, cam);
+  }
+  py::dict d;
+  d["depth"] = TensorArray(MakeTensor(DType::kF32, {o.depth.height, o.depth.width}, o.depth.data.data(),
+                                      o.depth.data.size() * 4));
+  d["confidence"] = TensorArray(MakeTensor(DType::kF32, {o.depth.height, o.depth.width}, o.confidence.data(),
+                                           o.confidence.size() * 4));
+  d["normal"] = TensorArray(MakeTensor(DType::kF32, {3, o.depth.height, o.depth.width}, o.normal.data(),
+                                       o.normal.size() * 4));
+  d["canonical_depth"] = TensorArray(o.canonical_depth);
+  return d;
+}
+
+// SegGPT: the target's mask from prompts (the `freeloc segment` output).
+py::dict SegGptSegment(const nn::SegGptModel& m, const py::list& prompt_images, const py::list& prompt_masks,
+                       const py::handle& target, const std::string& type) {
+  if (prompt_images.size() == 0 || prompt_images.size() != prompt_masks.size())
+    BadValue("give one prompt mask per prompt image (and at least one)");
+  std::vector<Image> pi, pm;
+  for (size_t k = 0; k < prompt_images.size(); ++k) {
+    pi.push_back(ImageOf(prompt_images[k], "prompt_images"));
+    pm.push_back(ImageOf(prompt_masks[k], "prompt_masks"));
+  }
+  const Image t = ImageOf(target, "target");
+  nn::SegType st;
+  try {
+    st = nn::ParseSegType(type);
+  } catch (const Error& e) {
+    BadValue(e.what());
+  }
+  SegGptMask mask;
+  {
+    py::gil_scoped_release nogil;
+    mask = m.Segment(pi, pm, t, st);
+  }
+  py::array_t<bool> a({static_cast<py::ssize_t>(t.height), static_cast<py::ssize_t>(t.width)});
+  auto w = a.mutable_unchecked<2>();
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x) w(y, x) = mask.mask[static_cast<size_t>(y) * t.width + x] != 0;
+  py::dict d;
+  d["mask"] = a;
+  return d;
+}
+
+}  // namespace
+}  // namespace freeloc::python
+
+PYBIND11_MODULE(_freeloc, m) {
+  using namespace freeloc;          // NOLINT
+  using namespace freeloc::python;  // NOLINT
+  m.doc() = "freeloc: map-free metric relocalization (C++ core)";
+  m.attr("__version__") = Version();
+  static py::exception<Error> error(m, "Error");
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      error(e.what());
+    }
+  });
+
+  m.def("read_depth", [](const py::object& path) {
+    const DepthMap d = ReadDepthPng(PathOf(path));
+    py::array_t<float> a({static_cast<py::ssize_t>(d.height), static_cast<py::ssize_t>(d.width)});
+    std::memcpy(a.mutable_data(), d.data.data(), d.data.size() * sizeof(float));
+    return a;
+  }, py::arg("path"), "The map-free uint16 millimetre PNG as float32 metres (0 = invalid).");
+
+  m.def("read_image", [](const py::object& path) {
+    const Image im = ReadImage(PathOf(path));
+    py::array_t<uint8_t> a({static_cast<py::ssize_t>(im.height), static_cast<py::ssize_t>(im.width), py::ssize_t{3}});
+    std::memcpy(a.mutable_data(), im.data.data(), im.data.size());
+    return a;
+  }, py::arg("path"), "An image file as an H x W x 3 uint8 RGB array (EXIF orientation applied), as freeloc reads it.");
+
+  py::class_<PoseResult>(m, "PoseResult", "A pose query_from_ref (x_query = R·x_ref + t) with its status.")
+      .def_property_readonly("status", [](const PoseResult& p) { return ToString(p.r.status); })
+      .def_property_readonly("message", [](const PoseResult& p) { return p.r.message; })
+      .def_property_readonly("ok", [](const PoseResult& p) { return p.r.ok(); })
+      .def_property_readonly("metric", [](const PoseResult& p) { return p.r.metric(); })
+      .def_property_readonly("qvec", [](const PoseResult& p) {
+        const auto q = p.r.query_from_ref.QuaternionWxyz();
+        return Array({q[0], q[1], q[2], q[3]}, {4});
+      })
+      .def_property_readonly("R", [](const PoseResult& p) {
+        const Eigen::Matrix3d R = p.r.query_from_ref.R();
+        return Array({R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)}, {3, 3});
+      })
+      .def_property_readonly("t", [](const PoseResult& p) {
+        const auto& t = p.r.query_from_ref.translation;
+        return Array({t.x(), t.y(), t.z()}, {3});
+      })
+      .def_property_readonly("confidence", [](const PoseResult& p) { return p.r.confidence; })
+      .def_property_readonly("inliers", &InlierArray)
+      .def_property_readonly("num_inliers", [](const PoseResult& p) { return p.r.inliers; })
+      .def("as_dict", &AsDict, "The JSON record of `freeloc pose --json` / `relocalize --json`.")
+      .def("__repr__", [](const PoseResult& p) {
+        return "<PoseResult " + p.r.StatusText() + ", " + std::to_string(p.r.inliers) + " inliers>";
+      });
+
+  m.def("estimate_relative_pose", &EstimateRelativePose, py::arg("x_ref"), py::arg("x_query"), py::arg("K_ref"),
+        py::arg("K_query"), py::arg("depth_ref") = py::none(), py::arg("depth_query") = py::none(),
+        "The pose from correspondences by the pipeline's solver (as `freeloc pose`); keyword options by their "
+        "pipeline names (preset=, solver=, scale=, threshold_px=, …).");
+
+  py::class_<PyRelocalizer>(m, "Relocalizer")
+      .def(py::init<const std::string&, const py::object&, const py::kwargs&>(), py::arg("preset") = "sift-essential",
+           py::arg("models") = py::none())
+      .def("relocalize", &PyRelocalizer::Relocalize, py::arg("ref_image"), py::arg("query_image"), py::arg("K_ref"),
+           py::arg("K_query"), py::arg("depth_ref") = py::none(), py::arg("depth_query") = py::none())
+      .def_property_readonly("options", [](const PyRelocalizer& r) {
+        return py::module_::import("json").attr("loads")(pipeline::OptionsJson(r.options()));
+      });
+
+  m.def("_evaluate", &Evaluate, py::arg("data"), py::arg("submission"), py::arg("split") = "val",
+        py::arg("scenes") = std::vector<std::string>{});
+  m.def("run", &Run, py::arg("data"), py::arg("out"), py::arg("preset") = "sift-essential", py::arg("split") = "val",
+        py::arg("scenes") = std::vector<std::string>{}, py::arg("log") = "", py::arg("resume") = false,
+        py::arg("shard") = "", py::arg("save_matches") = "", py::arg("models") = py::none(),
+        py::arg("progress") = py::none(),
+        "Every query of every scene into a submission ZIP (as `freeloc run`); progress(done, total) is called "
+        "after each query.");
+  m.def("option_names", [] {
+    std::vector<std::string> n;
+    for (const auto& f : pipeline::OptionFields()) n.push_back(f.name);
+    return n;
+  });
+  m.def("preset_names", &pipeline::PresetNames);
+
+  py::class_<nn::Dust3rModel, std::shared_ptr<nn::Dust3rModel>>(m, "Dust3r")
+      .def(py::init([](const py::object& path, const py::object& config, const std::string& device,
+                       const std::string& precision, int threads) {
+             return nn::Dust3rModel::Load(PathOf(path), config.is_none() ? "" : PathOf(config),
+                                          RuntimeOf(device, precision, threads));
+           }),
+           py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu", py::arg("precision") = "fp32",
+           py::arg("threads") = 0)
+      .def("__call__", &Dust3rPair, py::arg("image_1"), py::arg("image_2"), py::arg("size") = 512);
+  py::class_<nn::Metric3dModel, std::shared_ptr<nn::Metric3dModel>>(m, "Metric3D")
+      .def(py::init([](const py::object& path, const py::object& config, const std::string& device,
+                       const std::string& precision, int threads) {
+             return nn::Metric3dModel::Load(PathOf(path), config.is_none() ? "" : PathOf(config),
+                                            RuntimeOf(device, precision, threads));
+           }),
+           py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu", py::arg("precision") = "fp32",
+           py::arg("threads") = 0)
+      .def("estimate", &Metric3dEstimate, py::arg("image"), py::arg("K"));
+  py::class_<nn::SegGptModel, std::shared_ptr<nn::SegGptModel>>(m, "SegGPT")
+      .def(py::init([](const py::object& path, const py::object& config, const std::string& device,
+                       const std::string& precision, int threads) {
+             return nn::SegGptModel::Load(PathOf(path), config.is_none() ? "" : PathOf(config),
+                                          RuntimeOf(device, precision, threads));
+           }),
+           py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu", py::arg("precision") = "fp32",
+           py::arg("threads") = 0)
+      .def("segment", &SegGptSegment, py::arg("prompt_images"), py::arg("prompt_masks"), py::arg("target"),
+           py::arg("type") = "instance");
+}

@@ -1,0 +1,218 @@
+"""The Python API against the CLI on the same inputs (bundled TUM scenes, data/demo): same poses, statuses,
+confidences and metrics; arrays of any layout; bad input raises. Run by ctest (python_tests) with PYTHONPATH set
+to <build>/python and FREELOC_BINARY to the freeloc executable."""
+
+import json
+import os
+import struct
+import subprocess
+
+import numpy as np
+import pytest
+
+import freeloc
+
+SRC = os.environ.get("FREELOC_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+BIN = os.environ.get("FREELOC_BINARY", os.path.join(SRC, "build", "freeloc"))
+SHARED = os.environ.get("FREELOC_SHARED_DIR", os.path.join(SRC, "..", "shared"))
+DEMO = os.path.join(SRC, "data", "demo")
+S3 = os.path.join(DEMO, "val", "s00003")
+S2 = os.path.join(DEMO, "val", "s00002")
+MATCHES = os.path.join(SRC, "tests", "data", "tum_sift", "s00003_sift_matches.txt")
+K_TUM = np.array([[535.4, 0, 320.1], [0, 539.2, 247.6], [0, 0, 1]])
+K_TEXT = "535.4,539.2,320.1,247.6"
+
+
+def cli(*args, check=True):
+    p = subprocess.run([BIN, *args], capture_output=True, text=True, env={**os.environ, "FREELOC_MODELS": ""})
+    if check and p.returncode not in (0, 1):
+        raise AssertionError(f"freeloc {' '.join(args)} exited {p.returncode}: {p.stderr}")
+    return p
+
+
+def rel(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.max(np.abs(a - b) / np.maximum(1e-300, np.maximum(np.abs(a), np.abs(b)))))
+
+
+def same_record(py, rec):
+    assert py.status == rec["status"]
+    assert rel(py.qvec, rec["qvec"]) <= 1e-9
+    assert rel(py.t, rec["tvec"]) <= 1e-9
+    assert rel(py.confidence, rec["confidence"]) <= 1e-9 or py.confidence == rec["confidence"]
+    assert py.num_inliers == rec["inliers"]
+
+
+def depth(scene, seq):
+    return os.path.join(scene, seq, "frame_00000.sensor.png")
+
+
+@pytest.mark.parametrize("extra", [[], ["--preset", "precomputed:SIFT-essential"], ["--solver", "pnp"],
+                                   ["--scale", "official", "--threshold", "2.5"]])
+def test_pose_equals_cli(extra):
+    out = cli("pose", "--matches", MATCHES, "--ref-intrinsics", K_TEXT, "--query-intrinsics", K_TEXT, "--ref-depth",
+              depth(S3, "seq0"), "--query-depth", depth(S3, "seq1"), "--json", *extra)
+    rec = json.loads(out.stdout)
+    kw = {}
+    for flag, value in zip(extra[::2], extra[1::2]):
+        name = {"--threshold": "threshold_px"}.get(flag, flag[2:])
+        kw[name] = float(value) if name == "threshold_px" else value
+    m = np.loadtxt(MATCHES)
+    r = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"), **kw)
+    same_record(r, rec)
+    assert r.metric and r.ok
+    assert r.inliers.dtype == bool and r.inliers.shape == (len(m),) and r.inliers.sum() == r.num_inliers
+    assert r.as_dict()["options"] == rec["options"]
+    assert np.allclose(r.R @ r.R.T, np.eye(3), atol=1e-12)
+
+
+def test_pose_without_depth_is_a_unit_translation():
+    m = np.loadtxt(MATCHES)
+    r = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM)
+    rec = json.loads(cli("pose", "--matches", MATCHES, "--ref-intrinsics", K_TEXT, "--query-intrinsics", K_TEXT,
+                         "--json").stdout)
+    same_record(r, rec)
+    assert r.status == "ok-unit-translation" and not r.metric
+    assert abs(np.linalg.norm(r.t) - 1) < 1e-9
+
+
+def test_arrays_of_any_layout_and_dtype_give_the_same_pose():
+    m = np.loadtxt(MATCHES)
+    base = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM)
+    wide = np.zeros((len(m), 6))
+    wide[:, [0, 2]] = m[:, :2]
+    wide[:, [3, 5]] = m[:, 2:]
+    strided = freeloc.estimate_relative_pose(wide[:, ::2][:, :2], wide[:, 3::2], np.asfortranarray(K_TUM), K_TUM.T.T)
+    assert np.array_equal(strided.t, base.t) and strided.confidence == base.confidence
+    fortran = freeloc.estimate_relative_pose(np.asfortranarray(m[:, :2]), np.asfortranarray(m[:, 2:]), K_TUM, K_TUM)
+    assert np.array_equal(fortran.qvec, base.qvec)
+    lists = freeloc.estimate_relative_pose(m[:, :2].tolist(), m[:, 2:].tolist(), K_TUM.tolist(), K_TUM.tolist())
+    assert np.array_equal(lists.t, base.t)
+    # float32 input is a different problem (rounded pixels) but a valid one.
+    assert freeloc.estimate_relative_pose(m[:, :2].astype(np.float32), m[:, 2:].astype(np.float32), K_TUM,
+                                          K_TUM).status == "ok-unit-translation"
+    # Depth as arrays equals depth as paths.
+    dr, dq = freeloc.read_depth(depth(S3, "seq0")), freeloc.read_depth(depth(S3, "seq1"))
+    assert dr.dtype == np.float32 and dr.shape == (480, 640) and dr.max() < 20
+    a = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, dr, dq)
+    b = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"))
+    assert np.array_equal(a.t, b.t)
+
+
+def relocalize_cli(scene, with_depth=True):
+    args = ["relocalize", "--ref", os.path.join(scene, "seq0", "frame_00000.png"), "--query",
+            os.path.join(scene, "seq1", "frame_00000.png"), "--intrinsics", os.path.join(scene, "intrinsics.txt"),
+            "--json"]
+    if with_depth:
+        args += ["--ref-depth", depth(scene, "seq0"), "--query-depth", depth(scene, "seq1")]
+    return json.loads(cli(*args).stdout)
+
+
+def camera(scene, frame):
+    for line in open(os.path.join(scene, "intrinsics.txt")):
+        f = line.split()
+        if f and f[0] == frame:
+            fx, fy, cx, cy = map(float, f[1:5])
+            return np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1]])
+    raise KeyError(frame)
+
+
+def test_relocalize_equals_cli_and_reuses_the_reference():
+    reloc = freeloc.Relocalizer("sift-essential")
+    for scene in (S3, S2):
+        kr, kq = camera(scene, "seq0/frame_00000.png"), camera(scene, "seq1/frame_00000.png")
+        ref, query = os.path.join(scene, "seq0", "frame_00000.png"), os.path.join(scene, "seq1", "frame_00000.png")
+        r = reloc.relocalize(ref, query, kr, kq, depth(scene, "seq0"), depth(scene, "seq1"))
+        same_record(r, relocalize_cli(scene))
+        assert r.status == "ok"
+        # The same reference again (as an array this time): same answer.
+        from_array = reloc.relocalize(freeloc.read_image(ref), query, kr, kq, depth(scene, "seq0"), depth(scene, "seq1"))
+        assert np.array_equal(from_array.t, r.t)
+        strided = np.zeros((480, 640, 6), np.uint8)
+        strided[:, :, ::2] = freeloc.read_image(ref)
+        assert np.array_equal(reloc.relocalize(strided[:, :, ::2], query, kr, kq, depth(scene, "seq0"),
+                                               depth(scene, "seq1")).t, r.t)
+        # Without depth: the unit translation `freeloc relocalize` gives.
+        nd = reloc.relocalize(ref, query, kr, kq)
+        same_record(nd, relocalize_cli(scene, with_depth=False))
+        assert nd.status == "ok-unit-translation"
+    assert reloc.options["matcher"] == "sift"
+
+
+def test_evaluate_and_run_equal_the_cli(tmp_path):
+    sub_cli, sub_py = tmp_path / "cli.zip", tmp_path / "py.zip"
+    assert cli("-q", "run", "--data", DEMO, "--out", str(sub_cli)).returncode == 0
+    seen = []
+    summary = freeloc.run(DEMO, str(sub_py), progress=lambda done, total: seen.append((done, total)))
+    assert sub_py.read_bytes() == sub_cli.read_bytes()
+    assert summary["queries"] == 7 and summary["relocalized"] == 2
+    assert seen[-1] == (7, 7) and len(seen) == 7
+    assert summary["results"]["s00001"][0]["status"] == "no-depth"
+    metrics = freeloc.evaluate(DEMO, sub_py)
+    want = json.loads(cli("-q", "eval", "--data", DEMO, "--submission", str(sub_cli), "--json", "-").stdout)
+    assert metrics == want
+    assert freeloc.evaluate(DEMO, sub_py, scenes="s00002")["counts"]["estimates"] == 1
+
+
+def test_bad_input_raises_clearly(tmp_path):
+    m = np.loadtxt(MATCHES)
+    with pytest.raises(ValueError, match="N x 2"):
+        freeloc.estimate_relative_pose(m[:, :3], m[:, 2:], K_TUM, K_TUM)
+    with pytest.raises(ValueError, match="differ in length"):
+        freeloc.estimate_relative_pose(m[:10, :2], m[:, 2:], K_TUM, K_TUM)
+    with pytest.raises(ValueError, match="3x3"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM[:2], K_TUM)
+    with pytest.raises(ValueError, match="positive finite"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], -K_TUM, K_TUM)
+    bad = m[:, :2].copy()
+    bad[3, 0] = np.nan
+    with pytest.raises(ValueError, match="row 3 is not finite"):
+        freeloc.estimate_relative_pose(bad, m[:, 2:], K_TUM, K_TUM)
+    with pytest.raises(ValueError, match="colour: not an option"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, colour="red")
+    with pytest.raises(ValueError, match="scale: 'median' is not one of robust, official"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, scale="median")
+    with pytest.raises(ValueError, match="preset: 'magic' is unknown"):
+        freeloc.Relocalizer("magic")
+    with pytest.raises(ValueError, match="needs the DUSt3R weights"):
+        freeloc.Relocalizer("dust3r", models=str(tmp_path))
+    with pytest.raises(ValueError, match="only solver='pnp'"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, depth(S3, "seq0"))
+    with pytest.raises(freeloc.Error, match="nope.png"):
+        freeloc.read_depth(tmp_path / "nope.png")
+    reloc = freeloc.Relocalizer()
+    with pytest.raises(ValueError, match="uint8"):
+        reloc.relocalize(np.zeros((4, 4, 3), np.float32), os.path.join(S3, "seq1", "frame_00000.png"), K_TUM, K_TUM)
+    (tmp_path / "junk.png").write_bytes(b"not a png")
+    with pytest.raises(freeloc.Error, match="junk.png"):
+        reloc.relocalize(str(tmp_path / "junk.png"), os.path.join(S3, "seq1", "frame_00000.png"), K_TUM, K_TUM)
+    # Too few correspondences: a status, not an exception.
+    r = freeloc.estimate_relative_pose(m[:4, :2], m[:4, 2:], K_TUM, K_TUM)
+    assert r.status == "too-few-matches" and not r.ok and r.inliers.shape == (4,) and not r.inliers.any()
+
+
+def _safetensors(path):
+    data = open(path, "rb").read()
+    n = struct.unpack("<Q", data[:8])[0]
+    header = json.loads(data[8:8 + n])
+    out = {}
+    for name, e in header.items():
+        if name == "__metadata__":
+            continue
+        dt = {"F32": np.float32, "U8": np.uint8, "I32": np.int32}[e["dtype"]]
+        b, end = e["data_offsets"]
+        out[name] = np.frombuffer(data[8 + n + b:8 + n + end], dt).reshape(e["shape"])
+    return out
+
+
+@pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "fixtures", "pth", "dust3r_tiny.pth")),
+                    reason="tiny DUSt3R fixture absent (../shared)")
+def test_dust3r_equals_freeloc_pointmap(tmp_path):
+    model = os.path.join(SHARED, "fixtures", "pth", "dust3r_tiny.pth")
+    a, b = os.path.join(S3, "seq0", "frame_00000.png"), os.path.join(S3, "seq1", "frame_00000.png")
+    assert cli("pointmap", "--model", model, "--size", "224", a, b, "--out", str(tmp_path / "pm.safetensors"))\
+        .returncode == 0
+    want = _safetensors(tmp_path / "pm.safetensors")
+    got = freeloc.Dust3r(model)(a, b, size=224)
+    for k in ("pts3d_1", "conf_1", "pts3d_2", "conf_2", "image_1", "image_2"):
+        assert got[k].shape == want[k].shape and np.array_equal(got[k], want[k]), k
