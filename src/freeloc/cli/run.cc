@@ -11,6 +11,7 @@
 #include "freeloc/eval/report.h"
 #include "freeloc/pipeline/benchmark_run.h"
 #include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/run_comm.h"
 
 #ifndef FREELOC_DEMO_DIR
 #define FREELOC_DEMO_DIR "data/demo"
@@ -27,27 +28,34 @@ struct RunArgs {
 };
 
 int RunRun(const RunArgs& a, const GlobalOptions& g) {
-  const pipeline::PipelineOptions o = ResolvePipelineArgs(a.pipeline, g, "sift-essential");
-  FREELOC_LOG(INFO) << o.Summary();
-  pipeline::RunSpec spec;
-  spec.data = a.data;
-  spec.split = a.split;
-  std::string split_dir;
-  if (!a.scenes.empty()) spec.scenes = ResolveScenes(a.data, a.split, a.scenes, &split_dir);
-  spec.out = a.out;
-  spec.log = a.log;
-  spec.save_matches = a.save_matches;
-  spec.resume = a.resume;
-  if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
-  pipeline::RunResult r;
+  // Launched by mpirun/srun: the ranks split the scenes and rank 0 writes the outputs (pipeline/run_comm.h).
+  const std::unique_ptr<pipeline::RunComm> comm = pipeline::MpiCommFromEnvironment();
+  const bool root = !comm || comm->rank() == 0;
   try {
-    r = pipeline::RunBenchmark(spec, o);
-  } catch (const Error& e) {
-    throw Error(NameFlags(e.what()));
+    const pipeline::PipelineOptions o = ResolvePipelineArgs(a.pipeline, g, "sift-essential");
+    if (root) FREELOC_LOG(INFO) << o.Summary();
+    pipeline::RunSpec spec;
+    spec.data = a.data;
+    spec.split = a.split;
+    std::string split_dir;
+    if (!a.scenes.empty()) spec.scenes = ResolveScenes(a.data, a.split, a.scenes, &split_dir);
+    spec.out = a.out;
+    spec.log = a.log;
+    spec.save_matches = a.save_matches;
+    spec.resume = a.resume;
+    if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
+    const pipeline::RunResult r = pipeline::RunBenchmark(spec, o, nullptr, comm.get());
+    if (root)
+      std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized,
+                  r.queries, r.scenes.size(), a.out.c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    if (!comm) throw Error(NameFlags(e.what()));
+    // One rank cannot go on: say so once per rank and end every rank (none may wait for it forever).
+    std::fprintf(stderr, "freeloc: error: rank %d: %s\n", comm->rank(), NameFlags(e.what()).c_str());
+    comm->Abort(1);
   }
-  std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized, r.queries,
-              r.scenes.size(), a.out.c_str());
-  return 0;
+  return 1;  // not reached: Abort ends the process
 }
 
 // The per-query table of the demo: status, inliers, rotation and camera-centre errors against the ground truth.

@@ -2,6 +2,11 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <csignal>
+#include <cstdlib>
+#include <set>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +20,7 @@
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/submission.h"
 #include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/run_comm.h"
 
 namespace freeloc::pipeline {
 
@@ -81,6 +87,27 @@ std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, con
   return loaded;
 }
 
+// One finished scene as a line: {"scene": name, "queries": [records]} (the journal's lines and the ranks' messages).
+std::string SceneRecord(const std::string& scene, const std::vector<QueryResult>& res) {
+  nlohmann::ordered_json j = {{"scene", scene}, {"queries", nlohmann::ordered_json::array()}};
+  for (const auto& q : res) j["queries"].push_back(nlohmann::ordered_json::parse(QueryRecordJson(scene, q)));
+  return j.dump();
+}
+
+// The inverse; false when `line` is not JSON; throws when it is JSON but not a scene record.
+bool ParseSceneRecord(const std::string& line, std::string* scene, std::vector<QueryResult>* res) {
+  const nlohmann::json j = nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) return false;
+  try {
+    res->clear();
+    for (const auto& q : j.at("queries")) res->push_back(QueryResultFromJson(q.dump()));
+    *scene = j.at("scene").get<std::string>();
+  } catch (const std::exception& e) {
+    FREELOC_THROW("not a scene record (" << e.what() << ")");
+  }
+  return true;
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // The journal: `<out>.progress.jsonl`, the run header, then one line per finished scene (appended and synced as
 // each scene ends). Resuming reads it back and skips those scenes; a last line cut short by a crash is ignored.
@@ -119,11 +146,7 @@ class Journal {
     FREELOC_CHECK(file_ != nullptr, path_ << ": cannot write the progress file; check the folder of the submission");
     if (!(keep && exists)) Append(header_);
   }
-  void AppendScene(const std::string& scene, const std::vector<QueryResult>& res) {
-    nlohmann::ordered_json j = {{"scene", scene}, {"queries", nlohmann::ordered_json::array()}};
-    for (const auto& q : res) j["queries"].push_back(nlohmann::ordered_json::parse(QueryRecordJson(scene, q)));
-    Append(j.dump());
-  }
+  void AppendScene(const std::string& scene, const std::vector<QueryResult>& res) { Append(SceneRecord(scene, res)); }
   void Finish() {
     Close();
     std::error_code ec;
@@ -134,19 +157,19 @@ class Journal {
   // One scene line; false for a damaged last line (ignored), an error for a damaged line before it.
   bool ParseScene(const std::string& line, size_t number, bool last,
                   std::map<std::string, std::vector<QueryResult>>* done) const {
-    const nlohmann::json j = nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
-    if (j.is_discarded()) {
+    std::string scene;
+    std::vector<QueryResult> qs;
+    bool json = false;
+    try {
+      json = ParseSceneRecord(line, &scene, &qs);
+    } catch (const Error& e) {
+      FREELOC_THROW(path_ << ": line " << number << " is " << e.what() << "; delete the file or run without --resume");
+    }
+    if (!json) {
       FREELOC_CHECK(last, path_ << ": line " << number << " is not JSON; delete the file or run without --resume");
       return false;
     }
-    try {
-      std::vector<QueryResult> qs;
-      for (const auto& q : j.at("queries")) qs.push_back(QueryResultFromJson(q.dump()));
-      (*done)[j.at("scene").get<std::string>()] = std::move(qs);
-    } catch (const std::exception& e) {
-      FREELOC_THROW(path_ << ": line " << number << " is not a scene record (" << e.what()
-                          << "); delete the file or run without --resume");
-    }
+    (*done)[scene] = std::move(qs);
     return true;
   }
   void Append(const std::string& line) {
@@ -186,39 +209,125 @@ void Resume(const Journal& journal, const PipelineOptions& o, RunResult* res) {
                     << res->scenes.size() << " scenes already done";
 }
 
-// Every scene not yet done, through one relocalizer; one progress bar over the queries, its label counting scenes.
-void RunScenes(const RunSpec& spec, Relocalizer& reloc, Journal& journal, RunResult* res) {
-  int64_t total = 0;
-  for (const auto& name : res->scenes) total += static_cast<int64_t>(res->loaded.at(name).queries.size());
-  ProgressBar bar("queries", total, spec.progress_bar ? -1 : 0);
-  size_t done = 0;
-  auto label = [&] { bar.SetLabel("scene " + std::to_string(done) + "/" + std::to_string(res->scenes.size()) +
-                                  ", queries"); };
-  label();
-  int64_t queries_done = 0;
-  auto advance = [&](int64_t n) {
-    bar.Increment(n);
-    queries_done += n;
-    if (spec.on_progress) spec.on_progress(queries_done, total);
-  };
-  for (const auto& name : res->scenes) {
-    if (res->results.count(name)) {
-      advance(static_cast<int64_t>(res->results[name].size()));
-    } else {
+// Scenes over ranks: longest first (by query count, then name) to the least loaded rank (ties: the lowest) —
+// deterministic, so every rank computes the same assignment.
+std::vector<std::vector<std::string>> AssignScenes(const std::vector<std::string>& scenes,
+                                                   const std::map<std::string, MapfreeScene>& loaded, int ranks) {
+  std::vector<std::string> order = scenes;
+  auto queries = [&](const std::string& n) { return loaded.at(n).queries.size(); };
+  std::stable_sort(order.begin(), order.end(), [&](const std::string& a, const std::string& b) {
+    return queries(a) != queries(b) ? queries(a) > queries(b) : a < b;
+  });
+  std::vector<std::vector<std::string>> out(static_cast<size_t>(ranks));
+  std::vector<size_t> load(static_cast<size_t>(ranks), 0);
+  for (const auto& n : order) {
+    const size_t r = static_cast<size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    out[r].push_back(n);
+    load[r] += queries(n) + 1;  // + 1: an empty scene still costs its reference
+  }
+  for (auto& v : out) std::sort(v.begin(), v.end());
+  return out;
+}
+
+enum Tag { kTickTag = 1, kSceneTag = 2 };
+
+// Runs this process's scenes through one relocalizer. Single process or rank 0: one progress bar over every query
+// of the run, the journal, and (rank 0) the scenes and ticks the other ranks send. Other ranks: their scenes, a
+// tick per query and each finished scene to rank 0.
+class SceneRunner {
+ public:
+  SceneRunner(const RunSpec& spec, Relocalizer& reloc, Journal* journal, RunComm* comm, RunResult* res)
+      : spec_(spec), reloc_(reloc), journal_(journal), comm_(comm), res_(res) {
+    for (const auto& name : res->scenes) total_ += static_cast<int64_t>(res->loaded.at(name).queries.size());
+  }
+
+  void Run(const std::vector<std::string>& mine) {
+    const bool root = !comm_ || comm_->rank() == 0;
+    ProgressBar bar("queries", total_, root && spec_.progress_bar ? -1 : 0);
+    bar_ = root ? &bar : nullptr;
+    for (const auto& [name, results] : res_->results) Advance(static_cast<int64_t>(results.size()));
+    for (const auto& name : mine) {
       MatchesCallback save;
-      if (!spec.save_matches.empty())
-        save = [&](const QueryResult& r, const matching::Correspondences& c) { SaveMatches(spec.save_matches, name, r, c); };
-      res->results[name] = RelocalizeScene(res->loaded.at(name), reloc, [&](const QueryResult&) { advance(1); }, save);
-      const CacheStats& cs = reloc.stats();
+      if (!spec_.save_matches.empty())
+        save = [&](const QueryResult& r, const matching::Correspondences& c) { SaveMatches(spec_.save_matches, name, r, c); };
+      auto results = RelocalizeScene(res_->loaded.at(name), reloc_, [&](const QueryResult&) { Query(); }, save);
+      const CacheStats& cs = reloc_.stats();
       FREELOC_LOG(DEBUG) << name << ": reference work " << cs.reference_ms << " ms, " << cs.reference_instances
                          << " reference instances, DUSt3R reference encodings " << cs.reference_encodings
                          << " (reused " << cs.reference_reuses << "), Metric3D passes " << cs.depth_estimates;
-      journal.AppendScene(name, res->results[name]);
+      Finished(name, std::move(results));
     }
-    ++done;
-    label();
+    if (root && comm_) {
+      while (res_->results.size() < res_->scenes.size()) Handle(true);
+    }
+    bar.Finish();
   }
-  bar.Finish();
+
+ private:
+  void Query() {
+    if (!comm_ || comm_->rank() == 0) {
+      Advance(1);
+      while (comm_ && Handle(false)) {
+      }
+    } else {
+      comm_->Send(kTickTag, "1");
+    }
+  }
+
+  void Advance(int64_t n) {
+    done_ += n;
+    if (bar_) {
+      bar_->Increment(n);
+      bar_->SetLabel("scene " + std::to_string(res_->results.size()) + "/" + std::to_string(res_->scenes.size()) +
+                     ", queries");
+    }
+    if (spec_.on_progress) spec_.on_progress(done_, total_);
+  }
+
+  void Finished(const std::string& name, std::vector<QueryResult> results) {
+    if (comm_ && comm_->rank() != 0) {
+      comm_->Send(kSceneTag, SceneRecord(name, results));
+      res_->results[name] = std::move(results);
+      return;
+    }
+    journal_->AppendScene(name, results);
+    res_->results[name] = std::move(results);
+  }
+
+  // Rank 0: one message from the other ranks (a tick or a finished scene); false when none was pending.
+  bool Handle(bool wait) {
+    int tag = 0, from = 0;
+    std::string payload, scene;
+    if (!comm_->Receive(wait, &tag, &payload, &from)) return false;
+    if (tag == kTickTag) {
+      Advance(1);
+      return true;
+    }
+    std::vector<QueryResult> results;
+    FREELOC_CHECK(ParseSceneRecord(payload, &scene, &results) && res_->loaded.count(scene),
+                  "run: rank " << from << " sent a damaged scene record");
+    journal_->AppendScene(scene, results);
+    res_->results[scene] = std::move(results);
+    if (bar_)
+      bar_->SetLabel("scene " + std::to_string(res_->results.size()) + "/" + std::to_string(res_->scenes.size()) +
+                     ", queries");
+    return true;
+  }
+
+  const RunSpec& spec_;
+  Relocalizer& reloc_;
+  Journal* journal_;
+  RunComm* comm_;
+  RunResult* res_;
+  ProgressBar* bar_ = nullptr;
+  int64_t total_ = 0, done_ = 0;
+};
+
+// Test hook for the fault tests (docs/scale-out.md): FREELOC_TEST_KILL_RANK=r ends rank r with SIGKILL once it has
+// its assignment, as a crashed node would.
+void MaybeKillForTest(const RunComm* comm) {
+  const char* v = std::getenv("FREELOC_TEST_KILL_RANK");
+  if (comm && v && std::atoi(v) == comm->rank()) std::raise(SIGKILL);
 }
 
 // The submission (successful queries; an empty pose file for every scene attempted), the log (header + one record
@@ -248,24 +357,49 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
 
 }  // namespace
 
-RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory) {
+RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory,
+                       RunComm* comm) {
   spec.Validate();
   options.Validate();
+  if (comm && comm->size() <= 1) comm = nullptr;
+  const bool root = !comm || comm->rank() == 0;
   RunResult res;
   res.scenes = spec.shard.Select(ResolveScenes(spec.data, spec.split, spec.scenes, &res.split_dir));
-  if (!spec.shard.whole()) FREELOC_LOG(INFO) << "shard " << spec.shard.ToString() << ": " << res.scenes.size() << " scenes";
+  if (!spec.shard.whole() && root) FREELOC_LOG(INFO) << "shard " << spec.shard.ToString() << ": " << res.scenes.size() << " scenes";
   res.loaded = LoadScenes(res.split_dir, res.scenes, options);
   // The networks are loaded here, before the journal and the first scene: a bad weights file is one error.
   std::unique_ptr<Relocalizer> reloc = factory ? factory(options) : std::make_unique<Relocalizer>(options);
   const RunHeader header{options, spec.data, spec.split, spec.shard.ToString(), res.scenes};
   Journal journal(spec.out, RunHeaderJson(header));
-  if (spec.resume) {
+  if (root && spec.resume) {
     Resume(journal, options, &res);
-  } else if (fs::exists(journal.path())) {
+  } else if (root && fs::exists(journal.path())) {
     FREELOC_LOG(WARNING) << journal.path() << " exists from an earlier run; starting over (use --resume to continue it)";
   }
-  journal.Open(spec.resume);
-  RunScenes(spec, *reloc, journal, &res);
+  if (root) journal.Open(spec.resume);
+  std::vector<std::string> mine;
+  for (const auto& n : res.scenes)
+    if (!res.results.count(n)) mine.push_back(n);
+  if (comm) {
+    // Rank 0 read the journal: every rank learns the finished scenes, then takes its share of the rest.
+    std::string done;
+    for (const auto& [n, r] : res.results) done += n + "\n";
+    std::istringstream in(comm->Broadcast(done));
+    std::set<std::string> finished;
+    for (std::string n; std::getline(in, n);) finished.insert(n);
+    std::vector<std::string> todo;
+    for (const auto& n : res.scenes)
+      if (!finished.count(n)) todo.push_back(n);
+    const auto share = AssignScenes(todo, res.loaded, comm->size());
+    mine = share[static_cast<size_t>(comm->rank())];
+    std::string list;
+    for (const auto& n : mine) list += (list.empty() ? "" : ", ") + n;
+    FREELOC_LOG(INFO) << "rank " << comm->rank() << " of " << comm->size() << ": " << mine.size() << " scenes"
+                      << (list.empty() ? "" : " (" + list + ")");
+    MaybeKillForTest(comm);
+  }
+  SceneRunner(spec, *reloc, root ? &journal : nullptr, comm, &res).Run(mine);
+  if (!root) return res;
   WriteOutputs(spec, header, &res);
   journal.Finish();
   return res;

@@ -55,7 +55,11 @@ using RelocalizerFactory = std::function<std::unique_ptr<Relocalizer>(const Pipe
 // Runs `spec` with `options` (validated; models found beforehand by the caller, FindModels). Throws freeloc::Error
 // before any work for a bad split, scene, depth suffix, weights file or journal; per-query and per-scene failures
 // are results. Nothing is written unless the run finishes (the journal excepted).
-RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory = nullptr);
+// With `comm` of more than one rank (run_comm.h: MPI), the scenes are split over the ranks and rank 0 writes the
+// outputs (the same bytes as one process); the other ranks return their own scenes' results only.
+class RunComm;
+RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory = nullptr,
+                       RunComm* comm = nullptr);
 
 // The split folder under `data` (or `data` itself) and the scenes to process: all of them, or `only` (each must
 // exist). Throws freeloc::Error naming what is missing.

@@ -11,6 +11,7 @@
 #include "freeloc/core/version.h"
 #include "freeloc/io/submission.h"
 #include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/run_comm.h"
 #include "testing/mapfree_writer.h"
 #include "testing/testing.h"
 
@@ -178,6 +179,25 @@ TEST(BenchmarkRun, BundledDemoScenes) {
   EXPECT_EQ(r.queries, 7u);
   EXPECT_EQ(r.relocalized, 2u);  // s00001 has no depth maps
   for (const auto& q : r.results.at("s00001")) EXPECT_EQ(q.status, QueryStatus::kNoDepth);
+}
+
+// Which launcher environment means "one of N MPI processes" (the run then splits the scenes or, without MPI, refuses).
+TEST(RunComm, LaunchedWorldSizeReadsTheLaunchersEnvironment) {
+  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_PROCID", "SLURM_NTASKS"}) unsetenv(v);
+  EXPECT_EQ(LaunchedWorldSize(), 1);
+  setenv("OMPI_COMM_WORLD_SIZE", "3", 1);
+  EXPECT_EQ(LaunchedWorldSize(), 3);
+  unsetenv("OMPI_COMM_WORLD_SIZE");
+  setenv("PMI_SIZE", "4", 1);
+  EXPECT_EQ(LaunchedWorldSize(), 4);
+  unsetenv("PMI_SIZE");
+  setenv("SLURM_NTASKS", "8", 1);
+  EXPECT_EQ(LaunchedWorldSize(), 1);  // an allocation, not a task launched by srun
+  setenv("SLURM_PROCID", "0", 1);
+  EXPECT_EQ(LaunchedWorldSize(), 8);
+  unsetenv("SLURM_PROCID");
+  unsetenv("SLURM_NTASKS");
+  EXPECT_EQ(MpiCommFromEnvironment(), nullptr);  // not launched: no MPI, the run is the ordinary one
 }
 
 }  // namespace
