@@ -14,6 +14,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   pybind11-dev python3-dev python3-numpy python3-pytest
   libopenmpi-dev openmpi-bin
+  chromium
   clang-format
 )
 

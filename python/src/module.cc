@@ -367,6 +367,15 @@ nn::RuntimeOptions RuntimeOf(const std::string& device, const std::string& preci
   return rt;
 }
 
+// The constructor of a network class: weights (+ optional config) loaded for the given runtime.
+template <typename Model>
+auto NetworkInit() {
+  return py::init([](const py::object& path, const py::object& config, const std::string& device,
+                     const std::string& precision, int threads) {
+    return Model::Load(PathOf(path), config.is_none() ? "" : PathOf(config), RuntimeOf(device, precision, threads));
+  });
+}
+
 // DUSt3R on a pair: the `freeloc pointmap --raw` outputs.
 py::dict Dust3rPair(const nn::Dust3rModel& m, const py::handle& img1, const py::handle& img2, int size) {
   const Image a = ImageOf(img1, "image_1"), b = ImageOf(img2, "image_2");
@@ -527,31 +536,16 @@ PYBIND11_MODULE(_freeloc, m) {
   m.def("preset_names", &pipeline::PresetNames);
 
   py::class_<nn::Dust3rModel, std::shared_ptr<nn::Dust3rModel>>(m, "Dust3r")
-      .def(py::init([](const py::object& path, const py::object& config, const std::string& device,
-                       const std::string& precision, int threads) {
-             return nn::Dust3rModel::Load(PathOf(path), config.is_none() ? "" : PathOf(config),
-                                          RuntimeOf(device, precision, threads));
-           }),
-           py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu", py::arg("precision") = "fp32",
-           py::arg("threads") = 0)
+      .def(NetworkInit<nn::Dust3rModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
+           py::arg("precision") = "fp32", py::arg("threads") = 0)
       .def("__call__", &Dust3rPair, py::arg("image_1"), py::arg("image_2"), py::arg("size") = 512);
   py::class_<nn::Metric3dModel, std::shared_ptr<nn::Metric3dModel>>(m, "Metric3D")
-      .def(py::init([](const py::object& path, const py::object& config, const std::string& device,
-                       const std::string& precision, int threads) {
-             return nn::Metric3dModel::Load(PathOf(path), config.is_none() ? "" : PathOf(config),
-                                            RuntimeOf(device, precision, threads));
-           }),
-           py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu", py::arg("precision") = "fp32",
-           py::arg("threads") = 0)
+      .def(NetworkInit<nn::Metric3dModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
+           py::arg("precision") = "fp32", py::arg("threads") = 0)
       .def("estimate", &Metric3dEstimate, py::arg("image"), py::arg("K"));
   py::class_<nn::SegGptModel, std::shared_ptr<nn::SegGptModel>>(m, "SegGPT")
-      .def(py::init([](const py::object& path, const py::object& config, const std::string& device,
-                       const std::string& precision, int threads) {
-             return nn::SegGptModel::Load(PathOf(path), config.is_none() ? "" : PathOf(config),
-                                          RuntimeOf(device, precision, threads));
-           }),
-           py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu", py::arg("precision") = "fp32",
-           py::arg("threads") = 0)
+      .def(NetworkInit<nn::SegGptModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
+           py::arg("precision") = "fp32", py::arg("threads") = 0)
       .def("segment", &SegGptSegment, py::arg("prompt_images"), py::arg("prompt_masks"), py::arg("target"),
            py::arg("type") = "instance");
 }

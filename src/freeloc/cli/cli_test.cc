@@ -442,6 +442,48 @@ TEST(Cli, RunRecordsItsProvenance) {
   EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
 }
 
+// `run --report`: a static folder with every query in the table, detail views (JPEG) for the first query of each
+// scene, the failures and the worst, every referenced file present, nothing from the network; bounded by the
+// options (unselected detail images are deleted).
+TEST(Cli, RunWritesAnHtmlReport) {
+  freeloc::testing::TempDir tmp;
+  Result r = RunFreeloc("-q run --data " + freeloc::testing::DemoPath() + " --out " + tmp.File("s.zip") + " --report " +
+                        tmp.File("rep"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto check = [&](const std::string& dir, int rows, int details) {
+    const std::string html = freeloc::testing::ReadText(dir + "/index.html");
+    size_t n = 0;
+    for (size_t p = 0; (p = html.find("<tr class=\"", p)) != std::string::npos; ++p) ++n;
+    EXPECT_EQ(n, static_cast<size_t>(rows)) << dir;
+    int jpgs = 0;
+    for (size_t p = 0; (p = html.find("src=\"", p)) != std::string::npos;) {
+      p += 5;
+      const std::string src = html.substr(p, html.find('"', p) - p);
+      EXPECT_TRUE(std::filesystem::exists(dir + "/" + src)) << src;
+      EXPECT_EQ(src.find("http"), std::string::npos) << src;
+      jpgs += src.size() > 4 && src.substr(src.size() - 4) == ".jpg";
+    }
+    EXPECT_EQ(jpgs, details) << dir;
+    int files = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.path().extension() == ".jpg";
+    EXPECT_EQ(files, details) << "unselected detail images must be removed";
+    return html;
+  };
+  const std::string html = check(tmp.File("rep"), 7, 7);  // 3 first-of-scene + failures (s00001's no-depth)
+  EXPECT_TRUE(Contains(html, "Average Median Translation Error")) << "metrics";
+  EXPECT_TRUE(Contains(html, "<h3>no-depth (5)</h3>")) << "failures grouped by status";
+  EXPECT_TRUE(Contains(html, "cdf_translation.svg"));
+  // Synthetic scenes with ground truth: 2 scenes × 4 queries; no first-of-scene sample, the 2 worst answered
+  // queries and at most 1 failure in detail.
+  for (uint32_t s : {1u, 2u})
+    freeloc::testing::WriteSyntheticMapfreeScene(tmp.File("syn/val/s0000" + std::to_string(s)), 70 + s);
+  r = RunFreeloc("-q run --data " + tmp.File("syn") + " --preset precomputed:SIFT-essential --depth provided:gt --out " +
+                 tmp.File("t.zip") + " --report " + tmp.File("rep2") + " --report-worst 2 --report-per-scene 0");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string h2 = check(tmp.File("rep2"), 8, 2 + 2);  // the 2 worst + both too-few-matches failures
+  EXPECT_TRUE(Contains(h2, "too-few-matches (2)")) << h2.substr(0, 2000);
+}
+
 // A models folder laid out with the published file names, here symlinks to the tiny fixture weights (the
 // Metric3D fixture is safetensors under the .pth name: checkpoints are recognised by content; its config.json
 // sits beside it).

@@ -23,7 +23,8 @@ namespace {
 
 struct RunArgs {
   PipelineArgs pipeline;
-  std::string data, split = "val", scenes, out, log, shard, save_matches;
+  std::string data, split = "val", scenes, out, log, shard, save_matches, report;
+  int report_worst = 20, report_per_scene = 1;
   bool resume = false;
 };
 
@@ -42,6 +43,9 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     spec.out = a.out;
     spec.log = a.log;
     spec.save_matches = a.save_matches;
+    spec.report = a.report;
+    spec.report_options.worst = a.report_worst;
+    spec.report_options.per_scene = a.report_per_scene;
     spec.resume = a.resume;
     if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
     const pipeline::RunResult r = pipeline::RunBenchmark(spec, o, nullptr, comm.get());
@@ -129,6 +133,13 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--log", a->log, "JSON-lines log: a header record, then one record per query");
   sub->add_option("--save-matches", a->save_matches,
                   "folder: each query's correspondences as <scene>/<frame>.matches.txt (the input of freeloc pose)");
+  sub->add_option("--report", a->report,
+                  "folder: an HTML report of the run (index.html: metrics, every query, failures, match overlays of "
+                  "the worst queries; docs/report.md)");
+  sub->add_option("--report-worst", a->report_worst, "queries with the largest errors shown in detail (default 20)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--report-per-scene", a->report_per_scene, "first queries of each scene shown in detail (default 1)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_flag("--resume", a->resume,
                 "continue an interrupted run from <out>.progress.jsonl (same options), skipping finished scenes");
   sub->add_option("--shard", a->shard,

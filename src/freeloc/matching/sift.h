@@ -24,6 +24,7 @@ struct SiftOptions {
 
 struct Correspondences {
   std::vector<Eigen::Vector2d> ref, query;
+  std::vector<int> source;  // optional, per row: the instance that gave it (−1: global matching); empty when unknown
   size_t size() const { return ref.size(); }
 };
 

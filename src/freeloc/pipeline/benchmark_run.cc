@@ -21,6 +21,7 @@
 #include "freeloc/io/submission.h"
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/run_comm.h"
+#include "freeloc/pipeline/run_report.h"
 
 namespace freeloc::pipeline {
 
@@ -236,8 +237,9 @@ enum Tag { kTickTag = 1, kSceneTag = 2 };
 // tick per query and each finished scene to rank 0.
 class SceneRunner {
  public:
-  SceneRunner(const RunSpec& spec, Relocalizer& reloc, Journal* journal, RunComm* comm, RunResult* res)
-      : spec_(spec), reloc_(reloc), journal_(journal), comm_(comm), res_(res) {
+  SceneRunner(const RunSpec& spec, Relocalizer& reloc, Journal* journal, RunComm* comm, ReportRecorder* report,
+              RunResult* res)
+      : spec_(spec), reloc_(reloc), journal_(journal), comm_(comm), report_(report), res_(res) {
     for (const auto& name : res->scenes) total_ += static_cast<int64_t>(res->loaded.at(name).queries.size());
   }
 
@@ -248,8 +250,11 @@ class SceneRunner {
     for (const auto& [name, results] : res_->results) Advance(static_cast<int64_t>(results.size()));
     for (const auto& name : mine) {
       MatchesCallback save;
-      if (!spec_.save_matches.empty())
-        save = [&](const QueryResult& r, const matching::Correspondences& c) { SaveMatches(spec_.save_matches, name, r, c); };
+      if (!spec_.save_matches.empty() || report_)
+        save = [&](const QueryResult& r, const matching::Correspondences& c) {
+          if (!spec_.save_matches.empty()) SaveMatches(spec_.save_matches, name, r, c);
+          if (report_) report_->Consider(res_->loaded.at(name), r, c, reloc_);
+        };
       auto results = RelocalizeScene(res_->loaded.at(name), reloc_, [&](const QueryResult&) { Query(); }, save);
       const CacheStats& cs = reloc_.stats();
       FREELOC_LOG(DEBUG) << name << ": reference work " << cs.reference_ms << " ms, " << cs.reference_instances
@@ -318,6 +323,7 @@ class SceneRunner {
   Relocalizer& reloc_;
   Journal* journal_;
   RunComm* comm_;
+  ReportRecorder* report_;
   RunResult* res_;
   ProgressBar* bar_ = nullptr;
   int64_t total_ = 0, done_ = 0;
@@ -398,9 +404,12 @@ RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, cons
                       << (list.empty() ? "" : " (" + list + ")");
     MaybeKillForTest(comm);
   }
-  SceneRunner(spec, *reloc, root ? &journal : nullptr, comm, &res).Run(mine);
+  std::unique_ptr<ReportRecorder> report;
+  if (!spec.report.empty()) report = std::make_unique<ReportRecorder>(spec.report, spec.report_options);
+  SceneRunner(spec, *reloc, root ? &journal : nullptr, comm, report.get(), &res).Run(mine);
   if (!root) return res;
   WriteOutputs(spec, header, &res);
+  if (report) report->Write(res.split_dir, res.scenes, res.loaded, res.results, spec.out);
   journal.Finish();
   return res;
 }

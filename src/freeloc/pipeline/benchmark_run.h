@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/eval/run_report.h"
 #include "freeloc/io/mapfree.h"
 #include "freeloc/pipeline/options.h"
 #include "freeloc/pipeline/relocalizer.h"
@@ -33,6 +34,8 @@ struct RunSpec {
   std::string out;                  // submission ZIP
   std::string log;                  // JSON-lines log (optional): a header line, then one record per query
   std::string save_matches;         // folder (optional): <scene>/<frame>.matches.txt per query, full precision
+  std::string report;               // folder (optional): the HTML report of the run (eval/run_report.h)
+  eval::ReportOptions report_options;
   bool resume = false;              // continue from <out>.progress.jsonl
   Shard shard;
   bool progress_bar = true;         // one bar over the queries on stderr (when it is a terminal)

@@ -48,7 +48,7 @@ struct Relocalizer::Impl {
   std::unique_ptr<PoseSolver> solver;
   CacheStats stats;
   Camera k_ref;
-  DepthMap d_ref;
+  DepthMap d_ref, d_query;
   bool have_ref = false;
   void UpdateStats() {
     matcher->AddStats(&stats);
@@ -72,6 +72,8 @@ Relocalizer::Relocalizer(const PipelineOptions& options, std::unique_ptr<Matcher
 Relocalizer::~Relocalizer() = default;
 const CacheStats& Relocalizer::stats() const { return impl_->stats; }
 const PipelineOptions& Relocalizer::options() const { return impl_->o; }
+const DepthMap& Relocalizer::reference_depth() const { return impl_->d_ref; }
+const DepthMap& Relocalizer::last_query_depth() const { return impl_->d_query; }
 
 void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameInputs in) {
   Impl& m = *impl_;
@@ -98,15 +100,16 @@ QueryResult Relocalizer::Relocalize(const Image& image, const Camera& camera, Fr
   Impl& m = *impl_;
   FREELOC_CHECK(m.have_ref, "Relocalizer::Relocalize before SetReference");
   QueryResult r;
+  m.d_query = DepthMap();
   if (m.depth->needs_provided() && (m.d_ref.empty() || in.depth.empty())) {
     r.status = QueryStatus::kNoDepth;
     return r;
   }
   const auto t0 = std::chrono::steady_clock::now();
-  const DepthMap d_query = m.depth->Depth(image, camera, std::move(in.depth));
+  m.d_query = m.depth->Depth(image, camera, std::move(in.depth));
   r.depth_ms = m.depth->needs_provided() ? 0.0 : Ms(t0);
   const matching::Correspondences c = m.matcher->Match(image, camera, in, &r);
-  m.solver->Solve(c, m.k_ref, camera, m.d_ref, d_query, &r);
+  m.solver->Solve(c, m.k_ref, camera, m.d_ref, m.d_query, &r);
   if (matches) *matches = c;
   m.UpdateStats();
   return r;

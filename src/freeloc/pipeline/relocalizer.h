@@ -59,6 +59,9 @@ class Relocalizer {
 
   const CacheStats& stats() const;
   const PipelineOptions& options() const;
+  // The depth the solver used for the current reference and for the last query (empty: none) — for reports.
+  const DepthMap& reference_depth() const;
+  const DepthMap& last_query_depth() const;
 
  private:
   struct Impl;

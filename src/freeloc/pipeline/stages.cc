@@ -113,6 +113,7 @@ class Dust3rMatcher : public Matcher {
     for (const auto& m : merged) {
       c.ref.push_back(m.ref);
       c.query.push_back(m.query);
+      c.source.push_back(m.source);
     }
     return c;
   }

@@ -1,0 +1,155 @@
+#include "freeloc/pipeline/run_report.h"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/logging.h"
+#include "freeloc/eval/report.h"
+#include "freeloc/io/submission.h"
+
+namespace freeloc::pipeline {
+
+namespace fs = std::filesystem;
+
+namespace {
+OfficialPose Official(const Rigid3d& query_from_ref) {
+  OfficialPose p;
+  const Eigen::Quaterniond c2w = query_from_ref.rotation.conjugate();
+  p.q_c2w = {c2w.w(), c2w.x(), c2w.y(), c2w.z()};
+  p.t_c2w = query_from_ref.Center();
+  return p;
+}
+}  // namespace
+
+std::string VisualName(const std::string& scene, const std::string& frame) {
+  std::string n = "q_" + scene + "_" + fs::path(frame).replace_extension("").string() + ".jpg";
+  for (char& c : n)
+    if (c == '/' || c == '\\') c = '_';
+  return n;
+}
+
+eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r) {
+  eval::ReportQuery q;
+  q.scene = scene.name;
+  q.frame = r.frame;
+  q.status = ToString(r.status);
+  q.message = r.message;
+  q.confidence = r.confidence;
+  q.matches = r.matches;
+  q.inliers = r.inliers;
+  q.instances = r.instances;
+  q.instances_used = r.instances_used;
+  q.has_pose = r.ok();
+  q.centre = r.query_from_ref.Center();
+  const auto gt = scene.gt.find(r.frame);
+  if (gt == scene.gt.end()) return q;
+  q.gt_centre = gt->second.Center();
+  q.has_gt = true;
+  if (!q.has_pose) return q;
+  for (const MapfreeFrame& f : scene.queries) {
+    if (f.name != r.frame) continue;
+    const std::array<float, 4> k = {static_cast<float>(f.camera.fx), static_cast<float>(f.camera.fy),
+                                     static_cast<float>(f.camera.cx), static_cast<float>(f.camera.cy)};
+    q.err = eval::ComputeFrameErrors(Official(gt->second), Official(r.query_from_ref), k, f.camera.width,
+                                     f.camera.height);
+    q.has_errors = true;
+  }
+  return q;
+}
+
+ReportRecorder::ReportRecorder(std::string dir, eval::ReportOptions options) : dir_(std::move(dir)), o_(options) {
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  FREELOC_CHECK(fs::is_directory(dir_), dir_ << ": cannot create the report folder (" << ec.message() << ")");
+}
+
+void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, const matching::Correspondences& c,
+                              const Relocalizer& reloc) {
+  const eval::ReportQuery q = ToReportQuery(scene, r);
+  const double bad = eval::ReportBadness(q);
+  const std::string name = VisualName(scene.name, r.frame);
+  bool keep = false;
+  if (per_scene_[scene.name] < o_.per_scene) {
+    ++per_scene_[scene.name];
+    pinned_.insert(name);
+    keep = true;
+  } else if (!q.has_pose && failures_ < o_.failures) {
+    ++failures_;
+    pinned_.insert(name);
+    keep = true;
+  } else if (q.has_errors && (static_cast<int>(worst_.size()) < o_.worst || bad > worst_.begin()->first)) {
+    keep = true;
+  }
+  if (!keep) return;
+  if (q.has_errors && q.has_pose && !pinned_.count(name)) {
+    worst_.emplace(bad, name);
+    if (static_cast<int>(worst_.size()) > o_.worst) {
+      std::error_code ec;
+      fs::remove(dir_ + "/" + worst_.begin()->second, ec);  // no longer among the worst
+      worst_.erase(worst_.begin());
+    }
+  }
+  try {
+    std::vector<Eigen::Vector4d> rows;
+    for (size_t i = 0; i < c.size(); ++i) rows.emplace_back(c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y());
+    const MapfreeFrame* f = nullptr;
+    for (const auto& x : scene.queries)
+      if (x.name == r.frame) f = &x;
+    if (!f) return;
+    eval::WriteQueryVisual(dir_ + "/" + name, scene.LoadImage(scene.reference), scene.LoadImage(*f), rows,
+                           r.inlier_mask, c.source, reloc.reference_depth(), reloc.last_query_depth(), o_);
+  } catch (const std::exception& e) {
+    FREELOC_LOG(WARNING) << "report: " << scene.name << "/" << r.frame << ": no detail image (" << e.what() << ")";
+  }
+}
+
+void ReportRecorder::Write(const std::string& split_dir, const std::vector<std::string>& scenes,
+                           const std::map<std::string, MapfreeScene>& loaded,
+                           const std::map<std::string, std::vector<QueryResult>>& results,
+                           const std::string& submission) const {
+  std::vector<eval::ReportQuery> queries;
+  for (const auto& name : scenes)
+    for (const auto& r : results.at(name)) queries.push_back(ToReportQuery(loaded.at(name), r));
+  // The final selection over every rank's candidates: the first per scene, the failures, the worst; the rest of the
+  // rendered images are removed.
+  std::vector<size_t> order(queries.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return eval::ReportBadness(queries[a]) > eval::ReportBadness(queries[b]);
+  });
+  std::set<size_t> chosen;
+  std::map<std::string, int> per_scene;
+  for (size_t i = 0; i < queries.size(); ++i)
+    if (per_scene[queries[i].scene]++ < o_.per_scene) chosen.insert(i);
+  int failures = 0, worst = 0;
+  for (size_t i : order) {
+    if (!queries[i].has_pose && failures < o_.failures) chosen.insert(i), ++failures;
+    if (queries[i].has_errors && queries[i].has_pose && worst < o_.worst) chosen.insert(i), ++worst;
+  }
+  int shown = 0;
+  for (size_t i = 0; i < queries.size(); ++i) {
+    const std::string file = VisualName(queries[i].scene, queries[i].frame);
+    const bool exists = fs::exists(dir_ + "/" + file);
+    if (chosen.count(i) && exists && shown < o_.max_details) {
+      queries[i].visual = file;
+      ++shown;
+    } else if (exists) {
+      std::error_code ec;
+      fs::remove(dir_ + "/" + file, ec);
+    }
+  }
+  bool any_gt = false;
+  for (const auto& name : scenes) any_gt = any_gt || loaded.at(name).has_gt();
+  std::unique_ptr<eval::EvalRun> run;
+  if (any_gt) {
+    try {
+      run = std::make_unique<eval::EvalRun>(eval::RunEvaluation(split_dir, scenes, submission));
+    } catch (const Error& e) {
+      FREELOC_LOG(WARNING) << "report: no metrics (" << e.what() << ")";
+    }
+  }
+  eval::WriteRunReport(dir_, "freeloc run — " + fs::path(submission).filename().string(), queries, run.get());
+}
+
+}  // namespace freeloc::pipeline
