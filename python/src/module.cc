@@ -453,20 +453,11 @@ py::dict SegGptSegment(const nn::SegGptModel& m, const py::list& prompt_images, 
 }  // namespace
 }  // namespace freeloc::python
 
-PYBIND11_MODULE(_freeloc, m) {
-  using namespace freeloc;          // NOLINT
-  using namespace freeloc::python;  // NOLINT
-  m.doc() = "freeloc: map-free metric relocalization (C++ core)";
-  m.attr("__version__") = Version();
-  static py::exception<Error> error(m, "Error");
-  py::register_exception_translator([](std::exception_ptr p) {
-    try {
-      if (p) std::rethrow_exception(p);
-    } catch (const Error& e) {
-      error(e.what());
-    }
-  });
+namespace freeloc::python {
+namespace {
 
+// read_depth, read_image.
+void BindFiles(py::module_& m) {
   m.def("read_depth", [](const py::object& path) {
     const DepthMap d = ReadDepthPng(PathOf(path));
     py::array_t<float> a({static_cast<py::ssize_t>(d.height), static_cast<py::ssize_t>(d.width)});
@@ -481,6 +472,10 @@ PYBIND11_MODULE(_freeloc, m) {
     return a;
   }, py::arg("path"), "An image file as an H x W x 3 uint8 RGB array (EXIF orientation applied), as freeloc reads it.");
 
+}
+
+// PoseResult, estimate_relative_pose, Relocalizer.
+void BindPoses(py::module_& m) {
   py::class_<PoseResult>(m, "PoseResult", "A pose query_from_ref (x_query = R·x_ref + t) with its status.")
       .def_property_readonly("status", [](const PoseResult& p) { return ToString(p.r.status); })
       .def_property_readonly("message", [](const PoseResult& p) { return p.r.message; })
@@ -520,6 +515,10 @@ PYBIND11_MODULE(_freeloc, m) {
         return py::module_::import("json").attr("loads")(pipeline::OptionsJson(r.options()));
       });
 
+}
+
+// _evaluate, run, option and preset names.
+void BindRuns(py::module_& m) {
   m.def("_evaluate", &Evaluate, py::arg("data"), py::arg("submission"), py::arg("split") = "val",
         py::arg("scenes") = std::vector<std::string>{});
   m.def("run", &Run, py::arg("data"), py::arg("out"), py::arg("preset") = "sift-essential", py::arg("split") = "val",
@@ -535,6 +534,10 @@ PYBIND11_MODULE(_freeloc, m) {
   });
   m.def("preset_names", &pipeline::PresetNames);
 
+}
+
+// Dust3r, Metric3D, SegGPT.
+void BindNetworks(py::module_& m) {
   py::class_<nn::Dust3rModel, std::shared_ptr<nn::Dust3rModel>>(m, "Dust3r")
       .def(NetworkInit<nn::Dust3rModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
            py::arg("precision") = "fp32", py::arg("threads") = 0)
@@ -548,4 +551,27 @@ PYBIND11_MODULE(_freeloc, m) {
            py::arg("precision") = "fp32", py::arg("threads") = 0)
       .def("segment", &SegGptSegment, py::arg("prompt_images"), py::arg("prompt_masks"), py::arg("target"),
            py::arg("type") = "instance");
+}
+
+}  // namespace
+}  // namespace freeloc::python
+
+PYBIND11_MODULE(_freeloc, m) {
+  using namespace freeloc;          // NOLINT
+  using namespace freeloc::python;  // NOLINT
+  m.doc() = "freeloc: map-free metric relocalization (C++ core)";
+  m.attr("__version__") = Version();
+  static py::exception<Error> error(m, "Error");
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      error(e.what());
+    }
+  });
+
+  BindFiles(m);
+  BindPoses(m);
+  BindRuns(m);
+  BindNetworks(m);
 }
