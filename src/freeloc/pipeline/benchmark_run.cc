@@ -245,7 +245,10 @@ class SceneRunner {
 
   void Run(const std::vector<std::string>& mine) {
     const bool root = !comm_ || comm_->rank() == 0;
-    ProgressBar bar("queries", total_, root && spec_.progress_bar ? -1 : 0);
+    // Under mpirun the ranks' stderr is a pipe to the launcher, which shows it on the user's terminal: rank 0 draws
+    // its one bar whenever logging is at info (not -q); a single process draws it on a terminal only.
+    const int draw = !(root && spec_.progress_bar) ? 0 : comm_ ? (LogEnabled(LogLevel::kInfo) ? 1 : 0) : -1;
+    ProgressBar bar("queries", total_, draw);
     bar_ = root ? &bar : nullptr;
     for (const auto& [name, results] : res_->results) Advance(static_cast<int64_t>(results.size()));
     for (const auto& name : mine) {
