@@ -47,7 +47,7 @@ def depth(scene, seq):
     return os.path.join(scene, seq, "frame_00000.sensor.png")
 
 
-@pytest.mark.parametrize("extra", [[], ["--preset", "precomputed:SIFT-essential"], ["--solver", "pnp"],
+@pytest.mark.parametrize("extra", [[], ["--preset", "dust3r"], ["--threshold", "1"], ["--solver", "pnp"],
                                    ["--scale", "official", "--threshold", "2.5"]])
 def test_pose_equals_cli(extra):
     out = cli("pose", "--matches", MATCHES, "--ref-intrinsics", K_TEXT, "--query-intrinsics", K_TEXT, "--ref-depth",

@@ -400,6 +400,15 @@ TEST(Cli, PoseAndRunAgreeOnTheSameCorrespondences) {
     for (int i = 0; i < 3; ++i) EXPECT_LE(rel(j["tvec"][i], rec["tvec"][i]), 1e-9) << i;
     EXPECT_EQ(j["inliers"], rec["inliers"]);
     EXPECT_EQ(j["options"]["threshold_px"], 3.0);
+    // pose's defaults are this preset's: the same answer with no flags beyond the inputs.
+    const Result d = RunFreeloc("pose --matches " + tmp.File("m/" + scene + "/" + stem) + ".matches.txt " +
+                                "--ref-intrinsics " + k(sc.reference.camera) + " --query-intrinsics " + k(q->camera) +
+                                " --ref-depth " + sc.DepthPath(sc.reference, "gt") + " --query-depth " +
+                                sc.DepthPath(*q, "gt") + " --json");
+    const auto jd = nlohmann::json::parse(d.out);
+    EXPECT_EQ(jd["status"], rec["status"]);
+    EXPECT_EQ(jd["tvec"], j["tvec"]);
+    EXPECT_EQ(jd["confidence"], j["confidence"]);
     ++compared;
     ok += rec["status"] == "ok";
   }

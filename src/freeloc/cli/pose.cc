@@ -21,14 +21,10 @@ struct PoseArgs {
   bool json = false;
 };
 
-// Without --preset: the solver's own defaults (pipeline::CorrespondenceDefaults); the correspondences are the file's,
-// depth the files given (provided) or none.
+// Without --preset: pipeline::CorrespondenceDefaults (precomputed:SIFT-essential, as a run on the benchmark's
+// correspondences); the correspondences are the file's, depth the files given (provided) or none.
 pipeline::PipelineOptions Options(const PoseArgs& a, const GlobalOptions& g) {
-  return ResolvePipelineArgs(a.pipeline, g, "precomputed:given-essential", [&](pipeline::PipelineOptions* o) {
-    if (a.pipeline.preset.empty()) {
-      o->preset = pipeline::CorrespondenceDefaults().preset;
-      if (a.pipeline.threshold <= 0) o->threshold_px = pipeline::CorrespondenceDefaults().threshold_px;
-    }
+  return ResolvePipelineArgs(a.pipeline, g, pipeline::CorrespondenceDefaults().preset, [&](pipeline::PipelineOptions* o) {
     *o = pipeline::ForCorrespondences(*o, !a.ref_depth.empty());
     FREELOC_CHECK(a.ref_depth.empty() == a.query_depth.empty() || o->solver == pipeline::SolverKind::kPnp,
                   "give both --ref-depth and --query-depth (or neither); only --solver pnp uses the reference depth "
@@ -82,7 +78,7 @@ void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--ref-depth", a->ref_depth, "reference depth PNG (uint16 mm)");
   sub->add_option("--query-depth", a->query_depth, "query depth PNG (uint16 mm)");
   sub->add_flag("--json", a->json, "one JSON record (docs/formats.md) with the resolved options");
-  AddPipelineArgs(sub, &a->pipeline, "none: essential with the solver's defaults (or the preset of a run)",
+  AddPipelineArgs(sub, &a->pipeline, "precomputed:SIFT-essential (essential, 3 px, robust scale; or a run's preset)",
                   /*networks=*/false);
   sub->callback([a, run, &global] { *run = [a, &global] { return RunPose(*a, global); }; });
 }

@@ -193,8 +193,9 @@ PipelineOptions ResolvePreset(const std::string& name);
 std::vector<std::string> PresetNames();  // with "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>" as one
 
 // A pose from correspondences handed in (`freeloc pose`, Python's estimate_relative_pose): without a preset the
-// solver's own defaults (essential, robust scale, the solver's threshold); ForCorrespondences then points the
-// matcher at the rows handed in and the depth stage at the maps handed in (provided) or none.
+// benchmark's correspondence baseline, precomputed:SIFT-essential (essential, 3 px, robust scale) — the answer
+// `freeloc run --preset precomputed:SIFT-essential` gives for the same rows and depths; ForCorrespondences then
+// points the matcher at the rows handed in and the depth stage at the maps handed in (provided) or none.
 PipelineOptions CorrespondenceDefaults();
 PipelineOptions ForCorrespondences(PipelineOptions options, bool have_depth);
 

@@ -75,12 +75,11 @@ PipelineOptions ResolvePreset(const std::string& name) {
   FREELOC_THROW("preset: '" << name << "' is unknown; available: " << AvailablePresets());
 }
 
-PipelineOptions CorrespondenceDefaults() {
-  PipelineOptions o = ResolvePreset("precomputed:given-essential");
-  o.preset = "none";
-  o.threshold_px = -1;
-  return o;
-}
+// The benchmark's correspondence baseline (precomputed:SIFT-essential: essential, 3 px, robust scale), so `freeloc
+// pose` on a run's correspondences gives that run's answer without further flags.
+const char kCorrespondencePreset[] = "precomputed:SIFT-essential";
+
+PipelineOptions CorrespondenceDefaults() { return ResolvePreset(kCorrespondencePreset); }
 
 PipelineOptions ForCorrespondences(PipelineOptions o, bool have_depth) {
   o.matcher = MatcherSpec::FromString("precomputed:given");
