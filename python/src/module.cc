@@ -107,16 +107,25 @@ bool IsPath(const py::handle& v) {
 }
 std::string PathOf(const py::handle& v) { return py::str(py::module_::import("os").attr("fspath")(v)); }
 
-// A path, or an H×W float array of metres (0 = invalid); None → empty.
+// A path, an H×W float array of metres, or an H×W uint16 array of millimetres (the map-free PNG values, as
+// cv2.imread(…, IMREAD_UNCHANGED) gives them); 0 = invalid; None → empty.
 DepthMap DepthOf(const py::handle& d, const char* what) {
   if (d.is_none()) return {};
   if (IsPath(d)) return ReadDepthPng(PathOf(d));
-  const auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(d);
-  if (!a || a.ndim() != 2) BadValue(std::string(what) + ": expected a path or an H x W array of metres");
+  const py::array raw = py::array::ensure(d);
+  if (!raw || raw.ndim() != 2)
+    BadValue(std::string(what) + ": expected a path, an H x W float array of metres or an H x W uint16 array of mm");
+  const bool millimetres = raw.dtype().is(py::dtype::of<uint16_t>());
+  if (!millimetres && raw.dtype().kind() != 'f')
+    BadValue(std::string(what) + ": depth arrays are float (metres) or uint16 (millimetres), not " +
+             std::string(py::str(raw.dtype())));
+  const auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(raw);
   DepthMap m;
   m.width = static_cast<int>(a.shape(1));
   m.height = static_cast<int>(a.shape(0));
   m.data.assign(a.data(), a.data() + a.size());
+  if (millimetres)
+    for (float& v : m.data) v = static_cast<float>(v / 1000.0);
   for (float& v : m.data) v = (v > 0.f && v <= std::numeric_limits<float>::max()) ? v : 0.f;  // NaN, inf, ≤ 0: invalid
   return m;
 }

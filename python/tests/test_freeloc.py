@@ -97,6 +97,12 @@ def test_arrays_of_any_layout_and_dtype_give_the_same_pose():
     a = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, dr, dq)
     b = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"))
     assert np.array_equal(a.t, b.t)
+    # uint16 arrays are millimetres (the PNG's values), as a cv2/PIL reader returns them.
+    mm_r, mm_q = np.round(dr * 1000).astype(np.uint16), np.round(dq * 1000).astype(np.uint16)
+    c = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, mm_r, mm_q)
+    assert np.array_equal(c.t, b.t)
+    with pytest.raises(ValueError, match="float .metres. or uint16"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, mm_r.astype(np.int32), mm_q)
 
 
 def relocalize_cli(scene, with_depth=True):
