@@ -187,6 +187,18 @@ TEST(Cli, PoseFromCorrespondenceFile) {
       RunFreeloc("pose --matches " + tmp.File("m3.txt") + " --ref-intrinsics " + k + " --query-intrinsics " + k).code,
       1);
   EXPECT_EQ(RunFreeloc("pose --matches " + matches + " --ref-intrinsics 1,2,3 --query-intrinsics " + k).code, 1);
+  // A depth map of another resolution (320x240 for 640x480 matches) is an error, not a metric scale 2x off.
+  freeloc::WriteDepthPng(tmp.File("small_depth.png"), freeloc::DepthMap(320, 240));
+  r = RunFreeloc(base + " --ref-depth " + tmp.File("small_depth.png") + " --query-depth " + scene +
+                 "/seq1/frame_00000.sensor.png");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "reference depth: the map is 320x240 but")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "give the depth map at its image's resolution")) << r.out;
+  // An 8-bit PNG is not a depth map.
+  freeloc::WritePng8(tmp.File("d8.png"), 640, 480, std::vector<uint8_t>(640 * 480, 3));
+  r = RunFreeloc(base + " --ref-depth " + tmp.File("d8.png") + " --query-depth " + scene + "/seq1/frame_00000.sensor.png");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "8-bit PNG is not a depth map")) << r.out;
   // Four matches: a status (too-few-matches), exit 1, no crash.
   freeloc::testing::WriteText(tmp.File("m4.txt"), "1 2 3 4\n5 6 7 8\n9 10 11 12\n13 14 15 16\n");
   r = RunFreeloc("pose --matches " + tmp.File("m4.txt") + " --ref-intrinsics " + k + " --query-intrinsics " + k);

@@ -12,8 +12,8 @@
 namespace freeloc {
 
 std::vector<Eigen::Vector4d> ReadCorrespondenceFile(const std::string& path) {
-  std::ifstream f(path);
-  FREELOC_CHECK(f.good(), path << ": cannot open the correspondence file");
+  const std::vector<uint8_t> bytes = ReadFileBytes(path);  // a regular file, or an error naming it
+  std::istringstream f(std::string(bytes.begin(), bytes.end()));
   std::vector<Eigen::Vector4d> rows;
   std::string line;
   int ln = 0;

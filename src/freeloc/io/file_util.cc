@@ -20,6 +20,8 @@ std::vector<uint8_t> ReadFileBytes(const std::string& path) {
   std::error_code ec;
   FREELOC_CHECK(std::filesystem::exists(path, ec), path << ": file not found; check the path");
   FREELOC_CHECK(!std::filesystem::is_directory(path, ec), path << ": is a folder, expected a file");
+  FREELOC_CHECK(std::filesystem::is_regular_file(path, ec),
+                path << ": not a regular file (a FIFO or device); give a file");
   std::ifstream f(path, std::ios::binary);
   FREELOC_CHECK(f.good(), path << ": cannot open for reading (" << std::strerror(errno) << ")");
   f.seekg(0, std::ios::end);
@@ -34,12 +36,13 @@ std::vector<uint8_t> ReadFileBytes(const std::string& path) {
 std::shared_ptr<MappedFile> MappedFile::Open(const std::string& path) {
   std::shared_ptr<MappedFile> m(new MappedFile());
   m->path_ = path;
-  const int fd = ::open(path.c_str(), O_RDONLY);
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; anything but a regular file is refused right after.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK);
   FREELOC_CHECK(fd >= 0, path << ": cannot open (" << std::strerror(errno) << "); check the path");
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
-    FREELOC_THROW(path << ": not a regular file");
+    FREELOC_THROW(path << ": not a regular file (a folder, FIFO or device); give a file");
   }
   m->size_ = static_cast<size_t>(st.st_size);
   if (m->size_ > 0) {

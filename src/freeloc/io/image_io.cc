@@ -137,7 +137,7 @@ void WritePng16(const std::string& path, int width, int height, const std::vecto
   WriteFileAtomic(path, buf.data(), buf.size());
 }
 
-std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height) {
+std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height, int* bits) {
   const std::vector<uint8_t> bytes = ReadFileBytes(path);
   FREELOC_CHECK(SniffImageFormat(bytes.data(), bytes.size()) == ImageFormat::kPng,
                 path << ": not a PNG file; depth maps must be 16-bit PNGs");
@@ -146,6 +146,7 @@ std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height
                            cv::IMREAD_UNCHANGED);
   FREELOC_CHECK(!m.empty(), path << ": cannot decode the PNG; the file is damaged");
   FREELOC_CHECK(m.channels() == 1, path << ": expected a single-channel PNG, got " << m.channels() << " channels");
+  if (bits) *bits = m.depth() == CV_8U ? 8 : 16;
   if (m.depth() == CV_8U) m.convertTo(m, CV_16U);
   FREELOC_CHECK(m.depth() == CV_16U, path << ": expected an 8- or 16-bit PNG");
   *width = m.cols;

@@ -27,7 +27,7 @@ void WritePng8(const std::string& path, int width, int height, const std::vector
 
 // Single-channel 16-bit PNG (e.g. depth in millimetres); values row-major. Written atomically.
 void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values);
-// Reads a single-channel 8- or 16-bit PNG without any conversion.
-std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height);
+// Reads a single-channel 8- or 16-bit PNG without any conversion; `bits` (optional) receives 8 or 16.
+std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height, int* bits = nullptr);
 
 }  // namespace freeloc

@@ -19,6 +19,8 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string ReadText(const std::string& path) {
+  std::error_code ec;
+  FREELOC_CHECK(fs::is_regular_file(path, ec), path << ": not a readable file; check that the scene folder is complete");
   std::ifstream f(path, std::ios::binary);
   FREELOC_CHECK(f.good(), path << ": cannot read; check that the scene folder is complete");
   std::stringstream ss;
@@ -197,8 +199,10 @@ std::vector<std::string> ListScenes(const std::string& split_dir, const std::vec
 }
 
 DepthMap ReadDepthPng(const std::string& path) {
-  int w, h;
-  const std::vector<uint16_t> mm = ReadPng16(path, &w, &h);
+  int w, h, bits = 0;
+  const std::vector<uint16_t> mm = ReadPng16(path, &w, &h, &bits);
+  FREELOC_CHECK(bits == 16, path << ": an 8-bit PNG is not a depth map; depth maps are 16-bit PNGs in millimetres "
+                                    "(the map-free convention)");
   DepthMap d(w, h);
   for (size_t i = 0; i < mm.size(); ++i) d.data[i] = mm[i] / 1000.0f;
   return d;

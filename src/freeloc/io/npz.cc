@@ -5,6 +5,7 @@
 #include <cstring>
 #include <memory>
 
+#include "freeloc/core/checked_math.h"
 #include "freeloc/core/error.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/tensor.h"
@@ -65,6 +66,7 @@ std::vector<int64_t> ParseShape(const std::string& shape, const std::string& wha
     if (std::isdigit(static_cast<unsigned char>(c))) {
       num.push_back(c);
     } else if (c == ',' || c == ')') {
+      FREELOC_CHECK(num.size() <= 18, what << ": .npy dimension " << num << " is absurdly large; the file is damaged");
       if (!num.empty()) dims.push_back(std::stoll(num));
       num.clear();
     } else if (c != ' ' && c != 'L') {
@@ -130,12 +132,13 @@ NpyArray ParseNpy(const uint8_t* b, size_t n, const std::string& what) {
   const std::string shape = DictValue(h, "shape", what);
   a.shape = ParseShape(shape, what);
   const DType dt = NpyDType(a.descr, what);
-  const int64_t numel = a.numel();
+  const int64_t numel = CheckedNumel(a.shape, what);
   const size_t es = DTypeSize(dt);
   const size_t data_start = hstart + hlen;
-  FREELOC_CHECK(n - data_start >= static_cast<size_t>(numel) * es, what << ": .npy data holds " << (n - data_start)
-                                                                        << " bytes, shape needs " << numel * es
-                                                                        << "; the file is truncated");
+  const int64_t need = CheckedMul(numel, static_cast<int64_t>(es), what);
+  FREELOC_CHECK(static_cast<uint64_t>(need) <= n - data_start,
+                what << ": .npy data holds " << (n - data_start) << " bytes, shape needs " << need
+                     << "; the file is truncated");
   TensorView view;
   view.dtype = dt;
   view.shape = a.shape;

@@ -2,10 +2,12 @@
 
 #include <zip.h>
 
+#include <algorithm>
 #include <cstring>
 #include <map>
 #include <memory>
 
+#include "freeloc/core/checked_math.h"
 #include "freeloc/core/error.h"
 #include "freeloc/io/file_util.h"
 
@@ -70,22 +72,28 @@ TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> s
   t.dtype = st.dtype;
   t.shape = std::move(shape);
   FREELOC_CHECK(stride.size() == t.shape.size(), what << ": tensor size and stride differ in length");
-  const int64_t numel = t.numel();
-  // Extent check: every addressed element must lie inside the storage.
+  FREELOC_CHECK(offset >= 0, what << ": negative storage offset " << offset << "; the checkpoint is damaged");
+  const int64_t numel = CheckedNumel(t.shape, what);
+  // Extent check, overflow-safe: every addressed element must lie inside the storage.
   int64_t max_index = offset;
   *contiguous = true;
   int64_t expect = 1;
   for (size_t d = t.shape.size(); d-- > 0;) {
     FREELOC_CHECK(t.shape[d] >= 0 && stride[d] >= 0, what << ": negative size or stride");
     if (t.shape[d] > 1 && stride[d] != expect) *contiguous = false;
-    expect *= t.shape[d];
-    if (t.shape[d] > 0) max_index += (t.shape[d] - 1) * stride[d];
+    expect = CheckedMul(expect, t.shape[d], what);
+    if (t.shape[d] > 0) max_index = CheckedAdd(max_index, CheckedMul(t.shape[d] - 1, stride[d], what), what);
   }
-  FREELOC_CHECK(offset >= 0 && (numel == 0 || max_index < st.numel),
+  FREELOC_CHECK(numel == 0 || max_index < st.numel,
                 what << ": tensor view (offset " << offset << ", size " << t.ShapeString()
                      << ") reaches past its storage of " << st.numel << " elements; the checkpoint is damaged");
   const size_t es = DTypeSize(st.dtype);
-  t.nbytes = static_cast<size_t>(numel) * es;
+  t.nbytes = static_cast<size_t>(CheckedMul(numel, static_cast<int64_t>(es), what));
+  // A strided (e.g. stride-0, broadcast) view is copied out: bound what a small storage may expand into.
+  constexpr int64_t kMaxExpanded = int64_t{4} << 30;
+  FREELOC_CHECK(*contiguous || static_cast<int64_t>(t.nbytes) <= std::max<int64_t>(kMaxExpanded, st.numel * 8),
+                what << ": tensor view " << t.ShapeString() << " would expand " << st.numel << " stored elements into "
+                     << t.nbytes << " bytes (limit 4 GiB); the checkpoint is damaged or hostile");
   if (*contiguous) {
     t.data = st.bytes->data() + static_cast<size_t>(offset) * es;
     t.owner = st.bytes;

@@ -206,6 +206,25 @@ class Metric3dDepth : public DepthEstimator {
 // ----------------------------------------------------------------------------------------------------------------
 // Solvers
 
+// A depth map must cover the correspondences it is sampled at: a depth of another resolution (a 320×240 map for
+// 640×480 matches) would silently give a wrong metric scale. Points a little off the map (noise at the border) are
+// fine; more than 20 % of them beyond a 5 % margin is an error.
+void CheckDepthCovers(const std::vector<Eigen::Vector2d>& px, const DepthMap& d, const char* frame) {
+  if (d.empty() || px.empty()) return;
+  const double mx = 0.05 * d.width + 2, my = 0.05 * d.height + 2;
+  size_t outside = 0;
+  Eigen::Vector2d far = Eigen::Vector2d::Zero();
+  for (const auto& p : px)
+    if (p.x() < -mx || p.y() < -my || p.x() > d.width + mx || p.y() > d.height + my) {
+      ++outside;
+      far = far.cwiseMax(p);
+    }
+  FREELOC_CHECK(outside * 5 <= px.size(),
+                frame << " depth: the map is " << d.width << "x" << d.height << " but " << outside << " of " << px.size()
+                      << " " << frame << " correspondences lie outside it (up to " << far.x() << ", " << far.y()
+                      << "); give the depth map at its image's resolution");
+}
+
 // The estimator's reason text → the status enum ("ok", "too-few-matches", "no-consensus", "degenerate").
 QueryStatus StatusOf(const std::string& reason) {
   QueryStatus s = QueryStatus::kError;
@@ -248,6 +267,8 @@ class EssentialSolver : public PoseSolver {
              const DepthMap& d_query, QueryResult* r) const override {
     const auto t0 = std::chrono::steady_clock::now();
     r->matches = static_cast<int>(c.size());
+    CheckDepthCovers(c.ref, d_ref, "reference");
+    CheckDepthCovers(c.query, d_query, "query");
     if (c.size() < 5) {
       r->status = QueryStatus::kTooFewMatches;
       return;
@@ -310,6 +331,8 @@ class AbsoluteSolver : public PoseSolver {
              const DepthMap& d_query, QueryResult* r) const override {
     const auto t0 = std::chrono::steady_clock::now();
     r->matches = static_cast<int>(c.size());
+    CheckDepthCovers(c.ref, d_ref, "reference");
+    if (!pnp_) CheckDepthCovers(c.query, d_query, "query");
     const auto m = pnp_ ? geometry::EstimatePnP(c.ref, c.query, d_ref, k_ref, k_query, pnp_options_)
                         : geometry::EstimateProcrustes(c.ref, c.query, d_ref, d_query, k_ref, k_query);
     r->inliers = m.status.num_inliers;
