@@ -1,5 +1,7 @@
 #include "testing/testing.h"
 
+#include "freeloc/core/error.h"
+
 #include <unistd.h>
 
 #include <cstdlib>
@@ -36,6 +38,15 @@ TempDir::TempDir() {
 TempDir::~TempDir() {
   std::error_code ec;
   std::filesystem::remove_all(path_, ec);
+}
+
+std::string ErrorOf(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const ::freeloc::Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 void WriteText(const std::string& path, const std::string& text) { WriteBytes(path, text); }

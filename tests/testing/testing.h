@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace freeloc::testing {
@@ -28,6 +29,9 @@ class TempDir {
  private:
   std::string path_;
 };
+
+// The message of the freeloc::Error that `fn` throws; "" when it throws none.
+std::string ErrorOf(const std::function<void()>& fn);
 
 void WriteText(const std::string& path, const std::string& text);
 void WriteBytes(const std::string& path, const std::string& bytes);

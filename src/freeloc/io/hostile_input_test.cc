@@ -21,14 +21,7 @@
 namespace freeloc {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::ErrorOf;
 
 std::string Le(uint64_t v, int n) {
   std::string s;

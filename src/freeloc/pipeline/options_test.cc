@@ -5,18 +5,12 @@
 #include "freeloc/core/error.h"
 #include "freeloc/pipeline/options.h"
 #include "freeloc/pipeline/record.h"
+#include "testing/testing.h"
 
 namespace freeloc::pipeline {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::ErrorOf;
 
 TEST(Options, SpecsRoundTripThroughTheirTextForm) {
   for (const char* t : {"sift", "dust3r", "dust3r+instances", "precomputed:SIFT", "precomputed:LoFTR"})
