@@ -754,6 +754,8 @@ TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
   EXPECT_EQ(RunFreeloc("merge " + tmp.File("junk.zip") + " --out " + tmp.File("x.zip")).code, 1);
   EXPECT_EQ(RunFreeloc("run --data " + data + " --shard 3/2 --out " + tmp.File("x.zip")).code, 2);
   EXPECT_EQ(RunFreeloc("run --data " + data + " --shard 0/2 --out " + tmp.File("x.zip")).code, 2);
+  for (const char* t : {"0", "-1", "nan", "inf", "3px"})  // not silently replaced by the default any more
+    EXPECT_EQ(RunFreeloc("run --data " + data + " --threshold " + t + " --out " + tmp.File("x.zip")).code, 2) << t;
   EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
 }
 

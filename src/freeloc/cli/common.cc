@@ -1,5 +1,7 @@
 // Helpers shared by the subcommands: the pipeline's options as flags, flag names in errors, scene lists.
 #include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdlib>
 #include <regex>
 #include <sstream>
 
@@ -74,7 +76,15 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
   sub->add_option("--depth", a->depth, "override: provided:<suffix> | metric3d | none");
   sub->add_option("--solver", a->solver, "override: essential | pnp | procrustes");
   sub->add_option("--scale", a->scale, "override: robust | official");
-  sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels");
+  sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels (> 0)")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            char* end = nullptr;
+            const double x = std::strtod(v.c_str(), &end);
+            return (end && *end == 0 && std::isfinite(x) && x > 0) ? std::string()
+                                                                  : std::string("must be a positive number of pixels");
+          },
+          "PX"));
   sub->add_option("--set", a->sets, "override any option field: NAME=VALUE (docs/pipeline.md lists them)");
   if (!networks) return;
   sub->add_option("--instance-mode", a->instance_mode, "override: mask (default) | crop");

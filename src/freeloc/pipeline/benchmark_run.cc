@@ -1,5 +1,8 @@
 #include "freeloc/pipeline/benchmark_run.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -140,12 +143,26 @@ class Journal {
   }
 
   // Starts a new journal (header only) unless resuming from an existing one.
+  // Starts a new journal (header only) unless resuming from an existing one. The file is locked (flock) for the
+  // run: a second run on the same --out is refused instead of interleaving its writes. Resuming cuts a torn last
+  // line (a crash or a full disk mid-write) so the next record starts on a line of its own.
   void Open(bool keep) {
-    std::error_code ec;
-    const bool exists = fs::exists(path_, ec);
-    file_ = std::fopen(path_.c_str(), keep && exists ? "a" : "w");
-    FREELOC_CHECK(file_ != nullptr, path_ << ": cannot write the progress file; check the folder of the submission");
-    if (!(keep && exists)) Append(header_);
+    const int fd = ::open(path_.c_str(), O_RDWR | O_CREAT, 0644);
+    FREELOC_CHECK(fd >= 0, path_ << ": cannot write the progress file; check the folder of the submission");
+    if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      ::close(fd);
+      FREELOC_THROW(path_ << ": another freeloc run is writing this submission (its progress file is locked); "
+                             "wait for it, or choose another --out");
+    }
+    struct stat st {};
+    ::fstat(fd, &st);
+    const bool resume = keep && st.st_size > 0;
+    FREELOC_CHECK(::ftruncate(fd, resume ? TornTailCut(fd, st.st_size) : 0) == 0,
+                  path_ << ": cannot truncate the progress file; check free disk space");
+    ::lseek(fd, 0, SEEK_END);
+    file_ = ::fdopen(fd, "a");
+    FREELOC_CHECK(file_ != nullptr, path_ << ": cannot write the progress file");
+    if (!resume) Append(header_);
   }
   void AppendScene(const std::string& scene, const std::vector<QueryResult>& res) { Append(SceneRecord(scene, res)); }
   void Finish() {
@@ -155,6 +172,13 @@ class Journal {
   }
 
  private:
+  // The length of the file without a last line that lacks its newline.
+  static off_t TornTailCut(int fd, off_t size) {
+    off_t end = size;
+    char c = 0;
+    while (end > 0 && ::pread(fd, &c, 1, end - 1) == 1 && c != '\n') --end;
+    return end;
+  }
   // One scene line; false for a damaged last line (ignored), an error for a damaged line before it.
   bool ParseScene(const std::string& line, size_t number, bool last,
                   std::map<std::string, std::vector<QueryResult>>* done) const {

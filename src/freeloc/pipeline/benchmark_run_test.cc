@@ -168,6 +168,43 @@ TEST(BenchmarkRun, RefusesBadSpecsBeforeAnyWork) {
   EXPECT_THROW(Shard::FromString("1/2x"), Error);
 }
 
+// Crash safety of the journal: a second run on the same --out is refused while the first holds it; a torn last
+// line (a crash or a full disk mid-write) is cut on resume, and the resumed run writes the clean run's bytes.
+TEST(BenchmarkRun, TheJournalIsLockedAndATornTailIsCut) {
+  Split split;
+  const RunResult clean = RunBenchmark(Spec(split), Options());
+  const std::string clean_bytes = testing::ReadText(split.out());
+  RunSpec spec = Spec(split);
+  spec.out = split.tmp.File("j.zip");
+  std::string second;
+  spec.on_progress = [&](int64_t done, int64_t) {
+    if (done != 1) return;
+    RunSpec other = Spec(split);
+    other.out = split.tmp.File("j.zip");
+    second = testing::ErrorOf([&] { RunBenchmark(other, Options()); });
+    throw std::runtime_error("stop");  // the first run dies here, mid-scene, leaving its journal
+  };
+  EXPECT_THROW(RunBenchmark(spec, Options()), std::runtime_error);
+  EXPECT_NE(second.find("another freeloc run is writing this submission"), std::string::npos) << second;
+  const std::string journal = split.tmp.File("j.zip.progress.jsonl");
+  const std::string header = testing::ReadText(journal);
+  ASSERT_EQ(std::count(header.begin(), header.end(), '\n'), 1) << header;
+  testing::WriteText(journal, header + "{\"scene\":\"s0000");  // torn mid-record
+  spec.on_progress = [&](int64_t done, int64_t) {
+    if (done == 5) throw std::runtime_error("stop again");  // after the first scene (4 queries) was journaled
+  };
+  spec.resume = true;
+  EXPECT_THROW(RunBenchmark(spec, Options()), std::runtime_error);
+  const std::string after = testing::ReadText(journal);
+  EXPECT_EQ(after.find("{\"scene\":\"s0000{"), std::string::npos) << "the fragment must be cut";
+  EXPECT_EQ(std::count(after.begin(), after.end(), '\n'), 2) << after;  // header + one whole scene
+  spec.on_progress = nullptr;
+  const RunResult r = RunBenchmark(spec, Options());
+  EXPECT_EQ(r.resumed_scenes, 1u);
+  EXPECT_EQ(testing::ReadText(spec.out), clean_bytes);  // resumed ok poses come back digit for digit
+  EXPECT_EQ(clean.queries, r.queries);
+}
+
 // The bundled TUM scenes (data/demo, present in every checkout): sift-essential with the sensor depth.
 TEST(BenchmarkRun, BundledDemoScenes) {
   testing::TempDir tmp;

@@ -1,5 +1,7 @@
 #include "freeloc/pipeline/options.h"
 
+#include <cmath>
+
 #include "freeloc/core/error.h"
 #include "freeloc/pipeline/models.h"
 
@@ -58,6 +60,8 @@ void PipelineOptions::Validate() const {
                 "matcher: precomputed needs a name (precomputed:<SIFT|SG|LoFTR|…>)");
   FREELOC_CHECK(depth.kind != DepthKind::kProvided || !depth.suffix.empty(),
                 "depth: provided needs a suffix (provided:<suffix>, e.g. provided:sensor)");
+  FREELOC_CHECK(threshold_px == -1 || (std::isfinite(threshold_px) && threshold_px > 0),
+                "threshold_px: " << threshold_px << " is not a positive number of pixels (or -1 for the solver's default)");
   FREELOC_CHECK(dust3r_size >= 224, "dust3r_size: " << dust3r_size << " is too small; use 224 or 512");
   FREELOC_CHECK(match_subsample >= 1, "match_subsample: " << match_subsample << " must be >= 1");
   FREELOC_CHECK(min_instance_matches >= 0, "min_instance_matches: " << min_instance_matches << " is negative");

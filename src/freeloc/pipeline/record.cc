@@ -1,5 +1,6 @@
 #include "freeloc/pipeline/record.h"
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "freeloc/core/error.h"
@@ -117,7 +118,11 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.solve_ms = j.value("solve_ms", 0.0);
     const auto q = j.at("qvec").get<std::array<double, 4>>();
     const auto t = j.at("tvec").get<std::array<double, 3>>();
-    r.query_from_ref = Rigid3d::FromWxyz(q, Eigen::Vector3d(t[0], t[1], t[2]));
+    r.query_from_ref = Rigid3d::FromWxyz(q, Eigen::Vector3d(t[0], t[1], t[2]));  // validated, normalised
+    // A quaternion the pipeline wrote is unit to rounding: keep its exact coefficients, so that a resumed run
+    // writes the same digits as an uninterrupted one (normalising again moves the last bit).
+    const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    if (std::abs(n2 - 1.0) < 1e-12) r.query_from_ref.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
   } catch (const nlohmann::json::exception& e) {
     FREELOC_THROW("query record: " << e.what());
   }
