@@ -98,4 +98,12 @@ void WriteFileAtomic(const std::string& path, const void* bytes, size_t size) {
   });
 }
 
+void CheckZipMemberSize(uint64_t size, uint64_t compressed_size, bool stored, const std::string& what) {
+  const bool ok = stored ? size == compressed_size
+                         : compressed_size <= (UINT64_MAX - 65536) / 1100 && size <= compressed_size * 1100 + 65536;
+  FREELOC_CHECK(ok, what << ": declares " << size << " bytes from " << compressed_size << " compressed ("
+                         << (stored ? "stored" : "compressed")
+                         << "), more than any real archive holds; the file is damaged or hostile");
+}
+
 }  // namespace freeloc

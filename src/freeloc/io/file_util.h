@@ -33,4 +33,9 @@ void WriteFileAtomic(const std::string& path, const void* bytes, size_t size);
 // Same, but the content is produced by `writer`, which gets the temporary file's path.
 void WriteFileAtomicWith(const std::string& path, const std::function<void(const std::string& tmp_path)>& writer);
 
+// A ZIP member's declared size, checked before anything is allocated for it: a stored member's size equals its
+// compressed size, a compressed one expands at most ~1032x (deflate's bound; 1100x allowed, + 64 KiB). A forged
+// header (a 544-byte ZIP declaring gigabytes) is refused, naming `what`.
+void CheckZipMemberSize(uint64_t size, uint64_t compressed_size, bool stored, const std::string& what);
+
 }  // namespace freeloc

@@ -105,6 +105,26 @@ TEST(HostileInput, FifosAndFoldersAreRefusedNotWaitedOn) {
   EXPECT_NE(ErrorOf([&] { ReadCorrespondenceFile(tmp.File("dir")); }).find("folder"), std::string::npos);
 }
 
+// A ZIP whose headers declare gigabytes for a small member (a bomb: it was allocated at the declared size first).
+TEST(HostileInput, ZipMembersCannotDeclareMoreThanTheyHold) {
+  testing::TempDir tmp;
+  WriteZipAtomic(tmp.File("s.zip"), {{"pose_s00001.txt", std::string(1000, '\n')}});
+  ASSERT_EQ(ZipContents::Read(tmp.File("s.zip")).files.at("pose_s00001.txt").size(), 1000u);
+  std::string z = testing::ReadText(tmp.File("s.zip"));
+  const uint32_t huge = 3u << 30;  // 3 GiB
+  int patched = 0;
+  for (size_t i = 0; i + 46 < z.size(); ++i) {
+    const bool local = z.compare(i, 4, "PK\x03\x04") == 0, central = z.compare(i, 4, "PK\x01\x02") == 0;
+    if (!local && !central) continue;
+    std::memcpy(&z[i + (local ? 22 : 24)], &huge, 4);  // uncompressed size (little-endian)
+    ++patched;
+  }
+  ASSERT_EQ(patched, 2);
+  testing::WriteBytes(tmp.File("bomb.zip"), z);
+  const std::string e = ErrorOf([&] { ZipContents::Read(tmp.File("bomb.zip")); });
+  EXPECT_NE(e.find("more than any real archive holds"), std::string::npos) << e;
+}
+
 TEST(HostileInput, AnEightBitPngIsNotADepthMap) {
   testing::TempDir tmp;
   WritePng8(tmp.File("d8.png"), 4, 3, std::vector<uint8_t>(12, 200));

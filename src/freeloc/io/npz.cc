@@ -169,6 +169,7 @@ std::map<std::string, NpyArray> ReadNpz(const std::string& path) {
     std::string name = zip_get_name(z, i, 0);
     zip_stat_t st;
     zip_stat_index(z, i, 0, &st);
+    CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path + ": member " + name);
     std::vector<uint8_t> buf(st.size);
     zip_file_t* f = zip_fopen_index(z, i, 0);
     FREELOC_CHECK(f, path << ": cannot open member " << name);

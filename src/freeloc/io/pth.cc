@@ -179,6 +179,7 @@ class PthReader {
     zip_stat_t st;
     zip_stat_init(&st);
     if (zip_stat(z_.get(), rec.c_str(), 0, &st) != 0) return false;
+    CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path_ + ": record '" + rec + "'");
     zip_file_t* f = zip_fopen(z_.get(), rec.c_str(), 0);
     FREELOC_CHECK(f != nullptr, path_ << ": cannot open record '" << rec << "' (" << zip_strerror(z_.get()) << ")");
     out->resize(static_cast<size_t>(st.size));

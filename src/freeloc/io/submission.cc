@@ -104,6 +104,7 @@ ZipContents ZipContents::Read(const std::string& path) {
     const std::string name(n);
     zip_stat_t st;
     zip_stat_index(z, i, 0, &st);
+    CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path + ": member " + name);
     std::string data(static_cast<size_t>(st.size), '\0');
     if (st.size > 0) {
       zip_file_t* f = zip_fopen_index(z, i, 0);
