@@ -145,6 +145,9 @@ Image ImageOf(const py::handle& v, const char* what) {
 // ---------------------------------------------------------------------------------------------------------------
 // Results
 
+// A JSON text of the library (records, options) as Python objects.
+py::object JsonToPy(const std::string& json) { return py::module_::import("json").attr("loads")(json); }
+
 struct PoseResult {
   pipeline::QueryResult r;
   pipeline::PipelineOptions options;
@@ -178,7 +181,7 @@ py::array TensorArray(const TensorView& t) {
 }
 
 py::dict AsDict(const PoseResult& p) {
-  return py::module_::import("json").attr("loads")(pipeline::QueryRecordJson("", p.r, &p.options));
+  return JsonToPy(pipeline::QueryRecordJson("", p.r, &p.options));
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -357,7 +360,7 @@ py::dict Run(const std::string& data, const std::string& out, const std::string&
   py::dict per_scene;
   for (const auto& [name, results] : r.results) {
     py::list l;
-    for (const auto& q : results) l.append(py::module_::import("json").attr("loads")(pipeline::QueryRecordJson(name, q)));
+    for (const auto& q : results) l.append(JsonToPy(pipeline::QueryRecordJson(name, q)));
     per_scene[py::str(name)] = l;
   }
   d["results"] = per_scene;
@@ -521,7 +524,7 @@ void BindPoses(py::module_& m) {
       .def("relocalize", &PyRelocalizer::Relocalize, py::arg("ref_image"), py::arg("query_image"), py::arg("K_ref"),
            py::arg("K_query"), py::arg("depth_ref") = py::none(), py::arg("depth_query") = py::none())
       .def_property_readonly("options", [](const PyRelocalizer& r) {
-        return py::module_::import("json").attr("loads")(pipeline::OptionsJson(r.options()));
+        return JsonToPy(pipeline::OptionsJson(r.options()));
       });
 
 }

@@ -52,9 +52,7 @@ int RunMatch(const MatchArgs& a, const GlobalOptions& g) {
   reloc.SetReference(ref, none, pipeline::FrameInputs{{}, ref_labels.empty() ? nullptr : &ref_labels, nullptr});
   pipeline::QueryResult r;
   const matching::Correspondences c = reloc.Match(query, none, in, &r);
-  std::vector<Eigen::Vector4d> rows;
-  for (size_t i = 0; i < c.size(); ++i) rows.emplace_back(c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y());
-  WriteCorrespondenceFile(a.out, rows);
+  WriteCorrespondenceFile(a.out, c.Rows());
   std::printf("%zu correspondences (%d global before merging; %d of %d instances used) written to %s\n", c.size(),
               r.global_matches, r.instances_used, r.instances, a.out.c_str());
   return 0;

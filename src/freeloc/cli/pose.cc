@@ -48,11 +48,7 @@ int RunPose(const PoseArgs& a, const GlobalOptions& g) {
   const pipeline::PipelineOptions o = Options(a, g);
   const Camera kr = Camera::FromString(a.ref_intr, "--ref-intrinsics");
   const Camera kq = Camera::FromString(a.query_intr, "--query-intrinsics");
-  matching::Correspondences c;
-  for (const auto& r : ReadCorrespondenceFile(a.matches)) {
-    c.ref.emplace_back(r(0), r(1));
-    c.query.emplace_back(r(2), r(3));
-  }
+  const matching::Correspondences c = matching::Correspondences::FromRows(ReadCorrespondenceFile(a.matches));
   DepthMap dr, dq;
   if (!a.ref_depth.empty()) dr = ReadDepthPng(a.ref_depth);
   if (!a.query_depth.empty()) dq = ReadDepthPng(a.query_depth);

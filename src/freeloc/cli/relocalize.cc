@@ -91,11 +91,7 @@ int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   reloc.SetReference(ref, kr, std::move(in_ref));
   matching::Correspondences c;
   const pipeline::QueryResult q = reloc.Relocalize(query, kq, std::move(in_query), &c);
-  if (!a.save_matches.empty()) {
-    std::vector<Eigen::Vector4d> rows;
-    for (size_t i = 0; i < c.size(); ++i) rows.emplace_back(c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y());
-    WriteCorrespondenceFile(a.save_matches, rows);
-  }
+  if (!a.save_matches.empty()) WriteCorrespondenceFile(a.save_matches, c.Rows());
   Print(q, o, a.json);
   return q.ok() ? 0 : 1;
 }

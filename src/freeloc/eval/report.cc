@@ -16,12 +16,7 @@ namespace freeloc::eval {
 
 namespace {
 
-std::string F(const char* fmt, double v) {
-  if (std::isnan(v)) return "nan";
-  char b[64];
-  std::snprintf(b, sizeof(b), fmt, v);
-  return b;
-}
+std::string F(const char* fmt, double v) { return FormatNumber(fmt, v); }
 
 nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
@@ -32,22 +27,29 @@ nlohmann::ordered_json MetricsJson(const Metrics& m) {
   return j;
 }
 
-void Escape(std::string* s) {
-  std::string out;
-  for (char c : *s) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else
-      out += c;
-  }
-  *s = out;
-}
 
 }  // namespace
+
+std::string EscapeMarkup(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string FormatNumber(const char* fmt, double v) {
+  if (std::isnan(v)) return "nan";
+  char b[64];
+  std::snprintf(b, sizeof(b), fmt, v);
+  return b;
+}
 
 EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::string>& scenes,
                       const std::string& submission_path) {
@@ -195,8 +197,8 @@ std::string ErrorsCsv(const EvalRun& r) {
 std::string CdfSvg(const std::vector<const EvalRun*>& runs, const std::string& title_in, const std::string& x_label_in,
                    int which, double threshold, double x_max) {
   std::string title = title_in, x_label = x_label_in;
-  Escape(&title);
-  Escape(&x_label);
+  title = EscapeMarkup(title);
+  x_label = EscapeMarkup(x_label);
   const double W = 640, H = 420, L = 70, R = 20, T = 40, B = 60;
   const double pw = W - L - R, ph = H - T - B;
   auto X = [&](double v) { return L + std::min(v, x_max) / x_max * pw; };
@@ -251,7 +253,7 @@ std::string CdfSvg(const std::vector<const EvalRun*>& runs, const std::string& t
     const char* c = colours[k % 6];
     os << "<polyline fill=\"none\" stroke=\"" << c << "\" stroke-width=\"2\" points=\"" << pts.str() << "\"/>\n";
     std::string label = runs[k]->label;
-    Escape(&label);
+    label = EscapeMarkup(label);
     os << "<rect x=\"" << L + pw - 190 << "\" y=\"" << T + ph - 20 - 18 * (runs.size() - 1 - k) - 9
        << "\" width=\"14\" height=\"4\" fill=\"" << c << "\"/>\n";
     os << "<text x=\"" << L + pw - 170 << "\" y=\"" << T + ph - 20 - 18 * (runs.size() - 1 - k) << "\">" << label

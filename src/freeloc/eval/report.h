@@ -31,6 +31,10 @@ std::string ErrorsCsv(const EvalRun& run);
 std::string CdfSvg(const std::vector<const EvalRun*>& runs, const std::string& title, const std::string& x_label,
                    int which /*0 trans, 1 rot, 2 vcre*/, double threshold, double x_max);
 
+// Text for HTML/SVG: & < > " escaped. A number with a printf format ("nan" for NaN).
+std::string EscapeMarkup(const std::string& text);
+std::string FormatNumber(const char* fmt, double v);
+
 // Writes metrics.json, errors.csv and cdf_{translation,rotation,vcre}.svg into `dir` (created if needed).
 void WriteReportDir(const std::string& dir, const std::vector<const EvalRun*>& runs);
 

@@ -54,25 +54,8 @@ cv::Mat DepthColours(const DepthMap& d, int w, int h) {
   return out;
 }
 
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    switch (c) {
-      case '&': o += "&amp;"; break;
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += c;
-    }
-  }
-  return o;
-}
-
-std::string Num(double v, const char* fmt = "%.3f") {
-  char b[64];
-  std::snprintf(b, sizeof(b), fmt, v);
-  return b;
-}
+std::string Escape(const std::string& s) { return EscapeMarkup(s); }
+std::string Num(double v, const char* fmt = "%.3f") { return FormatNumber(fmt, v); }
 
 // Top-down (x, z) plot of the reference camera, the ground-truth and the predicted query centres.
 std::string TopDownSvg(const ReportQuery& q) {
@@ -97,21 +80,14 @@ std::string TopDownSvg(const ReportQuery& q) {
   return s;
 }
 
+// The official metrics (names and values as `freeloc eval`), estimates as a percentage.
 std::string MetricsTable(const EvalRun& e) {
-  const Metrics& m = e.overall;
+  const auto v = MetricValues(e.overall);
   std::string s = "<table class=\"metrics\"><tr><th>metric</th><th>value</th></tr>";
-  const std::pair<const char*, std::string> rows[] = {
-      {"Average Median Translation Error", Num(m.avg_median_trans, "%.4f m")},
-      {"Average Median Rotation Error", Num(m.avg_median_rot, "%.3f°")},
-      {"Average Median Reprojection Error", Num(m.avg_median_vcre, "%.2f px")},
-      {"Precision @ Pose Error < (25 cm, 5°)", Num(m.precision_pose, "%.4f")},
-      {"AUC @ Pose Error < (25 cm, 5°)", Num(m.auc_pose, "%.4f")},
-      {"Precision @ VCRE < 90 px", Num(m.precision_vcre, "%.4f")},
-      {"AUC @ VCRE < 90 px", Num(m.auc_vcre, "%.4f")},
-      {"Estimates for % of frames", Num(100 * m.estimates_ratio, "%.1f %%")}};
-  for (const auto& [k, v] : rows) s += std::string("<tr><td>") + k + "</td><td>" + v + "</td></tr>";
-  s += "</table>";
-  return s;
+  for (int k = 0; k < 8; ++k)
+    s += std::string("<tr><td>") + kMetricNames[k] + "</td><td>" +
+         Num(k == 7 ? 100 * v[k] : v[k], k == 7 ? "%.1f %%" : k == 2 ? "%.2f" : "%.4f") + "</td></tr>";
+  return s + "</table>";
 }
 
 std::string PerSceneTable(const EvalRun& e) {

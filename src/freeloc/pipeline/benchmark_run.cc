@@ -165,6 +165,7 @@ class Journal {
     if (!resume) Append(header_);
   }
   void AppendScene(const std::string& scene, const std::vector<QueryResult>& res) { Append(SceneRecord(scene, res)); }
+  void AppendRecord(const std::string& scene_record) { Append(scene_record); }  // a SceneRecord line as it came
   void Finish() {
     Close();
     std::error_code ec;
@@ -217,9 +218,7 @@ void SaveMatches(const std::string& dir, const std::string& scene, const QueryRe
   fs::path p = fs::path(dir) / scene / r.frame;
   p.replace_extension(".matches.txt");
   fs::create_directories(p.parent_path());
-  std::vector<Eigen::Vector4d> rows;
-  for (size_t i = 0; i < c.size(); ++i) rows.emplace_back(c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y());
-  WriteCorrespondenceFile(p.string(), rows);
+  WriteCorrespondenceFile(p.string(), c.Rows());
 }
 
 // The scenes a resumed journal already holds, moved into `res`.
@@ -308,12 +307,15 @@ class SceneRunner {
 
   void Advance(int64_t n) {
     done_ += n;
-    if (bar_) {
-      bar_->Increment(n);
+    if (bar_) bar_->Increment(n);
+    Relabel();
+    if (spec_.on_progress) spec_.on_progress(done_, total_);
+  }
+
+  void Relabel() {
+    if (bar_)
       bar_->SetLabel("scene " + std::to_string(res_->results.size()) + "/" + std::to_string(res_->scenes.size()) +
                      ", queries");
-    }
-    if (spec_.on_progress) spec_.on_progress(done_, total_);
   }
 
   void Finished(const std::string& name, std::vector<QueryResult> results) {
@@ -338,11 +340,9 @@ class SceneRunner {
     std::vector<QueryResult> results;
     FREELOC_CHECK(ParseSceneRecord(payload, &scene, &results) && res_->loaded.count(scene),
                   "run: rank " << from << " sent a damaged scene record");
-    journal_->AppendScene(scene, results);
+    journal_->AppendRecord(payload);
     res_->results[scene] = std::move(results);
-    if (bar_)
-      bar_->SetLabel("scene " + std::to_string(res_->results.size()) + "/" + std::to_string(res_->scenes.size()) +
-                     ", queries");
+    Relabel();
     return true;
   }
 

@@ -92,12 +92,7 @@ class ThrowingMatcher : public Matcher {
   void SetReference(const Image&, const Camera&, const std::vector<uint16_t>*) override {}
   matching::Correspondences Match(const Image&, const Camera&, const FrameInputs& in, QueryResult*) override {
     TORCH_CHECK(calls_++ != fail_at_, "simulated: DefaultCPUAllocator: not enough memory");
-    matching::Correspondences c;
-    for (const auto& v : *in.correspondences) {
-      c.ref.emplace_back(v(0), v(1));
-      c.query.emplace_back(v(2), v(3));
-    }
-    return c;
+    return matching::Correspondences::FromRows(*in.correspondences);
   }
 
  private:

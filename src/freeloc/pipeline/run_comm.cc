@@ -31,8 +31,6 @@ int LaunchedWorldSize() {
 
 #ifdef FREELOC_WITH_MPI
 
-bool HaveMpi() { return true; }
-
 namespace {
 
 class MpiComm : public RunComm {
@@ -111,8 +109,6 @@ std::unique_ptr<RunComm> MpiCommFromEnvironment() {
 }
 
 #else
-
-bool HaveMpi() { return false; }
 
 std::unique_ptr<RunComm> MpiCommFromEnvironment() {
   const int n = LaunchedWorldSize();

@@ -33,7 +33,4 @@ int LaunchedWorldSize();
 // build has no MPI — N copies would each run the whole split.
 std::unique_ptr<RunComm> MpiCommFromEnvironment();
 
-// Whether this build of freeloc can run under MPI.
-bool HaveMpi();
-
 }  // namespace freeloc::pipeline

@@ -91,13 +91,15 @@ void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, c
     }
   }
   try {
-    std::vector<Eigen::Vector4d> rows;
-    for (size_t i = 0; i < c.size(); ++i) rows.emplace_back(c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y());
     const MapfreeFrame* f = nullptr;
     for (const auto& x : scene.queries)
       if (x.name == r.frame) f = &x;
     if (!f) return;
-    eval::WriteQueryVisual(dir_ + "/" + name, scene.LoadImage(scene.reference), scene.LoadImage(*f), rows,
+    if (ref_scene_ != scene.name) {
+      ref_ = scene.LoadImage(scene.reference);
+      ref_scene_ = scene.name;
+    }
+    eval::WriteQueryVisual(dir_ + "/" + name, ref_, scene.LoadImage(*f), c.Rows(),
                            r.inlier_mask, c.source, reloc.reference_depth(), reloc.last_query_depth(), o_);
   } catch (const std::exception& e) {
     FREELOC_LOG(WARNING) << "report: " << scene.name << "/" << r.frame << ": no detail image (" << e.what() << ")";

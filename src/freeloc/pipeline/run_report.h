@@ -34,6 +34,8 @@ class ReportRecorder {
   int failures_ = 0;
   std::multimap<double, std::string> worst_;                   // badness → file, the worst kept so far
   std::set<std::string> pinned_;                               // files kept for the per-scene and failure samples
+  std::string ref_scene_;                                      // the scene whose reference image `ref_` holds
+  Image ref_;
 };
 
 // The report's view of one query (errors from the scene's ground truth when it has some).

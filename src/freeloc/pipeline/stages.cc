@@ -50,12 +50,7 @@ class PrecomputedMatcher : public Matcher {
   void SetReference(const Image&, const Camera&, const std::vector<uint16_t>*) override {}
   matching::Correspondences Match(const Image&, const Camera&, const FrameInputs& in, QueryResult*) override {
     FREELOC_CHECK(in.correspondences != nullptr, "matcher precomputed:" << name_ << " was given no correspondences");
-    matching::Correspondences c;
-    for (const auto& v : *in.correspondences) {
-      c.ref.emplace_back(v(0), v(1));
-      c.query.emplace_back(v(2), v(3));
-    }
-    return c;
+    return matching::Correspondences::FromRows(*in.correspondences);
   }
 
  private:
