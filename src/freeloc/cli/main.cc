@@ -2,10 +2,13 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
+#include <new>
 #include <string>
+#include <vector>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/core/version.h"
 
@@ -24,6 +27,10 @@ int main(int argc, char** argv) {
   app.add_option("--device", global.device, "where networks run: cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
   app.add_option("--precision", global.precision, "network arithmetic: fp32 (default, parity) or bf16")
       ->check(CLI::IsMember({"fp32", "bf16"}));
+  std::vector<std::string> limits;
+  app.add_option("--limit", limits,
+                 "raise or lower an input limit, NAME=VALUE (max_image_pixels, max_zip_member_bytes, "
+                 "max_submission_bytes, max_tensors, max_pickle_objects; docs/formats.md)");
   auto* quiet = app.add_flag("-q,--quiet", global.quiet, "only errors; no progress bars");
   app.add_flag("-v,--verbose", global.verbose, "debug logging")->excludes(quiet);
   app.require_subcommand(1);
@@ -63,12 +70,25 @@ int main(int argc, char** argv) {
     setenv("OPENBLAS_NUM_THREADS", n.c_str(), 1);
   }
   try {
+    for (const auto& l : limits) {
+      const size_t eq = l.find('=');
+      if (eq == std::string::npos) throw Error("--limit: expected NAME=VALUE, got '" + SafeText(l) + "'");
+      SetLimit(l.substr(0, eq), l.substr(eq + 1));
+    }
     return run ? run() : 2;
   } catch (const Error& e) {
-    std::fprintf(stderr, "freeloc: error: %s\n", e.what());
+    std::fprintf(stderr, "freeloc: error: %s\n", SafeText(e.what(), 4000).c_str());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr,
+                 "freeloc: error: out of memory; the input is larger than this machine can hold (see the limits in "
+                 "docs/formats.md, or use a machine with more memory)\n");
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "freeloc: error: %s\n", e.what());
+    // Foreign exceptions (LibTorch, OpenCV, the standard library): their first line only, never a backtrace.
+    std::string what = e.what();
+    what = what.substr(0, what.find('\n'));
+    std::fprintf(stderr, "freeloc: error: %s\n", SafeText(what, 1000).c_str());
     return 1;
   }
 }

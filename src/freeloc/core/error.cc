@@ -10,6 +10,23 @@ std::string FormatError(const std::string& input, const std::string& what, const
   return out;
 }
 
+std::string SafeText(const std::string& text, size_t max_len) {
+  static const char* kHex = "0123456789abcdef";
+  std::string out;
+  for (size_t k = 0; k < text.size(); ++k) {
+    if (out.size() >= max_len) return out + "…";
+    const unsigned char c = static_cast<unsigned char>(text[k]);
+    if (c < 0x20 || c == 0x7f) {
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 15];
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out;
+}
+
 namespace internal {
 void ThrowCheckFailure(const char* file, int line, const char* condition, const std::string& message) {
   // The user sees the message; the source location only in debug builds or with FREELOC_DEBUG_CHECKS set,

@@ -16,6 +16,10 @@ class Error : public std::runtime_error {
 // Formats "<input>: <what is wrong>; <what to do>" — the shape every user-facing error takes.
 std::string FormatError(const std::string& input, const std::string& what, const std::string& todo = "");
 
+// Text from a file made safe to print on a terminal: control characters (escape codes, newlines) become \xNN and
+// anything beyond `max_len` bytes is cut with "…".
+std::string SafeText(const std::string& text, size_t max_len = 200);
+
 namespace internal {
 [[noreturn]] void ThrowCheckFailure(const char* file, int line, const char* condition, const std::string& message);
 }  // namespace internal

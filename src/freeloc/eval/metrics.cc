@@ -267,6 +267,7 @@ std::vector<SceneRecord> EvaluateScenes(const EvalInput& in) {
                   in.submission_path << ": " << member << " is not UTF-8 text; write pose files in UTF-8");
     const OfficialPoses est = ParseOfficialPoses(it->second, true);
     rec.dropped = est.dropped;
+    rec.dropped_count = est.dropped_count;
     for (size_t i = 0; i < gt.keys.size(); i += 5) {
       const int64_t key = gt.keys[i];
       FrameRecord f{scene, key, "missing", {}, 0};

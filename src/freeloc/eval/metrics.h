@@ -42,7 +42,8 @@ struct SceneRecord {
   bool file_present = false;
   int64_t failures = 0;
   std::vector<FrameRecord> frames;   // evaluated frames with their status (scene-missing: every GT key)
-  std::vector<std::string> dropped;  // lines of the pose file the parser dropped
+  std::vector<std::string> dropped;  // lines of the pose file the parser dropped (the first 1000)
+  size_t dropped_count = 0;          // all of them
   size_t estimates() const;
 };
 

@@ -77,7 +77,7 @@ EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::strin
   int64_t missing = 0, dropped = 0;
   for (const auto& s : run.scenes) {
     missing += s.failures;
-    dropped += static_cast<int64_t>(s.dropped.size());
+    dropped += static_cast<int64_t>(s.dropped_count);
     for (const auto& d : s.dropped) FREELOC_LOG(DEBUG) << "pose_" << s.name << ".txt " << d;
   }
   if (dropped)
@@ -155,13 +155,13 @@ std::string JsonReport(const EvalRun& r, int indent) {
     e["estimates"] = s.estimates();
     e["failures"] = s.failures;
     e["pose_file"] = s.file_present;
-    e["lines_dropped"] = s.dropped.size();
+    e["lines_dropped"] = s.dropped_count;
     per[s.name] = e;
   }
   j["per_scene"] = per;
   int64_t dropped = 0, missing_scenes = 0;
   for (const auto& s : r.scenes) {
-    dropped += static_cast<int64_t>(s.dropped.size());
+    dropped += static_cast<int64_t>(s.dropped_count);
     missing_scenes += !s.file_present;
   }
   j["counts"] = {{"scenes", r.scenes.size()},

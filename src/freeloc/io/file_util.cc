@@ -13,6 +13,7 @@
 #include <random>
 
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 
 namespace freeloc {
 
@@ -104,6 +105,8 @@ void CheckZipMemberSize(uint64_t size, uint64_t compressed_size, bool stored, co
   FREELOC_CHECK(ok, what << ": declares " << size << " bytes from " << compressed_size << " compressed ("
                          << (stored ? "stored" : "compressed")
                          << "), more than any real archive holds; the file is damaged or hostile");
+  FREELOC_CHECK(stored || size <= static_cast<uint64_t>(Limits().max_zip_member_bytes),
+                what << ": expands to " << size << " bytes, beyond the " << LimitHint("max_zip_member_bytes"));
 }
 
 }  // namespace freeloc

@@ -1,6 +1,7 @@
 #include "freeloc/io/image_io.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <opencv2/core.hpp>
@@ -8,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/io/file_util.h"
 
@@ -67,6 +69,97 @@ void CheckComplete(ImageFormat f, const std::vector<uint8_t>& b, const std::stri
   }
 }
 
+uint32_t Be32(const uint8_t* p) { return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (p[2] << 8) | p[3]; }
+uint32_t Le32(const uint8_t* p) { return (uint32_t{p[3]} << 24) | (uint32_t{p[2]} << 16) | (p[1] << 8) | p[0]; }
+uint16_t Get16(const uint8_t* p, bool big) { return big ? (p[0] << 8) | p[1] : (p[1] << 8) | p[0]; }
+
+// TIFF: ImageWidth (256) and ImageLength (257) of the first IFD.
+bool TiffDimensions(const std::vector<uint8_t>& b, uint64_t* w, uint64_t* h) {
+  if (b.size() < 8) return false;
+  const bool big = b[0] == 'M';
+  const uint32_t ifd = big ? Be32(&b[4]) : Le32(&b[4]);
+  if (ifd > b.size() - 2) return false;
+  const size_t n = Get16(&b[ifd], big);
+  for (size_t k = 0; k < n; ++k) {
+    const size_t e = ifd + 2 + 12 * k;
+    if (e + 12 > b.size()) return false;
+    const uint16_t tag = Get16(&b[e], big), type = Get16(&b[e + 2], big);
+    const uint64_t v = type == 3 ? Get16(&b[e + 8], big) : (big ? Be32(&b[e + 8]) : Le32(&b[e + 8]));
+    if (tag == 256) *w = v;
+    if (tag == 257) *h = v;
+  }
+  return *w > 0 && *h > 0;
+}
+
+// The image size from the header alone, for PNG, JPEG, BMP, TIFF and WebP; false when it cannot be read (the decoder
+// then reports the damage).
+bool HeaderDimensions(ImageFormat f, const std::vector<uint8_t>& b, uint64_t* w, uint64_t* h) {
+  *w = *h = 0;
+  switch (f) {
+    case ImageFormat::kPng:
+      if (b.size() < 24) return false;
+      *w = Be32(&b[16]);
+      *h = Be32(&b[20]);
+      return true;
+    case ImageFormat::kJpeg: {
+      size_t k = 2;
+      while (k + 9 < b.size()) {
+        if (b[k] != 0xFF) return false;
+        const uint8_t m = b[k + 1];
+        if (m == 0xFF) {
+          ++k;
+          continue;
+        }
+        const size_t len = (b[k + 2] << 8) | b[k + 3];
+        const bool sof = m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC;
+        if (sof) {
+          *h = (b[k + 5] << 8) | b[k + 6];
+          *w = (b[k + 7] << 8) | b[k + 8];
+          return true;
+        }
+        if (len < 2) return false;
+        k += 2 + len;
+      }
+      return false;
+    }
+    case ImageFormat::kBmp: {
+      if (b.size() < 26) return false;
+      const int32_t bw = static_cast<int32_t>(Le32(&b[18])), bh = static_cast<int32_t>(Le32(&b[22]));
+      *w = static_cast<uint64_t>(std::abs(static_cast<int64_t>(bw)));
+      *h = static_cast<uint64_t>(std::abs(static_cast<int64_t>(bh)));
+      return true;
+    }
+    case ImageFormat::kTiff: return TiffDimensions(b, w, h);
+    case ImageFormat::kWebp: {
+      if (b.size() < 30) return false;
+      if (std::memcmp(&b[12], "VP8X", 4) == 0) {
+        *w = 1 + (b[24] | (b[25] << 8) | (uint32_t{b[26]} << 16));
+        *h = 1 + (b[27] | (b[28] << 8) | (uint32_t{b[29]} << 16));
+      } else if (std::memcmp(&b[12], "VP8L", 4) == 0) {
+        const uint32_t bits = Le32(&b[21]);
+        *w = 1 + (bits & 0x3FFF);
+        *h = 1 + ((bits >> 14) & 0x3FFF);
+      } else {
+        *w = (b[26] | (b[27] << 8)) & 0x3FFF;
+        *h = (b[28] | (b[29] << 8)) & 0x3FFF;
+      }
+      return true;
+    }
+    default: return false;
+  }
+}
+
+// Refuses, before any decoding, an image whose header declares more pixels than the limit (a 0.87 MB PNG can
+// declare 30000 x 30000 and decode into gigabytes).
+void CheckPixelLimit(ImageFormat f, const std::vector<uint8_t>& b, const std::string& what) {
+  uint64_t w = 0, h = 0;
+  if (!HeaderDimensions(f, b, &w, &h)) return;
+  const uint64_t limit = static_cast<uint64_t>(Limits().max_image_pixels);
+  FREELOC_CHECK(w <= limit && h <= limit && w * h <= limit,
+                what << ": " << ImageFormatName(f) << " declares " << w << " x " << h << " pixels, beyond the "
+                     << LimitHint("max_image_pixels"));
+}
+
 Image FromMat(const cv::Mat& bgr) {
   Image img(bgr.cols, bgr.rows);
   cv::Mat rgb(bgr.rows, bgr.cols, CV_8UC3, img.data.data());
@@ -82,6 +175,7 @@ Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
   FREELOC_CHECK(f != ImageFormat::kUnknown,
                 what << ": not a supported image (expected JPEG, PNG, BMP, TIFF or WebP content); check the file");
   CheckComplete(f, bytes, what);
+  CheckPixelLimit(f, bytes, what);
   cv::Mat m;
   try {
     // IMREAD_COLOR applies the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
@@ -142,6 +236,7 @@ std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height
   FREELOC_CHECK(SniffImageFormat(bytes.data(), bytes.size()) == ImageFormat::kPng,
                 path << ": not a PNG file; depth maps must be 16-bit PNGs");
   CheckComplete(ImageFormat::kPng, bytes, path);
+  CheckPixelLimit(ImageFormat::kPng, bytes, path);
   cv::Mat m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<uint8_t*>(bytes.data())),
                            cv::IMREAD_UNCHANGED);
   FREELOC_CHECK(!m.empty(), path << ": cannot decode the PNG; the file is damaged");

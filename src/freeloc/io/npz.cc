@@ -7,6 +7,7 @@
 
 #include "freeloc/core/checked_math.h"
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/tensor.h"
 
@@ -165,11 +166,22 @@ std::map<std::string, NpyArray> ReadNpz(const std::string& path) {
   }
   std::unique_ptr<zip_t, void (*)(zip_t*)> guard(z, [](zip_t* p) { zip_discard(p); });
   std::map<std::string, NpyArray> out;
-  for (zip_int64_t i = 0; i < zip_get_num_entries(z, 0); ++i) {
-    std::string name = zip_get_name(z, i, 0);
+  const zip_int64_t entries = zip_get_num_entries(z, 0);
+  FREELOC_CHECK(entries <= Limits().max_tensors, path << ": " << entries << " arrays; refused ("
+                                                      << LimitHint("max_tensors") << ")");
+  uint64_t expanded = 0;
+  for (zip_int64_t i = 0; i < entries; ++i) {
+    const char* raw_name = zip_get_name(z, i, 0);
+    FREELOC_CHECK(raw_name, path << ": member " << i << " has no readable name; the archive is damaged");
+    std::string name = raw_name;
     zip_stat_t st;
-    zip_stat_index(z, i, 0, &st);
-    CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path + ": member " + name);
+    zip_stat_init(&st);
+    FREELOC_CHECK(zip_stat_index(z, i, 0, &st) == 0, path << ": member " << SafeText(name) << " is damaged");
+    CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path + ": member " + SafeText(name));
+    if (st.comp_method != ZIP_CM_STORE) expanded += st.size;
+    FREELOC_CHECK(expanded <= static_cast<uint64_t>(Limits().max_zip_member_bytes),
+                  path << ": compressed members expand to more than " << Limits().max_zip_member_bytes
+                       << " bytes in all; refused (" << LimitHint("max_zip_member_bytes") << ")");
     std::vector<uint8_t> buf(st.size);
     zip_file_t* f = zip_fopen_index(z, i, 0);
     FREELOC_CHECK(f, path << ": cannot open member " << name);

@@ -1,12 +1,82 @@
 #include "freeloc/io/pickle.h"
 
 #include <cstring>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 
 #include "freeloc/core/error.h"
 
 namespace freeloc {
+
+namespace {
+// Moves the children of `o` onto `pending` so that `o` itself is freed without recursion.
+void DetachChildren(PyObject& o, std::vector<PyRef>* pending) {
+  for (auto& c : o.items) pending->push_back(std::move(c));
+  for (auto& [k, v] : o.dict) {
+    pending->push_back(std::move(k));
+    pending->push_back(std::move(v));
+  }
+  if (o.args) pending->push_back(std::move(o.args));
+  if (o.state) pending->push_back(std::move(o.state));
+  o.items.clear();
+  o.dict.clear();
+}
+}  // namespace
+
+PyObject::~PyObject() {
+  if (items.empty() && dict.empty() && !args && !state) return;
+  std::vector<PyRef> pending;
+  DetachChildren(*this, &pending);
+  while (!pending.empty()) {
+    PyRef p = std::move(pending.back());
+    pending.pop_back();
+    if (p && p.use_count() == 1) DetachChildren(*p, &pending);  // the last owner: take its children first
+  }
+}
+
+bool IsAllowedPickleGlobal(const std::string& module, const std::string& name) {
+  static const std::set<std::pair<std::string, std::string>> kAllowed = {
+      {"collections", "OrderedDict"},
+      {"argparse", "Namespace"},
+      {"_codecs", "encode"},
+      {"copyreg", "_reconstructor"},
+      {"torch._utils", "_rebuild_tensor"},
+      {"torch._utils", "_rebuild_tensor_v2"},
+      {"torch._utils", "_rebuild_parameter"},
+      {"torch._utils", "_rebuild_parameter_with_state"},
+      {"torch._tensor", "_rebuild_from_type_v2"},
+      {"torch.nn.parameter", "Parameter"},
+      {"torch", "Tensor"},
+      {"torch", "Size"},
+      {"torch", "device"},
+      {"torch.storage", "UntypedStorage"},
+      {"torch.storage", "TypedStorage"},
+      {"numpy", "dtype"},
+      {"numpy", "ndarray"},
+      {"numpy.core.multiarray", "scalar"},
+      {"numpy.core.multiarray", "_reconstruct"},
+      {"numpy._core.multiarray", "scalar"},
+      {"numpy._core.multiarray", "_reconstruct"},
+      {"pathlib", "Path"},
+      {"pathlib", "PosixPath"},
+      {"pathlib", "PurePosixPath"},
+      {"pathlib", "WindowsPath"},
+      {"pathlib", "PureWindowsPath"},
+  };
+  static const std::set<std::string> kBuiltins = {"set",   "frozenset", "list",  "tuple", "dict",      "slice", "int",
+                                                  "float", "bool",      "str",   "bytes", "bytearray", "complex", "object"};
+  static const std::set<std::string> kTorchTypes = {
+      "FloatStorage", "DoubleStorage", "HalfStorage", "BFloat16Storage", "LongStorage", "IntStorage", "ShortStorage",
+      "CharStorage", "ByteStorage", "BoolStorage", "float32", "float64", "float16", "bfloat16", "int64", "int32",
+      "int16", "int8", "uint8", "bool", "float", "double", "half", "long", "int", "short", "contiguous_format",
+      "channels_last", "preserve_format", "strided"};
+  if (kAllowed.count({module, name})) return true;
+  if (module == "builtins" || module == "__builtin__") return kBuiltins.count(name) > 0;
+  if (module == "torch") return kTorchTypes.count(name) > 0;
+  if (module == "numpy.dtypes") return name.size() > 5 && name.compare(name.size() - 5, 5, "DType") == 0;
+  return false;
+}
 
 PyRef PyObject::None() { return std::make_shared<PyObject>(); }
 PyRef PyObject::Bool(bool v) {
@@ -108,66 +178,95 @@ std::string ReprString(const std::string& s) {
 }
 }  // namespace
 
-std::string PyObject::Repr(size_t max_len) const {
-  std::ostringstream os;
-  switch (kind) {
-    case Kind::kNone: os << "None"; break;
-    case Kind::kBool: os << (b ? "True" : "False"); break;
-    case Kind::kInt: os << i; break;
-    case Kind::kBigInt: os << s; break;
-    case Kind::kFloat: {
-      // Shortest text that reads back to the same double, like Python's repr.
-      std::string t;
-      for (int prec = 1; prec <= 17; ++prec) {
-        std::ostringstream f;
-        f.precision(prec);
-        f << this->f;
-        t = f.str();
-        if (std::strtod(t.c_str(), nullptr) == this->f) break;
-      }
-      if (t.find_first_of(".einn") == std::string::npos) t += ".0";
-      os << t;
-      break;
-    }
-    case Kind::kStr: os << ReprString(s); break;
-    case Kind::kBytes: os << "b<" << s.size() << " bytes>"; break;
+namespace {
+
+std::string FloatRepr(double f) {
+  // Shortest text that reads back to the same double, like Python's repr.
+  std::string t;
+  for (int prec = 1; prec <= 17; ++prec) {
+    std::ostringstream os;
+    os.precision(prec);
+    os << f;
+    t = os.str();
+    if (std::strtod(t.c_str(), nullptr) == f) break;
+  }
+  if (t.find_first_of(".einn") == std::string::npos) t += ".0";
+  return t;
+}
+
+// Appends the repr of `o` to `out`, stopping as soon as `out` is longer than `budget` (a shared-reference bomb
+// never makes the walk or the text large).
+void ReprInto(const PyObject& o, std::string* out, size_t budget) {
+  using Kind = PyObject::Kind;
+  if (out->size() > budget) return;
+  switch (o.kind) {
+    case Kind::kNone: *out += "None"; return;
+    case Kind::kBool: *out += o.b ? "True" : "False"; return;
+    case Kind::kInt: *out += std::to_string(o.i); return;
+    case Kind::kBigInt: *out += o.s; return;
+    case Kind::kFloat: *out += FloatRepr(o.f); return;
+    case Kind::kStr: *out += ReprString(o.s.size() > budget ? o.s.substr(0, budget + 1) : o.s); return;
+    case Kind::kBytes: *out += "b<" + std::to_string(o.s.size()) + " bytes>"; return;
     case Kind::kList:
     case Kind::kTuple:
     case Kind::kSet: {
-      os << (kind == Kind::kList ? "[" : kind == Kind::kTuple ? "(" : "{");
-      for (size_t k = 0; k < items.size(); ++k) os << (k ? ", " : "") << items[k]->Repr(max_len);
-      if (kind == Kind::kTuple && items.size() == 1) os << ",";
-      os << (kind == Kind::kList ? "]" : kind == Kind::kTuple ? ")" : "}");
-      break;
+      *out += o.kind == Kind::kList ? "[" : o.kind == Kind::kTuple ? "(" : "{";
+      for (size_t k = 0; k < o.items.size() && out->size() <= budget; ++k) {
+        if (k) *out += ", ";
+        ReprInto(*o.items[k], out, budget);
+      }
+      if (o.kind == Kind::kTuple && o.items.size() == 1) *out += ",";
+      *out += o.kind == Kind::kList ? "]" : o.kind == Kind::kTuple ? ")" : "}";
+      return;
     }
     case Kind::kDict: {
-      os << "{";
-      for (size_t k = 0; k < dict.size(); ++k)
-        os << (k ? ", " : "") << dict[k].first->Repr(max_len) << ": " << dict[k].second->Repr(max_len);
-      os << "}";
-      break;
+      *out += "{";
+      for (size_t k = 0; k < o.dict.size() && out->size() <= budget; ++k) {
+        if (k) *out += ", ";
+        ReprInto(*o.dict[k].first, out, budget);
+        *out += ": ";
+        ReprInto(*o.dict[k].second, out, budget);
+      }
+      *out += "}";
+      return;
     }
-    case Kind::kGlobal: os << module << "." << name; break;
+    case Kind::kGlobal: *out += o.module + "." + o.name; return;
     case Kind::kObject: {
-      os << module << "." << name << "(";
+      *out += o.module + "." + o.name + "(";
       bool first = true;
-      if (state && state->kind == Kind::kDict) {
-        for (const auto& [k, v] : state->dict) {
-          os << (first ? "" : ", ") << (k->kind == Kind::kStr ? k->s : k->Repr(max_len)) << "=" << v->Repr(max_len);
+      if (o.state && o.state->kind == Kind::kDict) {
+        for (const auto& [k, v] : o.state->dict) {
+          if (out->size() > budget) break;
+          if (!first) *out += ", ";
+          if (k->kind == Kind::kStr) {
+            *out += k->s;
+          } else {
+            ReprInto(*k, out, budget);
+          }
+          *out += "=";
+          ReprInto(*v, out, budget);
           first = false;
         }
-      } else if (args && !args->items.empty()) {
-        for (const auto& a : args->items) {
-          os << (first ? "" : ", ") << a->Repr(max_len);
+      } else if (o.args && !o.args->items.empty()) {
+        for (const auto& a : o.args->items) {
+          if (out->size() > budget) break;
+          if (!first) *out += ", ";
+          ReprInto(*a, out, budget);
           first = false;
         }
       }
-      os << ")";
-      break;
+      *out += ")";
+      return;
     }
-    case Kind::kTensor: os << "<tensor #" << i << ">"; break;
+    case Kind::kTensor: *out += "<tensor #" + std::to_string(o.i) + ">"; return;
   }
-  std::string r = os.str();
+}
+
+}  // namespace
+
+std::string PyObject::Repr(size_t max_len) const {
+  std::string r;
+  ReprInto(*this, &r, max_len);
   if (r.size() > max_len) r = r.substr(0, max_len) + "…";
   return r;
 }
@@ -279,8 +378,24 @@ std::string BigIntToDecimal(const uint8_t* p, size_t n) {
 
 class Unpickler {
  public:
-  Unpickler(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& pl, const ReduceHook& rh)
-      : p_(data), end_(data + size), begin_(data), what_(what), persistent_load_(pl), reduce_hook_(rh) {}
+  Unpickler(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& pl, const ReduceHook& rh,
+            const PickleLimits& limits)
+      : p_(data), end_(data + size), begin_(data), what_(what), persistent_load_(pl), reduce_hook_(rh), limits_(limits) {}
+  Unpickler(const Unpickler&) = delete;
+  Unpickler& operator=(const Unpickler&) = delete;
+  // A stream refused half-way may have built reference cycles (a list appended to itself): cut every container's
+  // edges so that nothing leaks.
+  ~Unpickler() {
+    if (ok_) return;
+    stack_.clear();
+    memo_.clear();
+    for (const auto& o : containers_) {
+      o->items.clear();
+      o->dict.clear();
+      o->args.reset();
+      o->state.reset();
+    }
+  }
 
   PyRef Run() {
     while (true) {
@@ -298,9 +413,16 @@ class Unpickler {
           break;  // FRAME: framing is transparent here
         case '.': {
           FREELOC_CHECK(!stack_.empty(), what_ << ": pickle STOP with an empty stack; the file is damaged");
-          return stack_.back();
+          PyRef root = stack_.back();
+          CheckShape(root);
+          ok_ = true;
+          return root;
         }
-        case '(': marks_.push_back(stack_.size()); break;
+        case '(':
+          FREELOC_CHECK(marks_.size() < limits_.max_objects, what_ << ": pickle opens more than "
+                                                                   << limits_.max_objects << " MARKs; refused");
+          marks_.push_back(stack_.size());
+          break;
         case '0': Pop(); break;
         case '1': PopMark(); break;
         case '2': Push(Top()); break;
@@ -413,13 +535,14 @@ class Unpickler {
         case '}': {
           auto d = std::make_shared<PyObject>();
           d->kind = PyObject::Kind::kDict;
-          Push(d);
+          Push(Track(d));
           break;
         }
         case 'd': {
           auto items = PopMark();
           auto d = std::make_shared<PyObject>();
           d->kind = PyObject::Kind::kDict;
+          Track(d);
           SetItems(d, items, pos);
           Push(d);
           break;
@@ -438,7 +561,7 @@ class Unpickler {
         case 'c': {
           const std::string module = ReadLine();
           const std::string name = ReadLine();
-          Push(NewGlobal(module, name));
+          Push(NewGlobal(module, name, pos));
           break;
         }
         case 0x93: {
@@ -446,26 +569,26 @@ class Unpickler {
           auto module = Pop();
           FREELOC_CHECK(module->is(PyObject::Kind::kStr) && name->is(PyObject::Kind::kStr),
                         what_ << ": STACK_GLOBAL at byte " << pos << " needs two strings; the file is damaged");
-          Push(NewGlobal(module->s, name->s));
+          Push(NewGlobal(module->s, name->s, pos));
           break;
         }
         case 'R': {
           auto args = Pop();
           auto callable = Pop();
-          Push(Call(callable, args, pos));
+          Push(Track(Call(callable, args, pos)));
           break;
         }
         case 0x81: {
           auto args = Pop();
           auto cls = Pop();
-          Push(Call(cls, args, pos));
+          Push(Track(Call(cls, args, pos)));
           break;
         }
         case 0x92: {
           Pop();
           auto args = Pop();
           auto cls = Pop();
-          Push(Call(cls, args, pos));
+          Push(Track(Call(cls, args, pos)));
           break;
         }  // kwargs dropped
         case 'b': {
@@ -478,17 +601,17 @@ class Unpickler {
         }
         case 'q': {
           Need(1);
-          memo_[*p_++] = Top();
+          Memo(*p_++);
           break;
         }
         case 'r': {
           const size_t k = ReadU32();
-          memo_[k] = Top();
+          Memo(k);
           break;
         }
         case 0x94: {
           const size_t k = memo_.size();
-          memo_[k] = Top();
+          Memo(k);
           break;
         }
         case 'h': {
@@ -500,7 +623,7 @@ class Unpickler {
         case 'Q': {
           auto pid = Pop();
           FREELOC_CHECK(persistent_load_, what_ << ": persistent id at byte " << pos << " but no loader is set");
-          Push(persistent_load_(pid));
+          Push(Track(persistent_load_(pid)));
           break;
         }
         default:
@@ -548,6 +671,9 @@ class Unpickler {
   }
   void PushLong(size_t n) {
     Need(n);
+    FREELOC_CHECK(n <= limits_.max_long_bytes, what_ << ": pickle integer of " << n << " bytes at byte "
+                                                     << (p_ - begin_) << " exceeds the limit of "
+                                                     << limits_.max_long_bytes << " bytes; refused");
     if (n <= 8) {
       uint64_t u = 0;
       for (size_t k = 0; k < n; ++k) u |= static_cast<uint64_t>(p_[k]) << (8 * k);
@@ -564,7 +690,77 @@ class Unpickler {
     p_ += n;
     Push(o);
   }
-  void Push(PyRef v) { stack_.push_back(std::move(v)); }
+  void Push(PyRef v) {
+    FREELOC_CHECK(++pushed_ <= limits_.max_objects,
+                  what_ << ": pickle pushes more than " << limits_.max_objects << " values; refused as a memory bomb");
+    stack_.push_back(std::move(v));
+  }
+  void Memo(size_t k) {
+    FREELOC_CHECK(memo_.size() < limits_.max_objects, what_ << ": pickle memo exceeds " << limits_.max_objects
+                                                            << " entries; refused as a memory bomb");
+    memo_[k] = Top();
+  }
+  PyRef Track(PyRef o) {
+    if (o && o->kind != PyObject::Kind::kTensor) containers_.push_back(o);
+    return o;
+  }
+  // After STOP: the object graph must be acyclic, at most `max_depth` deep, and small when every shared reference
+  // is followed (a 379-byte DAG can otherwise stand for 2^60 objects). One iterative post-order walk.
+  void CheckShape(const PyRef& root) {
+    struct Info {
+      bool done = false;
+      size_t height = 1, expanded = 1;
+    };
+    std::unordered_map<const PyObject*, Info> info;
+    struct Frame {
+      const PyObject* o;
+      std::vector<const PyObject*> children;
+      size_t next = 0;
+    };
+    auto children_of = [](const PyObject* o) {
+      std::vector<const PyObject*> c;
+      for (const auto& x : o->items) c.push_back(x.get());
+      for (const auto& [k, v] : o->dict) {
+        c.push_back(k.get());
+        c.push_back(v.get());
+      }
+      if (o->args) c.push_back(o->args.get());
+      if (o->state) c.push_back(o->state.get());
+      return c;
+    };
+    std::vector<Frame> stack;
+    stack.push_back({root.get(), children_of(root.get())});
+    info[root.get()];
+    while (!stack.empty()) {
+      Frame& f = stack.back();
+      if (f.next < f.children.size()) {
+        const PyObject* c = f.children[f.next++];
+        auto [it, fresh] = info.try_emplace(c);
+        if (fresh) {
+          FREELOC_CHECK(stack.size() < limits_.max_depth, what_ << ": pickle objects nest more than "
+                                                                << limits_.max_depth << " deep; refused");
+          stack.push_back({c, children_of(c)});
+        } else {
+          FREELOC_CHECK(it->second.done, what_ << ": pickle holds a reference cycle (a container inside itself); "
+                                                  "checkpoints never do — refused");
+        }
+        continue;
+      }
+      Info& me = info[f.o];
+      for (const PyObject* c : f.children) {
+        const Info& ci = info[c];
+        me.height = std::max(me.height, ci.height + 1);
+        me.expanded = std::min(me.expanded + ci.expanded, limits_.max_expanded + 1);
+      }
+      FREELOC_CHECK(me.height <= limits_.max_depth,
+                    what_ << ": pickle objects nest more than " << limits_.max_depth << " deep; refused");
+      FREELOC_CHECK(me.expanded <= limits_.max_expanded,
+                    what_ << ": pickle stands for more than " << limits_.max_expanded
+                          << " objects once its shared references are followed; refused as a bomb");
+      me.done = true;
+      stack.pop_back();
+    }
+  }
   PyRef Pop() {
     FREELOC_CHECK(!stack_.empty() && (marks_.empty() || stack_.size() > marks_.back()),
                   what_ << ": pickle stack underflow at byte " << (p_ - begin_ - 1) << "; the file is damaged");
@@ -591,13 +787,17 @@ class Unpickler {
                   what_ << ": pickle memo entry " << k << " read at byte " << pos << " was never stored");
     return it->second;
   }
-  static PyRef NewSeq(PyObject::Kind kind, std::vector<PyRef> items) {
+  PyRef NewSeq(PyObject::Kind kind, std::vector<PyRef> items) {
     auto o = std::make_shared<PyObject>();
     o->kind = kind;
     o->items = std::move(items);
-    return o;
+    return Track(o);
   }
-  static PyRef NewGlobal(const std::string& module, const std::string& name) {
+  PyRef NewGlobal(const std::string& module, const std::string& name, size_t pos) {
+    FREELOC_CHECK(IsAllowedPickleGlobal(module, name),
+                  what_ << ": pickle names the global " << SafeText(module) << "." << SafeText(name) << " at byte "
+                        << pos << ", which is not one of the classes checkpoints use (torch tensors and storages, "
+                        << "OrderedDict, argparse.Namespace, builtin containers, numpy scalars); refused");
     auto o = std::make_shared<PyObject>();
     o->kind = PyObject::Kind::kGlobal;
     o->module = module;
@@ -685,6 +885,10 @@ class Unpickler {
   std::string what_;
   const PersistentLoad& persistent_load_;
   const ReduceHook& reduce_hook_;
+  PickleLimits limits_;
+  bool ok_ = false;
+  size_t pushed_ = 0;
+  std::vector<PyRef> containers_;
   std::vector<PyRef> stack_;
   std::vector<size_t> marks_;
   std::unordered_map<size_t, PyRef> memo_;
@@ -693,8 +897,8 @@ class Unpickler {
 }  // namespace
 
 PyRef ParsePickle(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& persistent_load,
-                  const ReduceHook& reduce_hook) {
-  Unpickler u(data, size, what, persistent_load, reduce_hook);
+                  const ReduceHook& reduce_hook, const PickleLimits& limits) {
+  Unpickler u(data, size, what, persistent_load, reduce_hook, limits);
   return u.Run();
 }
 

@@ -44,6 +44,13 @@ struct PyObject {
   PyRef args;                                 // kObject: constructor/reduce arguments (a tuple)
   PyRef state;                                // kObject (and dicts given a BUILD state): the state
 
+  PyObject() = default;
+  PyObject(const PyObject&) = delete;
+  PyObject& operator=(const PyObject&) = delete;
+  // Tears nested children down with an explicit work list, never by recursion: a pickle nested 200 000 deep must
+  // not overflow the stack when it is freed.
+  ~PyObject();
+
   static PyRef None();
   static PyRef Bool(bool v);
   static PyRef Int(int64_t v);
@@ -67,8 +74,22 @@ using PersistentLoad = std::function<PyRef(const PyRef& pid)>;
 // to decline.
 using ReduceHook = std::function<PyRef(const std::string& module, const std::string& name, const PyRef& args)>;
 
+// What a pickle may cost (issue 16). The defaults are far beyond any real checkpoint (a DUSt3R state dict is about
+// 10 000 objects, nested 6 deep); every limit hit is a one-line error naming the stream.
+struct PickleLimits {
+  size_t max_objects = 4'000'000;   // objects created, also the stack and memo sizes
+  size_t max_depth = 1000;          // container nesting
+  size_t max_expanded = 20'000'000; // objects seen by a walk that follows every shared reference (DAG bombs)
+  size_t max_long_bytes = 1024;     // LONG1/LONG4 integers (Python itself caps int→str at 4300 digits)
+};
+
+// The classes a checkpoint may name by GLOBAL/STACK_GLOBAL (torch's tensor rebuilders and storage types, dtypes,
+// OrderedDict, argparse.Namespace, builtin containers, numpy scalars and arrays, pathlib paths); anything else is
+// refused with a message naming it. Nothing is ever called or imported either way.
+bool IsAllowedPickleGlobal(const std::string& module, const std::string& name);
+
 // Parses a pickle stream. `what` names the source in errors ("model.pth/archive/data.pkl").
 PyRef ParsePickle(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& persistent_load,
-                  const ReduceHook& reduce_hook = nullptr);
+                  const ReduceHook& reduce_hook = nullptr, const PickleLimits& limits = PickleLimits());
 
 }  // namespace freeloc

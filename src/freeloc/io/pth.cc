@@ -9,6 +9,7 @@
 
 #include "freeloc/core/checked_math.h"
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 #include "freeloc/io/file_util.h"
 
 namespace freeloc {
@@ -115,6 +116,12 @@ TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> s
   return t;
 }
 
+PickleLimits PickleOptions() {
+  PickleLimits l;
+  l.max_objects = static_cast<size_t>(Limits().max_pickle_objects);
+  return l;
+}
+
 // One checkpoint being read: the zip archive, its record prefix, the storages loaded so far and the tensors.
 class PthReader {
  public:
@@ -147,7 +154,8 @@ class PthReader {
     out_.path = path_;
     out_.root = ParsePickle(
         pkl.data(), pkl.size(), pkl_name_, [this](const PyRef& pid) { return LoadStorage(pid); },
-        [this](const std::string& m, const std::string& name, const PyRef& args) { return Reduce(m, name, args); });
+        [this](const std::string& m, const std::string& name, const PyRef& args) { return Reduce(m, name, args); },
+        PickleOptions());
     return std::move(out_);
   }
 
@@ -234,6 +242,9 @@ class PthReader {
       FREELOC_CHECK(sref->is(PyObject::Kind::kObject) && sref->module == "freeloc" && sref->name == "storage",
                     pkl_name_ << ": tensor without a storage; not a torch.save checkpoint");
       FREELOC_CHECK(args->items[1]->is(PyObject::Kind::kInt), pkl_name_ << ": tensor storage offset is not an int");
+      FREELOC_CHECK(static_cast<int64_t>(out_.tensors.size()) < Limits().max_tensors,
+                    pkl_name_ << ": more than " << Limits().max_tensors << " tensors; refused ("
+                              << LimitHint("max_tensors") << ")");
       bool contiguous = true;
       TensorView t = StorageView(storages_.at(sref->s), args->items[1]->i, IntTuple(args->items[2], pkl_name_, "size"),
                                  IntTuple(args->items[3], pkl_name_, "stride"), pkl_name_, &contiguous);

@@ -106,12 +106,17 @@ std::vector<std::string> SplitSpace(const std::string& s) {
 
 std::vector<std::string> SplitLines(const std::string& text) {
   std::vector<std::string> lines;
+  ForEachLine(text, [&](const std::string& line) { lines.push_back(line); });
+  return lines;
+}
+
+void ForEachLine(const std::string& text, const std::function<void(const std::string& line)>& fn) {
   std::string cur;
   bool pending = false;
   for (size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
     if (c == '\n' || c == '\r') {
-      lines.push_back(cur);
+      fn(cur);
       cur.clear();
       pending = false;
       if (c == '\r' && i + 1 < text.size() && text[i + 1] == '\n') ++i;
@@ -120,8 +125,7 @@ std::vector<std::string> SplitLines(const std::string& text) {
       pending = true;
     }
   }
-  if (pending) lines.push_back(cur);
-  return lines;
+  if (pending) fn(cur);
 }
 
 bool IsValidUtf8(const std::string& b) {

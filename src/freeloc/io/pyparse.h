@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,8 @@ std::string Strip(const std::string& s);
 std::vector<std::string> SplitSpace(const std::string& s);
 // Text-mode readlines(): splits on \n, \r\n and \r (the terminators are dropped).
 std::vector<std::string> SplitLines(const std::string& text);
+// The same lines, one at a time (no vector of a million empty strings for a file of newlines).
+void ForEachLine(const std::string& text, const std::function<void(const std::string& line)>& fn);
 // Whether `bytes` is valid UTF-8.
 bool IsValidUtf8(const std::string& bytes);
 // name[-9:-4] on code points (the official frame-number slice); `name` must be valid UTF-8.

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 #include "freeloc/io/file_util.h"
 
 namespace freeloc {
@@ -19,7 +20,7 @@ struct Range {
 };
 
 // One tensor entry of the header: dtype, shape and data_offsets checked against each other and the data size.
-TensorView ParseEntry(const nlohmann::ordered_json& entry, const std::string& where, const std::string& fix,
+TensorView ParseEntry(const nlohmann::json& entry, const std::string& where, const std::string& fix,
                       uint64_t data_size, uint64_t* begin, uint64_t* end) {
   FREELOC_CHECK(entry.is_object(), where << "entry is not an object" << fix);
   FREELOC_CHECK(entry.contains("dtype") && entry["dtype"].is_string(), where << "missing dtype" << fix);
@@ -85,10 +86,27 @@ SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::s
                 bad << "header length " << n << " runs past the end of the file (" << size << " bytes)" << fix);
   FREELOC_CHECK(n <= kMaxHeader, bad << "header length " << n << " exceeds 100 MB" << fix);
   FREELOC_CHECK(n >= 2, bad << "header of " << n << " bytes cannot hold a JSON object" << fix);
-  nlohmann::ordered_json header;
+  // nlohmann::json (a sorted map: O(n log n), where the insertion-ordered map was quadratic in the tensor count),
+  // with its parse events counted so that nesting and size stay what a header can need.
+  const int64_t max_values = 16 * Limits().max_tensors + 1024;
+  int64_t values = 0;
+  int depth = 0;
+  const nlohmann::json::parser_callback_t guard = [&](int, nlohmann::json::parse_event_t event, nlohmann::json&) {
+    using E = nlohmann::json::parse_event_t;
+    if (event == E::object_start || event == E::array_start) {
+      FREELOC_CHECK(++depth <= 4, bad << "header nests deeper than a safetensors header does" << fix);
+    } else if (event == E::object_end || event == E::array_end) {
+      --depth;
+    } else if (event == E::value || event == E::key) {
+      FREELOC_CHECK(++values <= max_values, what << ": safetensors header holds more than " << max_values
+                                                  << " values; refused (" << LimitHint("max_tensors") << ")");
+    }
+    return true;
+  };
+  nlohmann::json header;
   try {
-    header = nlohmann::ordered_json::parse(bytes + 8, bytes + 8 + n);
-  } catch (const nlohmann::ordered_json::exception& e) {
+    header = nlohmann::json::parse(bytes + 8, bytes + 8 + n, guard);
+  } catch (const nlohmann::json::exception& e) {
     FREELOC_THROW(bad << "header is not valid JSON (" << e.what() << ")" << fix);
   }
   FREELOC_CHECK(header.is_object(), bad << "header is not a JSON object" << fix);
@@ -114,9 +132,15 @@ SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::s
     t.data = data_start + b;
     t.owner = owner;
     ranges.push_back({b, e, name});
-    f.names.push_back(name);
     f.tensors.emplace(name, std::move(t));
+    FREELOC_CHECK(static_cast<int64_t>(f.tensors.size()) <= Limits().max_tensors,
+                  what << ": more than " << Limits().max_tensors << " tensors; refused (" << LimitHint("max_tensors")
+                       << ")");
   }
+  // Names in file (data) order, as they were written.
+  std::vector<Range> order = ranges;
+  std::stable_sort(order.begin(), order.end(), [](const Range& a, const Range& b) { return a.begin < b.begin; });
+  for (const auto& r : order) f.names.push_back(r.name);
   CheckTiling(ranges, data_size, bad, fix);
   return f;
 }

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/pyparse.h"
 
@@ -98,13 +99,19 @@ ZipContents ZipContents::Read(const std::string& path) {
   zip_error_fini(&zerr);
   std::unique_ptr<zip_t, void (*)(zip_t*)> guard(z, [](zip_t* p) { zip_discard(p); });
   ZipContents c;
+  uint64_t total = 0;
   for (zip_int64_t i = 0; i < zip_get_num_entries(z, 0); ++i) {
     const char* n = zip_get_name(z, i, ZIP_FL_ENC_RAW);
     if (!n) continue;
     const std::string name(n);
     zip_stat_t st;
-    zip_stat_index(z, i, 0, &st);
-    CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path + ": member " + name);
+    zip_stat_init(&st);
+    FREELOC_CHECK(zip_stat_index(z, i, 0, &st) == 0, path << ": member " << SafeText(name) << " is damaged");
+    CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path + ": member " + SafeText(name));
+    total += st.size;
+    FREELOC_CHECK(total <= static_cast<uint64_t>(Limits().max_submission_bytes),
+                  path << ": member " << SafeText(name) << " takes the contents past " << total
+                       << " bytes, beyond the " << LimitHint("max_submission_bytes"));
     std::string data(static_cast<size_t>(st.size), '\0');
     if (st.size > 0) {
       zip_file_t* f = zip_fopen_index(z, i, 0);
@@ -122,20 +129,24 @@ ZipContents ZipContents::Read(const std::string& path) {
 OfficialPoses ParseOfficialPoses(const std::string& text, bool with_confidence) {
   OfficialPoses out;
   const size_t expected = with_confidence ? 9 : 8;
-  const auto lines = py::SplitLines(text);
-  for (size_t ln = 0; ln < lines.size(); ++ln) {
-    const std::string tag = "line " + std::to_string(ln + 1) + ": ";
-    const auto parts = py::SplitSpace(py::Strip(lines[ln]));
+  size_t ln = 0;
+  auto drop = [&out, &ln](const std::string& why) {
+    if (out.dropped.size() < 1000) out.dropped.push_back("line " + std::to_string(ln) + ": " + why);
+    ++out.dropped_count;
+  };
+  py::ForEachLine(text, [&](const std::string& line) {
+    ++ln;
+    const auto parts = py::SplitSpace(py::Strip(line));
     if (parts.size() != expected) {
-      out.dropped.push_back(tag + std::to_string(parts.size()) + " fields, expected " + std::to_string(expected));
-      continue;
+      drop(std::to_string(parts.size()) + " fields, expected " + std::to_string(expected));
+      return;
     }
     const std::string& name = parts[0];
-    if (name.find('#') != std::string::npos) continue;  // comment
+    if (name.find('#') != std::string::npos) return;  // comment
     int64_t key;
     if (!py::FrameKey(name, &key)) {
-      out.dropped.push_back(tag + "no frame number in '" + name + "' (expected seq1/frame_00000.jpg)");
-      continue;
+      drop("no frame number in '" + SafeText(name, 80) + "' (expected seq1/frame_00000.jpg)");
+      return;
     }
     double v[8] = {0};
     bool ok = true;
@@ -143,13 +154,13 @@ OfficialPoses ParseOfficialPoses(const std::string& text, bool with_confidence) 
       if (!py::ParseFloat(parts[k], &v[k - 1]) || !std::isfinite(v[k - 1])) ok = false;
     }
     if (!ok) {
-      out.dropped.push_back(tag + "a value is not a finite number");
-      continue;
+      drop("a value is not a finite number");
+      return;
     }
     const double qn = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
     if (qn <= 1e-8) {  // np.isclose(norm, 0)
-      out.dropped.push_back(tag + "quaternion has zero norm");
-      continue;
+      drop("quaternion has zero norm");
+      return;
     }
     OfficialPose p;
     p.name = name;
@@ -164,7 +175,7 @@ OfficialPoses ParseOfficialPoses(const std::string& text, bool with_confidence) 
     p.confidence = with_confidence ? v[7] : 0;
     if (!out.poses.count(key)) out.keys.push_back(key);
     out.poses[key] = p;
-  }
+  });
   return out;
 }
 

@@ -59,7 +59,8 @@ struct OfficialPose {
 struct OfficialPoses {
   std::vector<int64_t> keys;  // first-insertion order
   std::map<int64_t, OfficialPose> poses;
-  std::vector<std::string> dropped;  // "line N: reason"
+  std::vector<std::string> dropped;  // "line N: reason" (the first 1000)
+  size_t dropped_count = 0;          // all dropped lines
   size_t size() const { return keys.size(); }
 };
 OfficialPoses ParseOfficialPoses(const std::string& text, bool with_confidence);

@@ -1,0 +1,73 @@
+#include "freeloc/core/limits.h"
+
+#include <cctype>
+#include <cstdlib>
+
+#include "freeloc/core/error.h"
+
+namespace freeloc {
+
+namespace {
+
+struct Field {
+  const char* name;
+  int64_t InputLimits::*member;
+};
+
+constexpr Field kFields[] = {{"max_image_pixels", &InputLimits::max_image_pixels},
+                             {"max_zip_member_bytes", &InputLimits::max_zip_member_bytes},
+                             {"max_submission_bytes", &InputLimits::max_submission_bytes},
+                             {"max_tensors", &InputLimits::max_tensors},
+                             {"max_pickle_objects", &InputLimits::max_pickle_objects}};
+
+int64_t ParsePositive(const std::string& name, const std::string& value, const std::string& source) {
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(value.c_str(), &end, 10);
+  FREELOC_CHECK(!value.empty() && end && *end == '\0' && errno == 0 && v > 0,
+                source << ": limit " << name << " must be a positive integer, got '" << SafeText(value) << "'");
+  return v;
+}
+
+const Field& FindField(const std::string& name) {
+  for (const Field& f : kFields)
+    if (name == f.name) return f;
+  std::string choices;
+  for (const Field& f : kFields) choices += std::string(choices.empty() ? "" : ", ") + f.name;
+  FREELOC_THROW("--limit: unknown limit '" << SafeText(name) << "'; the limits are " << choices);
+}
+
+InputLimits& Mutable() {
+  static InputLimits limits = [] {
+    InputLimits l;
+    for (const Field& f : kFields) {
+      std::string env = "FREELOC_LIMIT_";
+      for (const char* c = f.name; *c; ++c) env += static_cast<char>(std::toupper(static_cast<unsigned char>(*c)));
+      if (const char* v = std::getenv(env.c_str())) l.*(f.member) = ParsePositive(f.name, v, env);
+    }
+    return l;
+  }();
+  return limits;
+}
+
+}  // namespace
+
+const InputLimits& Limits() { return Mutable(); }
+
+void SetLimit(const std::string& name, const std::string& value) {
+  const Field& f = FindField(name);
+  Mutable().*(f.member) = ParsePositive(name, value, "--limit");
+}
+
+std::vector<std::string> LimitNames() {
+  std::vector<std::string> out;
+  for (const Field& f : kFields) out.push_back(f.name);
+  return out;
+}
+
+std::string LimitHint(const std::string& name) {
+  const Field& f = FindField(name);
+  return "limit " + name + " = " + std::to_string(Limits().*(f.member)) + "; raise it with --limit " + name + "=N";
+}
+
+}  // namespace freeloc
