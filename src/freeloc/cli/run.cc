@@ -110,8 +110,16 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
   spec.out = (std::filesystem::temp_directory_path() / ("freeloc_demo_" + std::to_string(getpid()) + ".zip")).string();
   const pipeline::RunResult r = pipeline::RunBenchmark(spec, o);
   PrintDemoTable(r);
-  const eval::EvalRun run = eval::RunEvaluation(r.split_dir, r.scenes, spec.out);
-  std::printf("%s", eval::MarkdownReport(run).c_str());
+  size_t estimated = 0;
+  for (const auto& [name, results] : r.results)
+    for (const auto& q : results) estimated += q.ok() ? 1 : 0;
+  if (estimated > 0) {
+    const eval::EvalRun run = eval::RunEvaluation(r.split_dir, r.scenes, spec.out);
+    std::printf("%s", eval::MarkdownReport(run).c_str());
+  } else {
+    // Weights that match nothing (e.g. random test weights) give no consensus anywhere: say so, not a metric table.
+    std::printf("(no query got a pose: the matches show no geometric consensus — no metrics to report)\n");
+  }
   std::error_code ec;
   std::filesystem::remove(spec.out, ec);
   std::filesystem::remove(spec.out + ".json", ec);

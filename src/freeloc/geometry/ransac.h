@@ -30,6 +30,7 @@ struct RansacOptions {
   int max_iterations = 100000;
   uint64_t seed = 0;
   bool local_optimization = true;
+  double max_seconds = 0;  // wall-clock budget (0: none); hit → stop_reason "time-budget"
 };
 
 struct RansacStats {
@@ -37,7 +38,8 @@ struct RansacStats {
   int num_inliers = 0;
   int local_optimizations = 0;
   double score = std::numeric_limits<double>::infinity();  // MSAC score of the best model (lower is better)
-  std::string stop_reason;  // "confidence" (stopping rule met), "max-iterations", "too-few-data", "no-model"
+  // "confidence" (stopping rule met), "max-iterations", "time-budget", "too-few-data", "no-model"
+  std::string stop_reason;
 };
 
 // splitmix64 — small, fast and seedable; sampling needs no more.
@@ -107,9 +109,16 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, typename Esti
   int sample[k];
   double needed = static_cast<double>(opt.max_iterations);
   bool have = false;
+  bool out_of_time = false;
   int iter = 0;
+  const auto t0 = std::chrono::steady_clock::now();
   for (; iter < opt.max_iterations; ++iter) {
     if (iter >= opt.min_iterations && iter >= needed) break;
+    if (opt.max_seconds > 0 && iter % 16 == 15 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.max_seconds) {
+      out_of_time = true;
+      break;
+    }
     // Sample k distinct indices.
     for (int i = 0; i < k; ++i) {
       bool dup;
@@ -149,7 +158,9 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, typename Esti
   if (!have) {
     st.stop_reason = "no-model";
   } else {
-    st.stop_reason = iter >= opt.max_iterations && needed >= opt.max_iterations ? "max-iterations" : "confidence";
+    st.stop_reason = out_of_time ? "time-budget"
+                     : iter >= opt.max_iterations && needed >= opt.max_iterations ? "max-iterations"
+                                                                                  : "confidence";
   }
   return st;
 }

@@ -15,6 +15,8 @@ void RelativePoseOptions::Validate() const {
   FREELOC_CHECK(success_prob > 0 && success_prob < 1, "relative pose: success probability must be in (0, 1)");
   FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && min_iterations <= max_iterations,
                 "relative pose: need 0 <= min_iterations <= max_iterations");
+  FREELOC_CHECK(min_inliers >= 5, "relative pose: min_inliers must be at least 5 (the minimal sample)");
+  FREELOC_CHECK(max_seconds >= 0 && std::isfinite(max_seconds), "relative pose: max_seconds must be >= 0");
 }
 
 void CheckFinite(const std::vector<Eigen::Vector2d>& pts, const std::string& what) {
@@ -156,18 +158,48 @@ double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vec
 }
 
 namespace {
-// Degenerate support: the inliers cover (almost) a single pixel in either image — no geometry to speak of.
-bool InliersSpanAPixel(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+// The smaller principal spread (standard deviation, pixels) of the inlier points of one image.
+double MinorSpread(const std::vector<Eigen::Vector2d>& px, const std::vector<char>& inliers) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  int n = 0;
+  for (size_t i = 0; i < px.size(); ++i)
+    if (inliers[i]) {
+      mean += px[i];
+      ++n;
+    }
+  if (n == 0) return 0;
+  mean /= n;
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (size_t i = 0; i < px.size(); ++i)
+    if (inliers[i]) cov += (px[i] - mean) * (px[i] - mean).transpose();
+  cov /= n;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+  return std::sqrt(std::max(0.0, eig.eigenvalues()(0)));
+}
+
+// Degenerate support: the inliers lie on (almost) a line or a single pixel in either image — the essential
+// matrix is not determined by them (a 2-pixel band: collinear points, one edge, one blob).
+bool InliersDegenerate(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
                        const std::vector<char>& inliers) {
-  Eigen::Vector2d lo1 = Eigen::Vector2d::Constant(1e300), hi1 = -lo1, lo2 = lo1, hi2 = hi1;
-  for (size_t i = 0; i < px_ref.size(); ++i) {
-    if (!inliers[i]) continue;
-    lo1 = lo1.cwiseMin(px_ref[i]);
-    hi1 = hi1.cwiseMax(px_ref[i]);
-    lo2 = lo2.cwiseMin(px_query[i]);
-    hi2 = hi2.cwiseMax(px_query[i]);
+  return MinorSpread(px_ref, inliers) < 1.0 || MinorSpread(px_query, inliers) < 1.0;
+}
+
+// Inliers of `pose` when the query points are paired with other reference points (fixed shuffles, averaged):
+// what chance alone gives this model with these point distributions.
+int ChanceInliers(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2, const PoseRt& pose,
+                  double threshold_sq) {
+  const size_t n = x1.size();
+  if (n < 2) return 0;
+  const Eigen::Matrix3d E = EssentialFromPose(pose);
+  SplitMix64 rng(12345);
+  int total = 0;
+  constexpr int kShuffles = 3;
+  for (int s = 0; s < kShuffles; ++s) {
+    const size_t offset = 1 + rng.Below(static_cast<uint32_t>(n - 1));  // a derangement: i → i + offset (mod n)
+    for (size_t i = 0; i < n; ++i)
+      if (SampsonSquared(E, x1[i], x2[(i + offset) % n]) < threshold_sq) ++total;
   }
-  return (hi1 - lo1).maxCoeff() < 2.0 || (hi2 - lo2).maxCoeff() < 2.0;
+  return total / kShuffles;
 }
 }  // namespace
 
@@ -191,7 +223,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     res.status.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return res;
   };
-  if (px_ref.size() < 5) return finish("too-few-matches");
+  if (px_ref.size() < static_cast<size_t>(opt.min_inliers)) return finish("too-few-matches");
   std::vector<Eigen::Vector3d> x1(px_ref.size()), x2(px_ref.size());
   for (size_t i = 0; i < px_ref.size(); ++i) {
     x1[i] = ref.Unproject(px_ref[i].x(), px_ref[i].y());
@@ -207,6 +239,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   ro.max_iterations = opt.max_iterations;
   ro.seed = opt.seed;
   ro.local_optimization = opt.local_optimization;
+  ro.max_seconds = opt.max_seconds;
   RelModel best_model;
   const RansacStats st = Ransac(est, ro, &best_model);
   PoseRt best = best_model.pose;
@@ -239,8 +272,15 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     }
   }
   res.status.num_inliers = n_in;
-  if (n_in < 5) return finish("no-consensus");
-  if (InliersSpanAPixel(px_ref, px_query, res.inliers)) {
+  res.status.chance_inliers = ChanceInliers(x1, x2, best, ro.threshold_sq);
+  // Support must beat chance clearly: RANSAC maximises over thousands of hypotheses, so a random set's best model
+  // exceeds its shuffled support by several standard deviations; real geometry exceeds it many times over.
+  const double chance = res.status.chance_inliers;
+  if (n_in < opt.min_inliers || n_in < 2 * chance + 8 * std::sqrt(chance)) {
+    res.inliers.assign(px_ref.size(), 0);
+    return finish("no-consensus");
+  }
+  if (InliersDegenerate(px_ref, px_query, res.inliers)) {
     res.inliers.assign(px_ref.size(), 0);
     res.status.num_inliers = 0;
     return finish("degenerate");

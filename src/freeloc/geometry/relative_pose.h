@@ -23,12 +23,17 @@ struct RelativePoseOptions {
   bool local_optimization = true;
   bool final_refinement = true;
   int refinement_iterations = 25;
+  // Never a confident wrong answer (issue 16): fewer inliers than this is no consensus (5 matches always fit a
+  // 5-point model exactly), and so is a support no larger than what the same model gets from shuffled pairs.
+  int min_inliers = 10;
+  double max_seconds = 10.0;  // RANSAC wall-clock budget; then the best model so far, if it passes the checks
   void Validate() const;  // throws freeloc::Error
 };
 
 struct EstimatorStatus {
   bool success = false;
   std::string reason;       // "ok", "too-few-matches", "no-consensus", "degenerate"
+  int chance_inliers = 0;   // inliers of the final model on shuffled pairs (what chance alone gives)
   std::string stop_reason;  // from RANSAC: "confidence", "max-iterations", …
   int num_matches = 0;
   int iterations = 0;

@@ -133,3 +133,62 @@ TEST(RelativePose, DegenerateInputsAreStatusesNotExceptions) {
 
 }  // namespace
 }  // namespace freeloc::geometry
+
+namespace freeloc::geometry {
+namespace {
+
+// Issue 16: never a confident wrong answer.
+TEST(RelativePoseSafety, FiveMatchesAreTooFewNotOk) {
+  const TwoView tv = MakeTwoView(21, 5, 0.0, 0.0);
+  const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query);
+  EXPECT_FALSE(r.status.success);
+  EXPECT_EQ(r.status.reason, "too-few-matches");
+  // Twelve exact matches of real geometry still give the pose.
+  const TwoView twelve = MakeTwoView(22, 12, 0.0, 0.0);
+  const RelativePoseResult r12 = EstimateRelativePose(twelve.p1, twelve.p2, twelve.ref, twelve.query);
+  ASSERT_TRUE(r12.status.success) << r12.status.reason;
+  EXPECT_LT(RotationAngleDeg(r12.query_from_ref.rotation, twelve.truth.rotation), 1e-4);
+}
+
+TEST(RelativePoseSafety, CollinearPointsAreDegenerate) {
+  // Points on one 3D line project onto a line in both images: no essential matrix is determined.
+  TwoView tv = MakeTwoView(23, 1, 0.0, 0.0);
+  tv.p1.clear();
+  tv.p2.clear();
+  for (int k = 0; k < 60; ++k) {
+    const Eigen::Vector3d X(-1 + 0.03 * k, 0.2 + 0.01 * k, 4 + 0.05 * k);
+    tv.p1.push_back(tv.ref.Project(X));
+    tv.p2.push_back(tv.query.Project(tv.truth * X));
+  }
+  const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query);
+  EXPECT_FALSE(r.status.success);
+  EXPECT_TRUE(r.status.reason == "degenerate" || r.status.reason == "no-consensus") << r.status.reason;
+}
+
+TEST(RelativePoseSafety, RandomMatchesGiveNoConsensusWithinTheBudget) {
+  for (uint32_t seed : {31u, 32u}) {
+    const TwoView tv = MakeTwoView(seed, 1500, 1.0);  // all outliers
+    RelativePoseOptions o;
+    o.threshold_px = 3.0;
+    const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, o);
+    EXPECT_FALSE(r.status.success) << "seed " << seed << ": " << r.status.num_inliers << " inliers, chance "
+                                   << r.status.chance_inliers;
+    EXPECT_EQ(r.status.reason, "no-consensus");
+  }
+  // A time budget stops a hopeless search (100 000 random matches once took 23 s to give "ok").
+  const TwoView big = MakeTwoView(34, 100000, 1.0);
+  RelativePoseOptions o;
+  o.threshold_px = 3.0;
+  o.max_seconds = 0.5;
+  const RelativePoseResult r = EstimateRelativePose(big.p1, big.p2, big.ref, big.query, o);
+  EXPECT_FALSE(r.status.success);
+  EXPECT_EQ(r.status.stop_reason, "time-budget");
+  // Real geometry with 70 % outliers still passes the chance test.
+  const TwoView real = MakeTwoView(35, 2000, 0.7, 0.5);
+  const RelativePoseResult rr = EstimateRelativePose(real.p1, real.p2, real.ref, real.query, o);
+  ASSERT_TRUE(rr.status.success) << rr.status.reason;
+  EXPECT_LT(RotationAngleDeg(rr.query_from_ref.rotation, real.truth.rotation), 0.5);
+}
+
+}  // namespace
+}  // namespace freeloc::geometry

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "freeloc/core/error.h"
@@ -84,6 +85,7 @@ std::vector<std::vector<Eigen::Vector4d>> MapfreeScene::LoadCorrespondences(cons
 
 std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& ipath) {
   std::vector<MapfreeFrame> out;
+  std::map<std::string, size_t> seen;  // frame → its line
   const auto lines = py::SplitLines(ReadText(ipath));
   for (size_t i = 0; i < lines.size(); ++i) {
     const std::string where = ipath + " line " + std::to_string(i + 1);
@@ -97,10 +99,16 @@ std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& ipath) {
     f.camera.fy = Number(parts[2], where);
     f.camera.cx = Number(parts[3], where);
     f.camera.cy = Number(parts[4], where);
-    f.camera.width = static_cast<int>(Number(parts[5], where));
-    f.camera.height = static_cast<int>(Number(parts[6], where));
+    const double w = Number(parts[5], where), h = Number(parts[6], where);
+    FREELOC_CHECK(w >= 1 && h >= 1 && w <= 1e6 && h <= 1e6 && w == std::floor(w) && h == std::floor(h),
+                  where << ": width and height must be whole numbers of pixels in [1, 10^6], got " << parts[5] << " "
+                        << parts[6]);
+    f.camera.width = static_cast<int>(w);
+    f.camera.height = static_cast<int>(h);
     f.camera.Validate(where);
-    FREELOC_CHECK(f.camera.width > 0 && f.camera.height > 0, where << ": width and height must be positive");
+    const auto [it, fresh] = seen.emplace(f.name, i + 1);
+    FREELOC_CHECK(fresh, where << ": frame " << SafeText(f.name) << " is already listed on line " << it->second
+                               << "; each frame needs exactly one intrinsics line");
     out.push_back(f);
   }
   return out;

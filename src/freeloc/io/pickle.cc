@@ -4,6 +4,7 @@
 #include <set>
 #include <sstream>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "freeloc/core/error.h"
 
@@ -386,10 +387,11 @@ class Unpickler {
   // A stream refused half-way may have built reference cycles (a list appended to itself): cut every container's
   // edges so that nothing leaks.
   ~Unpickler() {
-    if (ok_) return;
     stack_.clear();
     memo_.clear();
     for (const auto& o : containers_) {
+      // After a successful parse only what the result cannot reach is cut (a cycle left on the stack or in the memo).
+      if (ok_ && reachable_.count(o.get())) continue;
       o->items.clear();
       o->dict.clear();
       o->args.reset();
@@ -760,6 +762,7 @@ class Unpickler {
       me.done = true;
       stack.pop_back();
     }
+    for (const auto& [o, i] : info) reachable_.insert(o);
   }
   PyRef Pop() {
     FREELOC_CHECK(!stack_.empty() && (marks_.empty() || stack_.size() > marks_.back()),
@@ -889,6 +892,7 @@ class Unpickler {
   bool ok_ = false;
   size_t pushed_ = 0;
   std::vector<PyRef> containers_;
+  std::unordered_set<const PyObject*> reachable_;
   std::vector<PyRef> stack_;
   std::vector<size_t> marks_;
   std::unordered_map<size_t, PyRef> memo_;

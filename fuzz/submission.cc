@@ -1,0 +1,13 @@
+// libFuzzer target: submission ZIPs (ZipContents::Read) and the pose files inside them.
+#include "freeloc/io/submission.h"
+
+#include "fuzz_input.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace freeloc;
+  fuzz::Expect([&] {
+    const ZipContents z = ZipContents::Read(fuzz::AsFile(data, size, ".zip"));
+    for (const auto& [name, text] : z.files) (void)ParseOfficialPoses(text, true).size();
+  });
+  return 0;
+}
