@@ -3,7 +3,7 @@
 # fuzz/corpus/<target> + fuzz/regressions/<target>, and prints a Markdown table: executions, coverage, findings.
 # Findings (crash-*, leak-*, timeout-*, oom-* files) are left in <build>/fuzz-findings/<target>/; add each to
 # fuzz/regressions/<target>/ once fixed, so that `make test` replays it.
-#   usage: scripts/run-fuzzers.sh BUILD_DIR [SECONDS] [RUNS] [TARGET...]
+#   usage: scripts/run-fuzzers.sh BUILD_DIR [SECONDS] [RUNS] [TARGET...]   (FUZZ_MAX_LEN: input size, 4096)
 set -euo pipefail
 build=${1:?build dir}
 seconds=${2:-60}
@@ -22,7 +22,7 @@ for t in "${targets[@]}"; do
   log="$build/fuzz-$t.log"
   start=$(date +%s)
   FREELOC_FUZZ_TMP="$work" "$build/fuzz/fuzz_$t" -max_total_time="$seconds" -runs="$runs" -rss_limit_mb=2048 \
-    -timeout=20 -print_final_stats=1 -artifact_prefix="$found/" "$work" "${seeds[@]}" >"$log" 2>&1 || true
+    -timeout=20 -max_len="${FUZZ_MAX_LEN:-4096}" -print_final_stats=1 -artifact_prefix="$found/" "$work" "${seeds[@]}" >"$log" 2>&1 || true
   elapsed=$(( $(date +%s) - start ))
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
   rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)

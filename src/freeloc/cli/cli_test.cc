@@ -762,3 +762,21 @@ TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
 }
 
 }  // namespace
+
+// Issue 16: limits are the user's to set (flag or environment), and a limit error is one line naming the limit.
+TEST(Cli, InputLimitsAreSetByFlagOrEnvironment) {
+  FREELOC_REQUIRE_SHARED("fixtures/pth/formats.pth");
+  const std::string pth = freeloc::testing::SharedPath("fixtures/pth/formats.pth");
+  Result ok = RunFreeloc("inspect " + pth);
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  Result flag = RunFreeloc("--limit max_tensors=1 inspect " + pth);
+  EXPECT_EQ(flag.code, 1) << flag.out;
+  EXPECT_TRUE(Contains(flag.out, "--limit max_tensors=N")) << flag.out;
+  EXPECT_EQ(std::count(flag.out.begin(), flag.out.end(), '\n'), 1) << flag.out;
+  Result env = RunFreeloc("inspect " + pth, "-u FREELOC_MODELS FREELOC_LIMIT_MAX_TENSORS=1");
+  EXPECT_EQ(env.code, 1) << env.out;
+  EXPECT_TRUE(Contains(env.out, "max_tensors")) << env.out;
+  Result bad = RunFreeloc("--limit max_pixels=5 inspect " + pth);
+  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_TRUE(Contains(bad.out, "unknown limit 'max_pixels'; the limits are max_image_pixels")) << bad.out;
+}

@@ -48,33 +48,36 @@ int RunInspect(const InspectOptions& o) {
     total_elems += t.numel();
     if (!o.filter.empty() && n.find(o.filter) == std::string::npos) continue;
     shown.push_back(n);
-    name_w = std::max(name_w, n.size());
+    name_w = std::max(name_w, std::min<size_t>(SafeText(n, 4096).size(), 120));
     dtype_w = std::max(dtype_w, std::string(DTypeTorchName(t.dtype)).size());
   }
-  std::printf("file:     %s\n", o.path.c_str());
+  // Names and metadata come from the file: printed through SafeText, so escape codes cannot reach the terminal.
+  std::printf("file:     %s\n", SafeText(o.path, 4096).c_str());
   std::printf("format:   %s\n", ckpt.format_name());
   std::printf("tensors:  %zu (%lld elements, %s)\n", ckpt.size(), static_cast<long long>(total_elems),
               HumanBytes(static_cast<double>(total_bytes)).c_str());
   if (ckpt.format() == Checkpoint::Format::kPth && !ckpt.StateDictRoot().empty()) {
-    std::printf("state dict under: '%s'\n", ckpt.StateDictRoot().c_str());
+    std::printf("state dict under: '%s'\n", SafeText(ckpt.StateDictRoot(), 4096).c_str());
   }
   const std::string model = ckpt.MetadataOr("args.model", "");
-  if (!model.empty()) std::printf("model constructor (args.model): %s\n", model.c_str());
+  if (!model.empty()) std::printf("model constructor (args.model): %s\n", SafeText(model, 4096).c_str());
   if (!ckpt.metadata().empty() && !o.names_only) {
     std::printf("\nmetadata (%zu):\n", ckpt.metadata().size());
-    for (const auto& [k, v] : ckpt.metadata()) std::printf("  %s = %s\n", k.c_str(), OneLine(v).c_str());
+    for (const auto& [k, v] : ckpt.metadata())
+      std::printf("  %s = %s\n", SafeText(k, 4096).c_str(), SafeText(OneLine(v), 4096).c_str());
   }
   std::printf("\n%-*s  %-*s  %s\n", static_cast<int>(name_w), "name", static_cast<int>(dtype_w), "dtype", "shape");
   for (const auto& n : shown) {
     if (o.names_only) {
-      std::printf("%s\n", n.c_str());
+      std::printf("%s\n", SafeText(n, 4096).c_str());
       continue;
     }
     const TensorView& t = ckpt.Get(n);
-    std::printf("%-*s  %-*s  %s\n", static_cast<int>(name_w), n.c_str(), static_cast<int>(dtype_w),
+    std::printf("%-*s  %-*s  %s\n", static_cast<int>(name_w), SafeText(n, 4096).c_str(), static_cast<int>(dtype_w),
                 DTypeTorchName(t.dtype), t.ShapeString().c_str());
   }
-  if (!o.filter.empty()) std::printf("(%zu of %zu tensors match '%s')\n", shown.size(), ckpt.size(), o.filter.c_str());
+  if (!o.filter.empty())
+    std::printf("(%zu of %zu tensors match '%s')\n", shown.size(), ckpt.size(), SafeText(o.filter).c_str());
   return 0;
 }
 

@@ -8,6 +8,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/limits.h"
 #include "freeloc/io/image_io.h"
+#include "freeloc/io/mapfree.h"
 #include "freeloc/io/pickle.h"
 #include "freeloc/io/safetensors.h"
 #include "freeloc/io/submission.h"
@@ -173,6 +174,24 @@ TEST(HostileLimits, LimitsAreNamedAndValidated) {
   EXPECT_NE(ErrorOf([] { SetLimit("max_tensors", "1e3"); }).find("positive integer"), std::string::npos);
   EXPECT_EQ(SafeText("a\x1b[31mb\nc"), "a\\x1b[31mb\\x0ac");
   EXPECT_EQ(SafeText(std::string(300, 'x'), 10), std::string(10, 'x') + "…");
+}
+
+TEST(HostileText, IntrinsicsOutOfRangeOrDuplicatedAreRefused) {
+  testing::TempDir tmp;
+  auto read = [&](const std::string& text) {
+    testing::WriteText(tmp.File("intrinsics.txt"), text);
+    return ErrorOf([&] { ReadIntrinsicsFile(tmp.File("intrinsics.txt")); });
+  };
+  EXPECT_EQ(read("seq0/frame_00000.jpg 500 500 270 360 540 720\n"), "");
+  EXPECT_NE(read("seq0/frame_00000.jpg 500 500 1e6 360 540 720\n").find("far outside the 540x720 image"),
+            std::string::npos);
+  EXPECT_NE(read("seq0/frame_00000.jpg 1e9 500 270 360 540 720\n").find("100 image widths"), std::string::npos);
+  EXPECT_NE(read("seq0/frame_00000.jpg 500 500 270 360 1e300 720\n").find("whole numbers"), std::string::npos);
+  EXPECT_NE(read("seq0/frame_00000.jpg 500 500 270 360 540.5 720\n").find("whole numbers"), std::string::npos);
+  const std::string dup = read(
+      "seq0/frame_00000.jpg 500 500 270 360 540 720\nseq1/frame_00000.jpg 500 500 270 360 540 720\n"
+      "seq0/frame_00000.jpg 600 600 270 360 540 720\n");
+  EXPECT_NE(dup.find("line 3: frame seq0/frame_00000.jpg is already listed on line 1"), std::string::npos) << dup;
 }
 
 }  // namespace

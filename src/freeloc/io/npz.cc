@@ -140,6 +140,10 @@ NpyArray ParseNpy(const uint8_t* b, size_t n, const std::string& what) {
   FREELOC_CHECK(static_cast<uint64_t>(need) <= n - data_start,
                 what << ": .npy data holds " << (n - data_start) << " bytes, shape needs " << need
                      << "; the file is truncated");
+  // Values are held as doubles: a 1-byte dtype costs 8x its file size, so the element count is bounded too.
+  FREELOC_CHECK(numel <= Limits().max_zip_member_bytes / 8,
+                what << ": " << numel << " elements would take " << numel * 8 << " bytes as doubles, beyond the "
+                     << LimitHint("max_zip_member_bytes") << " (/ 8 per element)");
   TensorView view;
   view.dtype = dt;
   view.shape = a.shape;

@@ -149,11 +149,21 @@ class Journal {
   void Open(bool keep) {
     const int fd = ::open(path_.c_str(), O_RDWR | O_CREAT, 0644);
     FREELOC_CHECK(fd >= 0, path_ << ": cannot write the progress file; check the folder of the submission");
+    // flock excludes every other open (this process's too); a POSIX record lock beside it lets the refused run
+    // name the process that holds the file (F_GETLK).
+    struct flock record {};
+    record.l_type = F_WRLCK;
+    record.l_whence = SEEK_SET;
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      struct flock holder = record;
+      const bool known = ::fcntl(fd, F_GETLK, &holder) == 0 && holder.l_type != F_UNLCK && holder.l_pid > 0;
       ::close(fd);
-      FREELOC_THROW(path_ << ": another freeloc run is writing this submission (its progress file is locked); "
-                             "wait for it, or choose another --out");
+      FREELOC_THROW(path_ << ": another freeloc run"
+                          << (known ? " (process " + std::to_string(holder.l_pid) + ")" : std::string())
+                          << " is writing this submission (its progress file is locked); wait for it, or choose "
+                             "another --out");
     }
+    ::fcntl(fd, F_SETLK, &record);  // best effort: only used to name this process to a refused run
     struct stat st {};
     ::fstat(fd, &st);
     const bool resume = keep && st.st_size > 0;

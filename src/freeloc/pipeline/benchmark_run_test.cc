@@ -4,6 +4,11 @@
 
 #include <c10/util/Exception.h>
 #include <gtest/gtest.h>
+#include <csignal>
+#include <unistd.h>
+#include <sys/wait.h>
+#include <sys/file.h>
+#include <fcntl.h>
 
 #include <filesystem>
 
@@ -161,6 +166,32 @@ TEST(BenchmarkRun, RefusesBadSpecsBeforeAnyWork) {
   EXPECT_THROW(Shard::FromString("0/2"), Error);
   EXPECT_THROW(Shard::FromString("3/2"), Error);
   EXPECT_THROW(Shard::FromString("1/2x"), Error);
+}
+
+// A run refused because another process holds the journal names that process.
+TEST(BenchmarkRun, ARefusedRunNamesTheProcessHoldingTheJournal) {
+  Split split;
+  const std::string journal = split.out() + ".progress.jsonl";
+  testing::WriteText(journal, "");
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  const pid_t child = ::fork();
+  if (child == 0) {  // holds the journal like a running freeloc, until killed
+    const int fd = ::open(journal.c_str(), O_RDWR);
+    struct flock record {};
+    record.l_type = F_WRLCK;
+    record.l_whence = SEEK_SET;
+    if (fd < 0 || ::flock(fd, LOCK_EX) != 0 || ::fcntl(fd, F_SETLK, &record) != 0) ::_exit(1);
+    if (::write(ready[1], "x", 1) != 1) ::_exit(1);
+    ::pause();
+    ::_exit(0);
+  }
+  char c = 0;
+  ASSERT_EQ(::read(ready[0], &c, 1), 1);
+  const std::string e = testing::ErrorOf([&] { RunBenchmark(Spec(split), Options()); });
+  ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
+  EXPECT_NE(e.find("(process " + std::to_string(child) + ") is writing this submission"), std::string::npos) << e;
 }
 
 // Crash safety of the journal: a second run on the same --out is refused while the first holds it; a torn last

@@ -108,6 +108,12 @@ torch::Tensor WeightStore::Take(const std::string& name, const std::vector<int64
       wrong_shape_.push_back(os.str());
     }
   }
+  if (!t.is_floating_point()) {
+    // A weight stored as an integer type (a float's bits read as int32 once gave all-inf outputs) is refused.
+    std::ostringstream os;
+    os << name << " is " << t.scalar_type() << " (a network weight must be a floating-point tensor)";
+    wrong_shape_.push_back(os.str());
+  }
   if (t.scalar_type() != torch::kFloat32 || t.device() != device_) t = t.to(device_, torch::kFloat32);
   return t;
 }
