@@ -35,7 +35,8 @@ demo: build
 bench: build
 	$(BUILD_DIR)/bench/gemm
 
-fuzz: deps
+fuzz:
+	FREELOC_DEPS_FUZZ=1 bash scripts/install-deps.sh
 	CC=clang CXX=clang++ cmake -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFREELOC_FUZZ=ON \
 	  -DFREELOC_SANITIZE=address,undefined -DFREELOC_BUILD_TESTS=OFF -DFREELOC_BUILD_BENCH=OFF \
 	  -DFREELOC_BUILD_PYTHON=OFF

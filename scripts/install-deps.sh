@@ -17,6 +17,10 @@ PACKAGES=(
   chromium
   clang-format
 )
+# `make fuzz` also needs clang with libFuzzer and the sanitizer runtimes (not part of `make test`).
+if [ "${FREELOC_DEPS_FUZZ:-0}" = 1 ]; then
+  PACKAGES+=(clang libclang-rt-14-dev)
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

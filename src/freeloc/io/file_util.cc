@@ -77,8 +77,10 @@ void WriteFileAtomicWith(const std::string& path, const std::function<void(const
     writer(tmp);
     const int fd = ::open(tmp.c_str(), O_RDONLY);
     if (fd >= 0) {
-      ::fsync(fd);
+      // A full disk or a failing network file system may only show here: never rename a file that did not land.
+      const bool synced = ::fsync(fd) == 0 || errno == EINVAL;
       ::close(fd);
+      FREELOC_CHECK(synced, path << ": writing failed (" << std::strerror(errno) << "); check free disk space");
     }
     fs::rename(tmp, target, ec);
     FREELOC_CHECK(!ec, path << ": cannot move the finished file into place (" << ec.message() << ")");
@@ -93,8 +95,8 @@ void WriteFileAtomic(const std::string& path, const void* bytes, size_t size) {
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
     FREELOC_CHECK(f != nullptr, path << ": cannot write (" << std::strerror(errno) << ")");
     const size_t n = size ? std::fwrite(bytes, 1, size, f) : 0;
-    const bool ok = (n == size) && std::fflush(f) == 0;
-    std::fclose(f);
+    bool ok = n == size && std::fflush(f) == 0;
+    ok = std::fclose(f) == 0 && ok;  // always closed; a delayed write error shows here
     FREELOC_CHECK(ok, path << ": write failed (disk full?)");
   });
 }

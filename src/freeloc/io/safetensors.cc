@@ -19,6 +19,36 @@ struct Range {
   std::string name;
 };
 
+// Counts a header's values and nesting without building it; stops (returns false) past the bounds.
+struct HeaderBounds {
+  int64_t max_values = 0;
+  int64_t values = 0;
+  int depth = 0;
+  bool depth_exceeded = false;
+  std::string error;
+  bool Value() { return ++values <= max_values; }
+  bool null() { return Value(); }
+  bool boolean(bool) { return Value(); }
+  bool number_integer(int64_t) { return Value(); }
+  bool number_unsigned(uint64_t) { return Value(); }
+  bool number_float(double, const std::string&) { return Value(); }
+  bool string(std::string&) { return Value(); }
+  bool binary(std::vector<uint8_t>&) { return Value(); }
+  bool key(std::string&) { return Value(); }
+  bool Open() {
+    depth_exceeded = ++depth > 4;
+    return !depth_exceeded && Value();
+  }
+  bool start_object(size_t) { return Open(); }
+  bool start_array(size_t) { return Open(); }
+  bool end_object() { return --depth, true; }
+  bool end_array() { return --depth, true; }
+  bool parse_error(size_t, const std::string&, const nlohmann::detail::exception& e) {
+    error = e.what();
+    return false;
+  }
+};
+
 // One tensor entry of the header: dtype, shape and data_offsets checked against each other and the data size.
 TensorView ParseEntry(const nlohmann::json& entry, const std::string& where, const std::string& fix,
                       uint64_t data_size, uint64_t* begin, uint64_t* end) {
@@ -86,26 +116,25 @@ SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::s
                 bad << "header length " << n << " runs past the end of the file (" << size << " bytes)" << fix);
   FREELOC_CHECK(n <= kMaxHeader, bad << "header length " << n << " exceeds 100 MB" << fix);
   FREELOC_CHECK(n >= 2, bad << "header of " << n << " bytes cannot hold a JSON object" << fix);
-  // nlohmann::json (a sorted map: O(n log n), where the insertion-ordered map was quadratic in the tensor count),
-  // with its parse events counted so that nesting and size stay what a header can need.
-  const int64_t max_values = 16 * Limits().max_tensors + 1024;
-  int64_t values = 0;
-  int depth = 0;
-  const nlohmann::json::parser_callback_t guard = [&](int, nlohmann::json::parse_event_t event, nlohmann::json&) {
-    using E = nlohmann::json::parse_event_t;
-    if (event == E::object_start || event == E::array_start) {
-      FREELOC_CHECK(++depth <= 4, bad << "header nests deeper than a safetensors header does" << fix);
-    } else if (event == E::object_end || event == E::array_end) {
-      --depth;
-    } else if (event == E::value || event == E::key) {
-      FREELOC_CHECK(++values <= max_values, what << ": safetensors header holds more than " << max_values
-                                                  << " values; refused (" << LimitHint("max_tensors") << ")");
-    }
-    return true;
-  };
+  // nlohmann::json (a sorted map: O(n log n), where the insertion-ordered map was quadratic in the tensor count).
+  // A SAX pass first bounds nesting and size to what a header can need (nlohmann's parse callbacks are themselves
+  // quadratic, so they are not used).
+  HeaderBounds bounds;
+  bounds.max_values = 16 * Limits().max_tensors + 1024;
+  bool well_formed = false;
+  try {
+    well_formed = nlohmann::json::sax_parse(bytes + 8, bytes + 8 + n, &bounds);
+  } catch (const nlohmann::json::exception& e) {
+    FREELOC_THROW(bad << "header is not valid JSON (" << e.what() << ")" << fix);
+  }
+  FREELOC_CHECK(bounds.depth_exceeded == false, bad << "header nests deeper than a safetensors header does" << fix);
+  FREELOC_CHECK(bounds.values <= bounds.max_values, what << ": safetensors header holds more than "
+                                                         << bounds.max_values << " values; refused ("
+                                                         << LimitHint("max_tensors") << ")");
+  FREELOC_CHECK(well_formed, bad << "header is not valid JSON (" << bounds.error << ")" << fix);
   nlohmann::json header;
   try {
-    header = nlohmann::json::parse(bytes + 8, bytes + 8 + n, guard);
+    header = nlohmann::json::parse(bytes + 8, bytes + 8 + n);
   } catch (const nlohmann::json::exception& e) {
     FREELOC_THROW(bad << "header is not valid JSON (" << e.what() << ")" << fix);
   }

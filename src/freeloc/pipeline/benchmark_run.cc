@@ -7,7 +7,9 @@
 
 #include <algorithm>
 #include <csignal>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <set>
 
 #include <cstdio>
@@ -212,7 +214,8 @@ class Journal {
     const std::string text = line + "\n";
     FREELOC_CHECK(std::fwrite(text.data(), 1, text.size(), file_) == text.size() && std::fflush(file_) == 0,
                   path_ << ": write failed; check free disk space");
-    fsync(fileno(file_));
+    FREELOC_CHECK(fsync(fileno(file_)) == 0 || errno == EINVAL,
+                  path_ << ": write failed (" << std::strerror(errno) << "); check free disk space");
   }
   void Close() {
     if (file_) std::fclose(file_);
