@@ -45,6 +45,12 @@ void Camera::Validate(const std::string& what) const {
     const double size = std::max(width, height);
     FREELOC_CHECK(fx <= 100 * size && fy <= 100 * size,
                   what << ": focal length (" << fx << ", " << fy << ") exceeds 100 image widths; check the intrinsics");
+  } else {
+    // Without the image size: a principal point 100 focal lengths off-axis is a typo, not a camera.
+    const double f = std::max(fx, fy);
+    FREELOC_CHECK(std::abs(cx) <= 100 * f && std::abs(cy) <= 100 * f,
+                  what << ": principal point (" << cx << ", " << cy << ") is more than 100 focal lengths from the "
+                       << "image origin; check the intrinsics (fx, fy, cx, cy in pixels)");
   }
 }
 

@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "freeloc/core/camera.h"
 #include "freeloc/core/error.h"
 #include "freeloc/core/limits.h"
 #include "freeloc/io/image_io.h"
@@ -185,6 +186,8 @@ TEST(HostileText, IntrinsicsOutOfRangeOrDuplicatedAreRefused) {
   EXPECT_EQ(read("seq0/frame_00000.jpg 500 500 270 360 540 720\n"), "");
   EXPECT_NE(read("seq0/frame_00000.jpg 500 500 1e6 360 540 720\n").find("far outside the 540x720 image"),
             std::string::npos);
+  Camera c{500, 500, 1e6, 240, 0, 0};  // no image size known (freeloc pose --ref-intrinsics fx,fy,cx,cy)
+  EXPECT_NE(ErrorOf([&] { c.Validate("--ref-intrinsics"); }).find("100 focal lengths"), std::string::npos);
   EXPECT_NE(read("seq0/frame_00000.jpg 1e9 500 270 360 540 720\n").find("100 image widths"), std::string::npos);
   EXPECT_NE(read("seq0/frame_00000.jpg 500 500 270 360 1e300 720\n").find("whole numbers"), std::string::npos);
   EXPECT_NE(read("seq0/frame_00000.jpg 500 500 270 360 540.5 720\n").find("whole numbers"), std::string::npos);

@@ -35,12 +35,14 @@ TEST(Reciprocal, IdenticalToFixtureMatches) {
       const TensorView& b = f.Get(std::string(prefix) + ".xy_im1");
       ASSERT_EQ(static_cast<int64_t>(m.size()), a.shape[0]);
       EXPECT_EQ(static_cast<int64_t>(m.size()),
-                static_cast<int64_t>(f.Get(std::string(prefix) + ".num_matches").as<int64_t>()[0]));
+                // ToDouble, not as<int64_t>: the fixture's bytes need not be 8-byte aligned (UBSan).
+                static_cast<int64_t>(f.Get(std::string(prefix) + ".num_matches").ToDouble()[0]));
+      const std::vector<double> av = a.ToDouble(), bv = b.ToDouble();  // unaligned-safe copies
       for (size_t i = 0; i < m.size(); ++i) {
-        ASSERT_EQ(m[i].x1, a.as<int32_t>()[2 * i]) << i;
-        ASSERT_EQ(m[i].y1, a.as<int32_t>()[2 * i + 1]) << i;
-        ASSERT_EQ(m[i].x2, b.as<int32_t>()[2 * i]) << i;
-        ASSERT_EQ(m[i].y2, b.as<int32_t>()[2 * i + 1]) << i;
+        ASSERT_EQ(m[i].x1, av[2 * i]) << i;
+        ASSERT_EQ(m[i].y1, av[2 * i + 1]) << i;
+        ASSERT_EQ(m[i].x2, bv[2 * i]) << i;
+        ASSERT_EQ(m[i].y2, bv[2 * i + 1]) << i;
       }
       const auto bf = ReciprocalMatchesBruteForce(v1, v2, o);
       ASSERT_EQ(bf.size(), m.size());
