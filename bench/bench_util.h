@@ -1,7 +1,10 @@
 // Small helpers for the benchmark programs: timing, medians, peak RSS, Markdown tables.
 #pragma once
 
+#include <link.h>
 #include <sys/resource.h>
+
+#include <fstream>
 
 #include <algorithm>
 #include <chrono>
@@ -10,6 +13,35 @@
 #include <vector>
 
 namespace freeloc::bench {
+
+// "CPU: <model name> (<n> threads; avx512f avx512_vnni avx512_bf16 …) · BLAS: <the libblas/libopenblas loaded, or
+// none loaded>" — printed above every benchmark table (the machine differs between sessions).
+inline std::string MachineLine() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line, model = "unknown", flags;
+  int n = 0;
+  while (std::getline(f, line)) {
+    if (line.rfind("model name", 0) == 0 && model == "unknown") model = line.substr(line.find(':') + 2);
+    if (line.rfind("processor", 0) == 0) ++n;
+    if (line.rfind("flags", 0) == 0 && flags.empty()) flags = " " + line.substr(line.find(':') + 1) + " ";
+  }
+  std::string isa;
+  for (const char* fl : {"avx2", "avx512f", "avx512_vnni", "avx512_bf16", "amx_tile"})
+    if (flags.find(std::string(" ") + fl + " ") != std::string::npos) isa += std::string(isa.empty() ? "" : " ") + fl;
+  std::string blas;
+  dl_iterate_phdr(
+      [](struct dl_phdr_info* info, size_t, void* data) {
+        const std::string name = info->dlpi_name ? info->dlpi_name : "";
+        if (name.find("blas") != std::string::npos || name.find("mkl") != std::string::npos) {
+          auto* out = static_cast<std::string*>(data);
+          *out += (out->empty() ? "" : ", ") + name;
+        }
+        return 0;
+      },
+      &blas);
+  return "CPU: " + model + " (" + std::to_string(n) + " threads; " + isa + ") · BLAS: " +
+         (blas.empty() ? "none loaded by this program" : blas);
+}
 
 inline double NowSeconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();

@@ -388,7 +388,7 @@ auto NetworkInit() {
   });
 }
 
-// DUSt3R on a pair: the `freeloc pointmap --raw` outputs.
+// DUSt3R / MASt3R on a pair: the `freeloc pointmap` outputs (MASt3R: also desc_1/desc_conf_1/desc_2/desc_conf_2).
 py::dict Dust3rPair(const nn::Dust3rModel& m, const py::handle& img1, const py::handle& img2, int size) {
   const Image a = ImageOf(img1, "image_1"), b = ImageOf(img2, "image_2");
   Dust3rPreprocessOptions po;
@@ -408,6 +408,12 @@ py::dict Dust3rPair(const nn::Dust3rModel& m, const py::handle& img1, const py::
   d["conf_2"] = TensorArray(pr.conf_2);
   d["image_1"] = TensorArray(MakeTensor(DType::kU8, {ia.height(), ia.width(), 3}, ia.image.data.data(), ia.image.data.size()));
   d["image_2"] = TensorArray(MakeTensor(DType::kU8, {ib.height(), ib.width(), 3}, ib.image.data.data(), ib.image.data.size()));
+  if (pr.desc_1.nbytes) {
+    d["desc_1"] = TensorArray(pr.desc_1);
+    d["desc_conf_1"] = TensorArray(pr.desc_conf_1);
+    d["desc_2"] = TensorArray(pr.desc_2);
+    d["desc_conf_2"] = TensorArray(pr.desc_conf_2);
+  }
   return d;
 }
 
@@ -553,7 +559,8 @@ void BindNetworks(py::module_& m) {
   py::class_<nn::Dust3rModel, std::shared_ptr<nn::Dust3rModel>>(m, "Dust3r")
       .def(NetworkInit<nn::Dust3rModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
            py::arg("precision") = "fp32", py::arg("threads") = 0)
-      .def("__call__", &Dust3rPair, py::arg("image_1"), py::arg("image_2"), py::arg("size") = 512);
+      .def("__call__", &Dust3rPair, py::arg("image_1"), py::arg("image_2"), py::arg("size") = 512)
+      .def_property_readonly("family", [](const nn::Dust3rModel& d) { return std::string(d.config().family()); });
   py::class_<nn::Metric3dModel, std::shared_ptr<nn::Metric3dModel>>(m, "Metric3D")
       .def(NetworkInit<nn::Metric3dModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
            py::arg("precision") = "fp32", py::arg("threads") = 0)

@@ -222,3 +222,20 @@ def test_dust3r_equals_freeloc_pointmap(tmp_path):
     got = freeloc.Dust3r(model)(a, b, size=224)
     for k in ("pts3d_1", "conf_1", "pts3d_2", "conf_2", "image_1", "image_2"):
         assert got[k].shape == want[k].shape and np.array_equal(got[k], want[k]), k
+    assert "desc_1" not in got
+
+
+@pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "fixtures", "mast3r", "mast3r_tiny.pth")),
+                    reason="tiny MASt3R fixture absent (../shared)")
+def test_mast3r_descriptors_equal_freeloc_pointmap(tmp_path):
+    model = os.path.join(SHARED, "fixtures", "mast3r", "mast3r_tiny.pth")
+    a, b = os.path.join(S3, "seq0", "frame_00000.png"), os.path.join(S3, "seq1", "frame_00000.png")
+    assert cli("pointmap", "--model", model, "--size", "224", a, b, "--out", str(tmp_path / "pm.safetensors"))\
+        .returncode == 0
+    want = _safetensors(tmp_path / "pm.safetensors")
+    m = freeloc.Dust3r(model)
+    assert m.family == "MASt3R"
+    got = m(a, b, size=224)
+    for k in ("pts3d_2", "desc_1", "desc_conf_1", "desc_2", "desc_conf_2"):
+        assert got[k].shape == want[k].shape and np.array_equal(got[k], want[k]), k
+    assert got["desc_1"].shape[2] == 8 and np.allclose(np.linalg.norm(got["desc_1"], axis=2), 1, atol=1e-5)

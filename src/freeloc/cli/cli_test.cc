@@ -780,3 +780,110 @@ TEST(Cli, InputLimitsAreSetByFlagOrEnvironment) {
   EXPECT_EQ(bad.code, 1) << bad.out;
   EXPECT_TRUE(Contains(bad.out, "unknown limit 'max_pixels'; the limits are max_image_pixels")) << bad.out;
 }
+
+namespace {
+
+template <typename T>
+std::vector<T> TensorValues(const freeloc::TensorView& t) {
+  return std::vector<T>(t.as<T>(), t.as<T>() + t.numel());
+}
+
+// |a − b| ≤ 1e-4 + 1e-3·|b| everywhere (the fixture README's tolerance).
+bool Close(const freeloc::TensorView& a, const freeloc::TensorView& b) {
+  if (a.numel() != b.numel()) return false;
+  for (int64_t i = 0; i < a.numel(); ++i)
+    if (!(std::abs(a.as<float>()[i] - b.as<float>()[i]) <= 1e-4 + 1e-3 * std::abs(b.as<float>()[i]))) return false;
+  return true;
+}
+
+}  // namespace
+
+// `freeloc pointmap` on a MASt3R checkpoint, from the PNGs, as the fixture README §9.3 suggests: descriptors and
+// desc_conf within tolerance, the raw fast reciprocal NN matches equal upstream's row for row, and the filtered ones
+// equal upstream's 3-px border list; from the .pth and from an HF folder (config.json with Infinity tokens).
+TEST(Cli, Mast3rPointmapMatchesUpstream) {
+  FREELOC_REQUIRE_SHARED("fixtures/mast3r/mast3r_tiny.pth");
+  freeloc::testing::TempDir tmp;
+  const std::string fx = freeloc::testing::SharedPath("fixtures/mast3r/");
+  // The HF layout: model.safetensors (one name per shared tensor) + the flat config.json.
+  std::filesystem::create_directories(tmp.File("hf"));
+  std::filesystem::copy_file(fx + "weights.safetensors", tmp.File("hf/model.safetensors"));
+  freeloc::testing::WriteText(tmp.File("hf/config.json"), R"({"conf_mode": ["exp", 1, Infinity], "dec_depth": 12,
+    "dec_embed_dim": 24, "dec_num_heads": 2, "depth_mode": ["exp", -Infinity, Infinity], "desc_conf_mode": ["exp", 0,
+    Infinity], "desc_mode": "norm", "enc_depth": 2, "enc_embed_dim": 32, "enc_num_heads": 2, "head_type": "catmlp+dpt",
+    "output_mode": "pts3d+desc8", "pos_embed": "RoPE100", "two_confs": true})");
+  struct Case {
+    const char* name;
+    const char* a;
+    const char* b;
+    int size, subsample;
+    std::string model;
+  };
+  for (const Case& c : {Case{"land_s128", "img_a", "img_d", 128, 4, fx + "mast3r_tiny.pth"},
+                        Case{"mixed_s80", "img_a", "img_c", 80, 8, tmp.File("hf/model.safetensors")},
+                        Case{"odd_s112", "img_b", "img_a", 112, 4, fx + "mast3r_tiny.pth"}}) {
+    SCOPED_TRACE(c.name);
+    Result r = RunFreeloc("pointmap --model " + c.model + " --size " + std::to_string(c.size) + " " + fx + "images/" +
+                          c.a + ".png " + fx + "images/" + c.b + ".png --matches --subsample " +
+                          std::to_string(c.subsample) + " --out " + tmp.File("pm.safetensors"));
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(Contains(r.out, "MASt3R pointmaps")) << r.out;
+    const auto f = freeloc::SafetensorsFile::Open(tmp.File("pm.safetensors"));
+    const auto g = freeloc::SafetensorsFile::Open(fx + "cases/" + c.name + ".safetensors");
+    EXPECT_EQ(f.metadata.at("family"), "MASt3R");
+    EXPECT_TRUE(Close(f.Get("desc_1"), g.Get("pred1.desc")));
+    EXPECT_TRUE(Close(f.Get("desc_2"), g.Get("pred2.desc")));
+    EXPECT_TRUE(Close(f.Get("desc_conf_1"), g.Get("pred1.desc_conf")));
+    EXPECT_TRUE(Close(f.Get("desc_conf_2"), g.Get("pred2.desc_conf")));
+    EXPECT_TRUE(Close(f.Get("pts3d_2"), g.Get("pred2.pts3d_in_other_view")));
+    const std::string p = "fnn_s" + std::to_string(c.subsample) + ".";
+    const auto m = TensorValues<int32_t>(f.Get("matches"));
+    const auto x0 = TensorValues<int32_t>(g.Get(p + "xy_im0")), x1 = TensorValues<int32_t>(g.Get(p + "xy_im1"));
+    ASSERT_EQ(m.size(), 2 * x0.size());
+    for (size_t i = 0; i < x0.size() / 2; ++i) {
+      EXPECT_EQ(m[4 * i], x0[2 * i]);
+      EXPECT_EQ(m[4 * i + 1], x0[2 * i + 1]);
+      EXPECT_EQ(m[4 * i + 2], x1[2 * i]);
+      EXPECT_EQ(m[4 * i + 3], x1[2 * i + 1]);
+    }
+    EXPECT_EQ(f.Get("matches_orig").shape.at(0), g.Get(p + "border.xy_im0").shape.at(0));
+  }
+}
+
+// The MASt3R presets end to end with the tiny weights through run + eval: found by published name in --models,
+// deterministic, every query answered with a status (random weights: no pose, so eval reports that the submission
+// holds none), missing weights a one-line error.
+TEST(Cli, Mast3rPresetsRunAndEval) {
+  FREELOC_REQUIRE_SHARED("fixtures/mast3r/mast3r_tiny.pth");
+  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
+  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
+  freeloc::testing::TempDir models, tmp;
+  LinkTinyModels(models);
+  std::filesystem::create_symlink(freeloc::testing::SharedPath("fixtures/mast3r/mast3r_tiny.pth"),
+                                  models.File("MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth"));
+  const std::string data = freeloc::testing::DemoPath();
+  for (const char* preset : {"mast3r", "mast3r-pnp", "mast3r-metric3d", "seed-mast3r"}) {
+    SCOPED_TRACE(preset);
+    const std::string run = std::string("-q run --data ") + data + " --scenes s00002 --preset " + preset +
+                            " --dust3r-size 224 ";
+    Result r = RunFreeloc(run + "--out " + tmp.File("none.zip"));
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_TRUE(Contains(r.out, "MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth")) << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+    r = RunFreeloc(run + "--models " + models.path() + " --out " + tmp.File("a.zip") + " --log " + tmp.File("a.jsonl"));
+    ASSERT_EQ(r.code, 0) << r.out;
+    const std::string log = freeloc::testing::ReadText(tmp.File("a.jsonl"));
+    EXPECT_TRUE(Contains(log, std::string("\"matcher\":\"") + (std::string(preset) == "seed-mast3r" ? "mast3r+instances" : "mast3r")))
+        << log.substr(0, 600);
+    EXPECT_TRUE(Contains(log, "\"status\":\"no-consensus\"") || Contains(log, "\"status\":\"too-few-matches\"")) << log;
+    if (std::string(preset) == "mast3r") {
+      r = RunFreeloc(run + "--models " + models.path() + " --out " + tmp.File("b.zip"));
+      ASSERT_EQ(r.code, 0) << r.out;
+      EXPECT_EQ(freeloc::testing::ReadText(tmp.File("a.zip")), freeloc::testing::ReadText(tmp.File("b.zip")));
+    }
+    // The submission is valid and evaluates; with no pose in it (random weights) the evaluator says so.
+    r = RunFreeloc("eval --data " + data + " --submission " + tmp.File("a.zip") + " --scenes s00002");
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_TRUE(Contains(r.out, "no valid pose estimate")) << r.out;
+  }
+}

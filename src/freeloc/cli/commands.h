@@ -30,7 +30,7 @@ struct GlobalOptions {
 struct PipelineArgs {
   std::string preset;  // empty: the command's default
   std::string matcher, depth, solver, scale, instance_mode;
-  std::string models, dust3r_model, dust3r_config, seggpt_model, metric3d_model;
+  std::string models, dust3r_model, dust3r_config, mast3r_model, seggpt_model, metric3d_model;
   double threshold = -1;
   int dust3r_size = 0;
   std::vector<std::string> sets;  // NAME=VALUE

@@ -21,6 +21,7 @@ const std::pair<const char*, const char*> kFlags[] = {
     {"solver", "--solver"},           {"scale", "--scale"},               {"threshold_px", "--threshold"},
     {"instance_mode", "--instance-mode"}, {"models_dir", "--models"},     {"dust3r_model", "--dust3r"},
     {"dust3r_config", "--dust3r-config"}, {"seggpt_model", "--seggpt"},   {"metric3d_model", "--metric3d"},
+    {"mast3r_model", "--mast3r"},
     {"dust3r_size", "--dust3r-size"}, {"device", "--device"},             {"precision", "--precision"},
     {"threads", "--threads"},         {"shard", "--shard"},               {"data", "--data"},
     {"out", "--out"}};
@@ -71,9 +72,11 @@ pipeline::PipelineOptions WithFlagNames(const std::function<pipeline::PipelineOp
 void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_preset, bool networks) {
   sub->add_option("--preset", a->preset,
                   "default " + default_preset + "; sift-essential, sift-pnp, sift-procrustes, "
-                  "precomputed:<name>-<solver>, seed, seed-no-instance, seed-provided-depth, dust3r");
-  sub->add_option("--matcher", a->matcher, "override: sift | dust3r | dust3r+instances | precomputed:<name>");
-  sub->add_option("--depth", a->depth, "override: provided:<suffix> | metric3d | none");
+                  "precomputed:<name>-<solver>, seed, seed-no-instance, seed-provided-depth, dust3r, mast3r, "
+                  "mast3r-pnp, mast3r-metric3d, seed-mast3r");
+  sub->add_option("--matcher", a->matcher,
+                  "override: sift | dust3r | dust3r+instances | mast3r | mast3r+instances | precomputed:<name>");
+  sub->add_option("--depth", a->depth, "override: provided:<suffix> | metric3d | mast3r | none");
   sub->add_option("--solver", a->solver, "override: essential | pnp | procrustes");
   sub->add_option("--scale", a->scale, "override: robust | official");
   sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels (> 0)")
@@ -92,6 +95,8 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
                   "folder holding the published weights files (then $FREELOC_MODELS; see docs/models.md)");
   sub->add_option("--dust3r,--dust3r-model", a->dust3r_model, "DUSt3R weights (.pth, or model.safetensors)");
   sub->add_option("--dust3r-config", a->dust3r_config, "DUSt3R config.json (optional)");
+  sub->add_option("--mast3r,--mast3r-model", a->mast3r_model,
+                  "MASt3R weights (.pth with its constructor string, or model.safetensors + config.json)");
   sub->add_option("--seggpt", a->seggpt_model, "SegGPT weights (seggpt_vit_large.pth, or model.safetensors)");
   sub->add_option("--metric3d", a->metric3d_model, "Metric3D v2 weights (metric_depth_vit_*_800k.pth, …)");
   sub->add_option("--dust3r-size", a->dust3r_size, "DUSt3R input size (default 512)");
@@ -111,6 +116,7 @@ pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const Globa
     o.models_dir = a.models;
     Apply(&o, "dust3r_model", a.dust3r_model);
     Apply(&o, "dust3r_config", a.dust3r_config);
+    Apply(&o, "mast3r_model", a.mast3r_model);
     Apply(&o, "seggpt_model", a.seggpt_model);
     Apply(&o, "metric3d_model", a.metric3d_model);
     if (a.dust3r_size > 0) o.dust3r_size = a.dust3r_size;
@@ -149,7 +155,7 @@ void ApplyMaskArgs(pipeline::PipelineOptions* o, bool ref_masks, bool query_mask
   if (!ref_masks && !query_masks) return;
   FREELOC_CHECK(ref_masks, "--query-masks needs --ref-masks (the reference's instances)");
   FREELOC_CHECK(o->UsesInstances(), "--ref-masks: the matcher " << o->matcher.ToString()
-                                        << " takes no instances; use --matcher dust3r+instances");
+                                        << " takes no instances; use --matcher dust3r+instances or mast3r+instances");
   o->instance_source = query_masks ? pipeline::InstanceSource::kGiven : pipeline::InstanceSource::kPropagate;
 }
 

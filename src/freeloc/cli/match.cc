@@ -1,6 +1,7 @@
-// `freeloc match`: the pipeline's DUSt3R matcher on an image pair — global reciprocal 3D matches, plus
-// instance-restricted matches merged by Eq. 3 when instance label images are given — written one
-// `x_ref y_ref x_query y_query` per line in original pixels, the input format of `freeloc pose`.
+// `freeloc match`: the pipeline's DUSt3R-family matcher on an image pair — global reciprocal 3D matches (dust3r) or
+// MASt3R's fast reciprocal descriptor matches (--matcher mast3r), plus instance-restricted matches merged by Eq. 3
+// when instance label images are given — written one `x_ref y_ref x_query y_query` per line in original pixels,
+// the input format of `freeloc pose`.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
@@ -16,24 +17,35 @@ namespace {
 
 struct MatchArgs {
   PipelineArgs pipeline;
-  std::string model, config, ref, query, ref_masks, query_masks, out, mode;
-  int size = 0, subsample = 1;
+  std::string model, config, ref, query, ref_masks, query_masks, out, mode, matcher = "dust3r";
+  int size = 0, subsample = 0, border = -1;
   double conf_thr = 0;
 };
 
 pipeline::PipelineOptions Options(const MatchArgs& a, const GlobalOptions& g) {
   PipelineArgs p = a.pipeline;
-  p.dust3r_model = a.model;
+  const bool mast3r = a.matcher == "mast3r";
+  (mast3r ? p.mast3r_model : p.dust3r_model) = a.model;
+  FREELOC_CHECK(!mast3r || a.config.empty(),
+                "--config: a MASt3R model reads its configuration from the .pth or the config.json beside "
+                "model.safetensors");
   p.dust3r_config = a.config;
   p.dust3r_size = a.size;
   p.instance_mode = a.mode;
-  p.matcher = a.ref_masks.empty() ? "dust3r" : "dust3r+instances";
+  p.matcher = a.matcher + (a.ref_masks.empty() ? "" : "+instances");
   p.depth = "none";
   return ResolvePipelineArgs(p, g, "dust3r", [&](pipeline::PipelineOptions* o) {
     FREELOC_CHECK(a.ref_masks.empty() == a.query_masks.empty(), "give both --ref-masks and --query-masks, or neither");
     ApplyMaskArgs(o, !a.ref_masks.empty(), !a.query_masks.empty());
-    o->match_conf_threshold = a.conf_thr;
-    o->match_subsample = a.subsample;
+    if (mast3r) {
+      o->mast3r_conf_threshold = a.conf_thr;
+      if (a.subsample > 0) o->mast3r_subsample = a.subsample;
+      if (a.border >= 0) o->mast3r_border = a.border;
+    } else {
+      FREELOC_CHECK(a.border < 0, "--border applies to --matcher mast3r only");
+      o->match_conf_threshold = a.conf_thr;
+      if (a.subsample > 0) o->match_subsample = a.subsample;
+    }
   });
 }
 
@@ -48,7 +60,7 @@ int RunMatch(const MatchArgs& a, const GlobalOptions& g) {
     in.instance_labels = &query_labels;
   }
   pipeline::Relocalizer reloc(o);
-  const Camera none;  // the DUSt3R matcher needs no intrinsics
+  const Camera none;  // the DUSt3R/MASt3R matchers need no intrinsics
   reloc.SetReference(ref, none, pipeline::FrameInputs{{}, ref_labels.empty() ? nullptr : &ref_labels, nullptr});
   pipeline::QueryResult r;
   const matching::Correspondences c = reloc.Match(query, none, in, &r);
@@ -63,9 +75,12 @@ int RunMatch(const MatchArgs& a, const GlobalOptions& g) {
 void RegisterMatch(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto a = std::make_shared<MatchArgs>();
   auto* sub = app.add_subcommand(
-      "match", "DUSt3R correspondences of an image pair (global + instance matches) in original pixels");
-  sub->add_option("--model", a->model, "DUSt3R weights: official .pth or model.safetensors")->required();
-  sub->add_option("--config", a->config, "config.json with the constructor arguments (optional)");
+      "match", "DUSt3R / MASt3R correspondences of an image pair (global + instance matches) in original pixels");
+  sub->add_option("--matcher", a->matcher,
+                  "dust3r (reciprocal 3D matches, default) | mast3r (descriptors, fast reciprocal NN)")
+      ->check(CLI::IsMember({"dust3r", "mast3r"}));
+  sub->add_option("--model", a->model, "DUSt3R or MASt3R weights: official .pth or model.safetensors")->required();
+  sub->add_option("--config", a->config, "DUSt3R config.json with the constructor arguments (optional)");
   sub->add_option("REF", a->ref, "reference image")->required();
   sub->add_option("QUERY", a->query, "query image")->required();
   sub->add_option("--ref-masks", a->ref_masks, "reference instance label PNG (0 = background, k = instance k)");
@@ -73,8 +88,15 @@ void RegisterMatch(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--instance-mode", a->mode, "mask (I ⊙ Mask, default) or crop")
       ->check(CLI::IsMember({"mask", "crop"}));
   sub->add_option("--size", a->size, "load_images size (default 512)");
-  sub->add_option("--conf-thr", a->conf_thr, "a pixel is valid if conf >= this (default 0)");
-  sub->add_option("--subsample", a->subsample, "keep every k-th query pixel (default 1)")->check(CLI::PositiveNumber);
+  sub->add_option("--conf-thr", a->conf_thr,
+                  "dust3r: a pixel is valid if conf >= this; mast3r: keep matches with min desc_conf >= this "
+                  "(default 0: all; visloc uses 1.001)");
+  sub->add_option("--subsample", a->subsample,
+                  "dust3r: keep every k-th query pixel (default 1); mast3r: seed grid step of the fast reciprocal "
+                  "NN (default 8)")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--border", a->border, "mast3r: drop matches this close to a network image's edge (default 3)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--out", a->out, "output file: x_ref y_ref x_query y_query per line")->required();
   sub->callback([a, run, &global] { *run = [a, &global] { return RunMatch(*a, global); }; });
 }

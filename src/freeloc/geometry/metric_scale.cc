@@ -123,7 +123,7 @@ void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) 
     if (in == 0) break;
     est = swx / sw;
   }
-  if (in < 1) {
+  if (in < std::max(1, opt.min_inliers)) {
     res->reason = "no-consensus";
     return;
   }

@@ -30,6 +30,7 @@ struct ScaleOptions {
   double relative_threshold = 0.02;   // kRobust: window = relative_threshold · mean depth of the pair (bench/scale)
   double min_threshold_m = 0.005;     // kRobust: floor of the window
   int refit_iterations = 3;
+  int min_inliers = 3;  // kRobust: a scale fewer correspondences agree on is no consensus (one point proves nothing)
   void Validate() const;
 };
 

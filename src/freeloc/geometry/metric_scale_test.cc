@@ -85,6 +85,26 @@ TEST(MetricScale, NoValidDepthIsAStatus) {
   EXPECT_THROW(ParseEnum<ScaleMethod>("median"), Error);
 }
 
+// A robust scale two correspondences agree on is no consensus (random matches once gave "ok" poses from a single
+// agreeing point); three exact ones are enough, and the official vote keeps the benchmark's rule.
+TEST(MetricScale, RobustScaleNeedsThreeAgreeingCorrespondences) {
+  const Case c = MakeCase(7);
+  for (size_t n : {size_t{2}, size_t{3}}) {
+    const std::vector<Eigen::Vector2d> a(c.p1.begin(), c.p1.begin() + static_cast<std::ptrdiff_t>(n));
+    const std::vector<Eigen::Vector2d> b(c.p2.begin(), c.p2.begin() + static_cast<std::ptrdiff_t>(n));
+    ScaleOptions o;
+    const ScaleResult r = EstimateMetricScale(a, b, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref,
+                                              c.scene.query, o);
+    EXPECT_EQ(r.success, n == 3) << n << ": " << r.reason;
+    if (n == 2) {
+      EXPECT_EQ(r.reason, "no-consensus");
+    }
+    o.method = ScaleMethod::kOfficial;
+    EXPECT_TRUE(EstimateMetricScale(a, b, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref, c.scene.query, o)
+                    .success);
+  }
+}
+
 TEST(MetricScale, BilinearDepth) {
   DepthMap d(2, 2);
   d.at(0, 0) = 1;

@@ -280,6 +280,27 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     res.inliers.assign(px_ref.size(), 0);
     return finish("no-consensus");
   }
+  // Weak support (few inliers, low ratio): is it more than what RANSAC's search finds in unrelated pairs? The same
+  // search on the matches with the query points shuffled (a fixed derangement) must find clearly fewer — random
+  // matches select a 5-point model with a dozen chance inliers, which the fixed-model test above cannot see.
+  if (n_in < std::max(3 * opt.min_inliers, static_cast<int>(0.25 * static_cast<double>(x1.size())))) {
+    std::vector<Eigen::Vector3d> x2s(x2.size());
+    const size_t offset = x2.size() / 2 + 1;
+    for (size_t i = 0; i < x2.size(); ++i) x2s[i] = x2[(i + offset) % x2.size()];
+    RelPoseEstimator shuffled(x1, x2s, th);
+    RansacOptions rs = ro;
+    rs.max_iterations = std::max(st.iterations, ro.min_iterations);
+    if (opt.max_seconds > 0)  // what is left of the budget (at least 0.1 s)
+      rs.max_seconds = std::max(
+          0.1, opt.max_seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    RelModel m;
+    const RansacStats ss = Ransac(shuffled, rs, &m);
+    res.status.shuffled_best = ss.stop_reason == "no-model" ? 0 : ss.num_inliers;
+    if (n_in < 1.5 * res.status.shuffled_best + 4) {
+      res.inliers.assign(px_ref.size(), 0);
+      return finish("no-consensus");
+    }
+  }
   if (InliersDegenerate(px_ref, px_query, res.inliers)) {
     res.inliers.assign(px_ref.size(), 0);
     res.status.num_inliers = 0;

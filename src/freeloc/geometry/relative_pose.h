@@ -34,6 +34,7 @@ struct EstimatorStatus {
   bool success = false;
   std::string reason;       // "ok", "too-few-matches", "no-consensus", "degenerate"
   int chance_inliers = 0;   // inliers of the final model on shuffled pairs (what chance alone gives)
+  int shuffled_best = -1;   // weak support only: the best RANSAC model's inliers on shuffled pairs (−1: not run)
   std::string stop_reason;  // from RANSAC: "confidence", "max-iterations", …
   int num_matches = 0;
   int iterations = 0;

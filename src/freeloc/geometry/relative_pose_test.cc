@@ -194,5 +194,30 @@ TEST(RelativePoseSafety, RandomMatchesGiveNoConsensusWithinTheBudget) {
   EXPECT_LT(RotationAngleDeg(rr.query_from_ref.rotation, real.truth.rotation), 0.5);
 }
 
+// A few hundred random matches (what random-weight descriptor matchers give): RANSAC's search selects a model with
+// a dozen chance inliers, which beats the fixed-model chance test; the same search on shuffled pairs finds as many,
+// so the answer is no-consensus. Weak but real geometry (20 % inliers of 200) still passes.
+TEST(RelativePoseSafety, SearchOnShuffledPairsRejectsSelectedChanceModels) {
+  int refused = 0;
+  for (uint32_t seed = 40; seed < 44; ++seed) {
+    const TwoView tv = MakeTwoView(seed, 200, 1.0);
+    RelativePoseOptions o;
+    o.max_seconds = 1.0;  // the hopeless search runs to its budget; keep the test short
+    const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, o);
+    EXPECT_FALSE(r.status.success) << "seed " << seed << ": " << r.status.num_inliers << " inliers, shuffled best "
+                                   << r.status.shuffled_best;
+    refused += r.status.reason == "no-consensus";
+  }
+  EXPECT_EQ(refused, 4);
+  for (uint32_t seed = 50; seed < 53; ++seed) {
+    const TwoView weak = MakeTwoView(seed, 200, 0.8, 0.3);
+    const RelativePoseResult r = EstimateRelativePose(weak.p1, weak.p2, weak.ref, weak.query);
+    ASSERT_TRUE(r.status.success) << "seed " << seed << ": " << r.status.reason << ", " << r.status.num_inliers
+                                  << " inliers, shuffled best " << r.status.shuffled_best;
+    EXPECT_GE(r.status.shuffled_best, 0);  // the weak-support check ran
+    EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, weak.truth.rotation), 1.0);
+  }
+}
+
 }  // namespace
 }  // namespace freeloc::geometry

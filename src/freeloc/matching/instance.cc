@@ -14,6 +14,8 @@ void InstanceOptions::Validate() const {
   FREELOC_CHECK(crop_margin >= 0 && crop_margin <= 2, "instance matching: crop margin must be in [0, 2]");
   FREELOC_CHECK(min_mask_pixels >= 0 && min_matches >= 0, "instance matching: minimums must be >= 0");
   match.Validate();
+  fast_nn.Validate();
+  descriptor_filter.Validate();
   preprocess.Validate();
 }
 
@@ -101,6 +103,32 @@ std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const
   return ToCorrespondences(m, ref, query, -1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero());
 }
 
+std::vector<PixelMatch> MatchPair(const PairPointmaps& pm, const uint8_t* mask1, const uint8_t* mask2,
+                                  const InstanceOptions& o) {
+  if (!o.descriptors)
+    return ReciprocalMatches({pm.pts1.data(), pm.conf1.data(), mask1, pm.h1, pm.w1},
+                             {pm.pts2.data(), pm.conf2.data(), mask2, pm.h2, pm.w2}, o.match);
+  FREELOC_CHECK(pm.desc_dim > 0 && !pm.desc1.empty() && !pm.desc2.empty(),
+                "descriptor matching needs a MASt3R model (this pointmap model gives no descriptors)");
+  const auto raw = FastReciprocalNN({pm.desc1.data(), pm.desc_conf1.data(), pm.h1, pm.w1, pm.desc_dim},
+                                    {pm.desc2.data(), pm.desc_conf2.data(), pm.h2, pm.w2, pm.desc_dim}, o.fast_nn);
+  std::vector<PixelMatch> out = FilterDescriptorMatches(raw, pm.w1, pm.h1, pm.w2, pm.h2, o.descriptor_filter);
+  if (mask1 || mask2)
+    out.erase(std::remove_if(out.begin(), out.end(),
+                             [&](const PixelMatch& m) {
+                               return (mask1 && !mask1[static_cast<size_t>(m.y1) * pm.w1 + m.x1]) ||
+                                      (mask2 && !mask2[static_cast<size_t>(m.y2) * pm.w2 + m.x2]);
+                             }),
+              out.end());
+  return out;
+}
+
+std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const Dust3rInput& ref,
+                                                  const Dust3rInput& query, const InstanceOptions& options) {
+  return ToCorrespondences(MatchPair(pm, nullptr, nullptr, options), ref, query, -1, Eigen::Vector2d::Zero(),
+                           Eigen::Vector2d::Zero());
+}
+
 InstanceResult MatchInstance(const Image& ref, const Image& query, const InstanceMasks& masks, const PointmapFn& model,
                              const InstanceOptions& o) {
   o.Validate();
@@ -131,8 +159,7 @@ InstanceResult MatchInstance(const Image& ref, const Image& query, const Instanc
   const Dust3rInput b = PreprocessForDust3r(iq, o.preprocess);
   const PairPointmaps pm = model(a, b);
   const std::vector<uint8_t> na = NetworkMask(mr, ir.width, ir.height, a), nb = NetworkMask(mq, iq.width, iq.height, b);
-  const auto m = ReciprocalMatches({pm.pts1.data(), pm.conf1.data(), na.data(), pm.h1, pm.w1},
-                                   {pm.pts2.data(), pm.conf2.data(), nb.data(), pm.h2, pm.w2}, o.match);
+  const auto m = MatchPair(pm, na.data(), nb.data(), o);
   if (static_cast<int>(m.size()) < o.min_matches) {
     r.reason = "too few matches (" + std::to_string(m.size()) + ")";
     FREELOC_LOG(DEBUG) << "instance " << masks.id << " skipped: " << r.reason;

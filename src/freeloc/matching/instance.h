@@ -16,6 +16,7 @@
 #include "freeloc/core/enum_table.h"
 #include "freeloc/core/image.h"
 #include "freeloc/vision/dust3r_preprocess.h"
+#include "freeloc/matching/fast_nn.h"
 #include "freeloc/matching/reciprocal.h"
 #include "freeloc/matching/sift.h"
 
@@ -36,10 +37,12 @@ struct InstanceMasks {
   std::vector<uint8_t> ref, query;
 };
 
-// Pointmaps of a preprocessed pair: view 1's points and view 2's points in view 1's frame, with confidences.
+// Pointmaps of a preprocessed pair: view 1's points and view 2's points in view 1's frame, with confidences; from a
+// MASt3R model also the dense descriptors and their confidence (empty otherwise).
 struct PairPointmaps {
   std::vector<float> pts1, conf1, pts2, conf2;  // H×W×3 and H×W each
-  int h1 = 0, w1 = 0, h2 = 0, w2 = 0;
+  std::vector<float> desc1, desc_conf1, desc2, desc_conf2;  // H×W×D and H×W each (MASt3R)
+  int h1 = 0, w1 = 0, h2 = 0, w2 = 0, desc_dim = 0;
 };
 using PointmapFn = std::function<PairPointmaps(const Dust3rInput& ref, const Dust3rInput& query)>;
 
@@ -48,7 +51,11 @@ struct InstanceOptions {
   double crop_margin = 0.1;   // kCrop: fraction of the box size added on every side
   int min_mask_pixels = 400;  // smaller masks (in either image) are skipped
   int min_matches = 16;       // instances with fewer matches are skipped
-  ReciprocalOptions match;    // confidence threshold, subsampling
+  ReciprocalOptions match;    // confidence threshold, subsampling (3D matching)
+  // MASt3R: match by descriptors (fast reciprocal NN, then the border / desc_conf filter) instead of in 3D.
+  bool descriptors = false;
+  FastNnOptions fast_nn;
+  DescriptorMatchFilter descriptor_filter;
   Dust3rPreprocessOptions preprocess;
   void Validate() const;
 };
@@ -63,6 +70,15 @@ struct InstanceResult {
 // Correspondences of the global pair as `Correspondence`s (source −1) in original pixels.
 std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const Dust3rInput& ref,
                                                   const Dust3rInput& query, const ReciprocalOptions& options);
+// The same with the matching `options` choose: 3D reciprocal (options.match) or, with options.descriptors, MASt3R's
+// fast reciprocal NN on the descriptors and its filter.
+std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const Dust3rInput& ref,
+                                                  const Dust3rInput& query, const InstanceOptions& options);
+
+// Network-pixel matches of a pair, restricted to the masks when given (network resolution, H×W each; a descriptor
+// match is kept when both pixels are inside). Throws when descriptors are asked for and the pair has none.
+std::vector<PixelMatch> MatchPair(const PairPointmaps& pm, const uint8_t* mask1, const uint8_t* mask2,
+                                  const InstanceOptions& options);
 
 // Map_o for one instance. Throws freeloc::Error when a mask's size differs from its image's.
 InstanceResult MatchInstance(const Image& ref, const Image& query, const InstanceMasks& masks, const PointmapFn& model,

@@ -2,6 +2,7 @@
 #include "freeloc/nn/dust3r.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -82,6 +83,11 @@ struct DptHead {
   Conv head0, head2, head4;
 };
 
+// mast3r/catmlp_dpt_head.py Cat_MLP_LocalFeatures_DPT_Pts3d: head_local_features (Mlp: fc1, exact GELU, fc2).
+struct LocalHead {
+  Linear fc1, fc2;
+};
+
 // downstream_head{h+1}.dpt: act_postprocess, scratch layers, the four refinenets and the head convolutions.
 void LoadDptHead(WeightStore& ws, const Dust3rConfig& c, int h, const PrecisionPolicy& hp, DptHead* head) {
   DptHead& hd = *head;
@@ -155,6 +161,7 @@ struct Dust3rModel::Impl {
   Linear dec_embed;
   std::vector<DecBlock> dec1, dec2;
   DptHead head[2];
+  LocalHead local[2];  // MASt3R only
   mutable std::map<std::string, TensorView>* taps = nullptr;
 
   void Tap(const std::string& name, const torch::Tensor& t) const {
@@ -222,18 +229,48 @@ struct Dust3rModel::Impl {
     return o;
   }
 
-  // dust3r/heads/postprocess.py: reg_dense_depth('exp') and reg_dense_conf('exp', 1, inf).
-  static void Postprocess(const torch::Tensor& raw, TensorView* pts, TensorView* conf) {
+  // dust3r/heads/postprocess.py reg_dense_conf('exp', vmin, vmax): vmin + exp(x).clip(max = vmax − vmin).
+  static torch::Tensor DenseConf(const torch::Tensor& x, double vmin, double vmax) {
+    torch::Tensor e = x.exp();
+    if (std::isfinite(vmax)) e = e.clamp_max(vmax - vmin);
+    return vmin + e;
+  }
+
+  // dust3r/heads/postprocess.py: reg_dense_depth('exp') and reg_dense_conf.
+  void Postprocess(const torch::Tensor& raw, TensorView* pts, TensorView* conf) const {
     const torch::Tensor f = raw.permute({0, 2, 3, 1});  // B,H,W,4
     const torch::Tensor xyz = f.slice(3, 0, 3);
     const torch::Tensor d = xyz.norm(2, -1, true);
     const torch::Tensor p = xyz / d.clamp_min(1e-8) * torch::expm1(d);
-    const torch::Tensor c = 1 + f.select(3, 3).exp();
     *pts = ToView(p[0]);
-    *conf = ToView(c[0]);
+    *conf = ToView(DenseConf(f.select(3, 3), cfg.conf_min, cfg.conf_max)[0]);
   }
 
-  Dust3rPrediction Decode(const Encoding& e1, const Encoding& e2) const {
+  // mast3r/catmlp_dpt_head.py: MLP on [enc_norm tokens ‖ dec_norm(last decoder block)], pixel_shuffle(p) to the
+  // full resolution; mast3r/model.py postprocess: desc = f/‖f‖ (desc_mode 'norm', no epsilon), desc_conf =
+  // reg_dense_conf(desc_conf_mode) of the last channel (two_confs) or a copy of conf.
+  void LocalFeatures(int which, const torch::Tensor& enc, const torch::Tensor& dec, int64_t h, int64_t w, int view,
+                     const TensorView& conf, TensorView* desc, TensorView* desc_conf) const {
+    const std::string tp = "head" + std::to_string(view) + ".";
+    const int64_t P = cfg.patch_size, D = cfg.local_feat_dim;
+    const torch::Tensor in = torch::cat({enc, dec}, -1);  // [1, N, Ce + Cd]
+    Tap(tp + "mlp_in", in);
+    const torch::Tensor hidden = torch::gelu(local[which].fc1(in, head_prec));
+    Tap(tp + "mlp_hidden", hidden);
+    const torch::Tensor out = local[which].fc2(hidden, head_prec);  // [1, N, (D + T)·P²]
+    Tap(tp + "mlp_out", out);
+    const torch::Tensor grid = out.transpose(1, 2).reshape({1, out.size(2), h, w});
+    const torch::Tensor fmap = torch::pixel_shuffle(grid, P);  // [1, D + T, H, W]
+    Tap(tp + "local", fmap);
+    const torch::Tensor f = fmap[0].slice(0, 0, D).permute({1, 2, 0});  // H, W, D
+    *desc = ToView(f / f.norm(2, -1, true));
+    if (cfg.two_confs)
+      *desc_conf = ToView(DenseConf(fmap[0][D], cfg.desc_conf_min, cfg.desc_conf_max));
+    else
+      *desc_conf = conf;
+  }
+
+  Dust3rPrediction Decode(const Encoding& e1, const Encoding& e2, const DecodeOutputs& want) const {
     torch::NoGradGuard ng;
     Dust3rPrediction out;
     auto t0 = std::chrono::steady_clock::now();
@@ -262,10 +299,15 @@ struct Dust3rModel::Impl {
     Tap("dec2.out", l2.back());
     out.decode_ms = Ms(t0);
     t0 = std::chrono::steady_clock::now();
-    const torch::Tensor raw1 = RunHead(0, l1, e1.h, e1.w, 1);
-    const torch::Tensor raw2 = RunHead(1, l2, e2.h, e2.w, 2);
-    Postprocess(raw1, &out.pts3d_1, &out.conf_1);
-    Postprocess(raw2, &out.pts3d_2, &out.conf_2);
+    const bool desc = want.descriptors && cfg.is_mast3r();
+    if (want.view1) {
+      Postprocess(RunHead(0, l1, e1.h, e1.w, 1), &out.pts3d_1, &out.conf_1);
+      if (desc) LocalFeatures(0, e1.tokens, l1.back(), e1.h, e1.w, 1, out.conf_1, &out.desc_1, &out.desc_conf_1);
+    }
+    if (want.view2) {
+      Postprocess(RunHead(1, l2, e2.h, e2.w, 2), &out.pts3d_2, &out.conf_2);
+      if (desc) LocalFeatures(1, e2.tokens, l2.back(), e2.h, e2.w, 2, out.conf_2, &out.desc_2, &out.desc_conf_2);
+    }
     out.heads_ms = Ms(t0);
     return out;
   }
@@ -311,14 +353,9 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, co
       cfg_file = sibling.string();
   }
   if (!cfg_file.empty()) {
-    std::ifstream f(cfg_file);
-    FREELOC_CHECK(f.good(), cfg_file << ": cannot open the DUSt3R config");
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(f);
-    } catch (const std::exception& e) {
-      FREELOC_THROW(cfg_file << ": not valid JSON (" << e.what() << ")");
-    }
+    const std::string text = ReadModelConfig(model_path, cfg_file, true, "DUSt3R/MASt3R");
+    const nlohmann::json j = ParseModelConfig(text, cfg_file, "DUSt3R/MASt3R");
+    FREELOC_CHECK(j.is_object(), cfg_file << ": the DUSt3R/MASt3R config is not a JSON object");
     kw = KwargsFromJson(j);
     source = cfg_file;
   } else if (const std::string m = ckpt.MetadataOr("args.model", ""); !m.empty()) {
@@ -376,9 +413,20 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, Ten
   }
   impl->dec_norm.Load(ws, "dec_norm", c.dec_dim, c.ln_eps);
   for (int h = 0; h < 2; ++h) LoadDptHead(ws, c, h, impl->head_prec, &impl->head[h]);
+  if (c.is_mast3r()) {
+    const int64_t rows = static_cast<int64_t>(c.local_feat_dim + (c.two_confs ? 1 : 0)) * c.patch_size * c.patch_size;
+    for (int h = 0; h < 2; ++h) {
+      const std::string pre = "downstream_head" + std::to_string(h + 1) + ".head_local_features.";
+      impl->local[h].fc1.Load(ws, pre + "fc1", c.local_mlp_hidden, c.enc_dim + c.dec_dim, true, impl->head_prec);
+      impl->local[h].fc2.Load(ws, pre + "fc2", rows, c.local_mlp_hidden, true, impl->head_prec);
+    }
+  }
   ws.Ignore("mask_token");
   ws.Finish();
-  FREELOC_LOG(DEBUG) << "loaded " << c.Summary() << " from " << model_path << " (" << source << ")";
+  if (c.is_mast3r())  // the desc_conf mode in effect matters (a missing desc_conf_mode falls back to conf_mode)
+    FREELOC_LOG(INFO) << "loaded " << c.Summary() << " from " << model_path << " (" << source << ")";
+  else
+    FREELOC_LOG(DEBUG) << "loaded " << c.Summary() << " from " << model_path << " (" << source << ")";
   return std::shared_ptr<Dust3rModel>(new Dust3rModel(std::move(impl)));
 }
 
@@ -399,8 +447,8 @@ std::shared_ptr<const Dust3rModel::Encoding> Dust3rModel::EncodeView(const Dust3
   return e;
 }
 
-Dust3rPrediction Dust3rModel::Decode(const Encoding& a, const Encoding& b) const {
-  Dust3rPrediction p = impl_->Decode(a, b);
+Dust3rPrediction Dust3rModel::Decode(const Encoding& a, const Encoding& b, const DecodeOutputs& outputs) const {
+  Dust3rPrediction p = impl_->Decode(a, b, outputs);
   p.encode_ms = a.ms + b.ms;
   return p;
 }
@@ -410,7 +458,7 @@ Dust3rPrediction Dust3rModel::Run(const Dust3rView& v1, const Dust3rView& v2) co
   // so the one-shot path and the cached-reference path give identical outputs.
   const auto e1 = EncodeView(v1, 1);
   const auto e2 = EncodeView(v2, 2);
-  return Decode(*e1, *e2);
+  return Decode(*e1, *e2, {});
 }
 
 }  // namespace freeloc::nn

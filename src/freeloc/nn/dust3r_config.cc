@@ -8,11 +8,15 @@ namespace freeloc::nn {
 
 std::string Dust3rConfig::Summary() const {
   std::ostringstream os;
-  os << "DUSt3R enc " << enc_depth << "×" << enc_dim << " (" << enc_heads << " heads), dec " << dec_depth << "×"
+  os << family() << " enc " << enc_depth << "×" << enc_dim << " (" << enc_heads << " heads), dec " << dec_depth << "×"
      << dec_dim << " (" << dec_heads << " heads), patch " << patch_size << ", RoPE" << rope_base << ", DPT "
      << dpt_feature_dim << "/" << dpt_last_dim << "/[" << dpt_layer_dims[0] << "," << dpt_layer_dims[1] << ","
      << dpt_layer_dims[2] << "," << dpt_layer_dims[3] << "], hooks [" << hooks[0] << "," << hooks[1] << "," << hooks[2]
      << "," << hooks[3] << "]";
+  if (is_mast3r())
+    os << ", local features D=" << local_feat_dim << " (MLP " << local_mlp_hidden << ", two_confs "
+       << (two_confs ? "true" : "false") << ", desc_conf " << desc_conf_min << " + exp(x) from "
+       << (two_confs ? desc_conf_mode_source : std::string("conf (two_confs false)")) << ")";
   return os.str();
 }
 
@@ -25,6 +29,11 @@ void Dust3rConfig::Validate() const {
                 "DUSt3R: RoPE2D needs head dimensions divisible by 4 (enc " << enc_dim / enc_heads << ", dec "
                                                                             << dec_dim / dec_heads << ")");
   FREELOC_CHECK(dec_depth > 9, "DUSt3R: the DPT head needs dec_depth > 9 (got " << dec_depth << ")");
+  FREELOC_CHECK(local_feat_dim >= 0 && local_feat_dim <= 4096,
+                "MASt3R: local_feat_dim " << local_feat_dim << " is out of range");
+  FREELOC_CHECK(conf_max > conf_min && desc_conf_max > desc_conf_min,
+                "DUSt3R: a confidence mode has vmax <= vmin (conf " << conf_min << ".." << conf_max << ", desc_conf "
+                                                                   << desc_conf_min << ".." << desc_conf_max << ")");
 }
 
 std::map<std::string, std::string> ParseConstructorKwargs(const std::string& call) {
@@ -32,6 +41,11 @@ std::map<std::string, std::string> ParseConstructorKwargs(const std::string& cal
   const size_t open = call.find('(');
   const size_t close = call.rfind(')');
   if (open == std::string::npos || close == std::string::npos || close < open) return kw;
+  {
+    std::string name = call.substr(0, open);
+    const size_t b = name.find_first_not_of(" \t\n"), e = name.find_last_not_of(" \t\n");
+    kw["__class__"] = b == std::string::npos ? "" : name.substr(b, e - b + 1);
+  }
   const std::string body = call.substr(open + 1, close - open - 1);
   std::vector<std::string> parts;
   int depth = 0;
@@ -94,7 +108,50 @@ int IntArg(const std::map<std::string, std::string>& kw, const std::string& key,
   }
 }
 
+bool BoolArg(const std::map<std::string, std::string>& kw, const std::string& key, bool fallback) {
+  auto it = kw.find(key);
+  if (it == kw.end()) return fallback;
+  if (it->second == "True" || it->second == "true" || it->second == "1") return true;
+  if (it->second == "False" || it->second == "false" || it->second == "0") return false;
+  FREELOC_THROW("DUSt3R config: " << key << "=" << it->second << " is not a boolean");
+}
+
+bool IsNone(const std::string& v) { return v.empty() || v == "None" || v == "null"; }
+
+double ParseBound(std::string t, const std::string& key, const std::string& text) {
+  if (t == "inf" || t == "Infinity" || t == "+inf" || t == "float('inf')") return std::numeric_limits<double>::infinity();
+  if (t == "-inf" || t == "-Infinity" || t == "-float('inf')") return -std::numeric_limits<double>::infinity();
+  try {
+    size_t used = 0;
+    const double v = std::stod(t, &used);
+    if (used == t.size()) return v;
+  } catch (...) {
+  }
+  FREELOC_THROW("model config: " << key << "=" << text << ": '" << t << "' is not a number");
+}
+
 }  // namespace
+
+void ParseConfMode(const std::string& text, const std::string& key, double* vmin, double* vmax) {
+  std::vector<std::string> items;
+  std::string cur;
+  for (char ch : text) {
+    if (ch == '(' || ch == ')' || ch == '[' || ch == ']' || ch == '\'' || ch == '"' || ch == ' ' || ch == '\t' ||
+        ch == '\n')
+      continue;
+    if (ch == ',') {
+      items.push_back(cur);
+      cur.clear();
+      continue;
+    }
+    cur += ch;
+  }
+  if (!cur.empty()) items.push_back(cur);
+  FREELOC_CHECK(items.size() == 3 && items[0] == "exp",
+                "model config: " << key << "=" << text << " is not supported (only ('exp', vmin, vmax), as released)");
+  *vmin = ParseBound(items[1], key, text);
+  *vmax = ParseBound(items[2], key, text);
+}
 
 Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const std::map<std::string, std::string>& kw,
                               const std::string& source) {
@@ -144,16 +201,64 @@ Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const
                   "DUSt3R: pos_embed '" << it->second << "' is not supported (only RoPE<base>, as released)");
     c.rope_base = std::stod(it->second.substr(4));
   }
-  if (auto it = kw.find("head_type"); it != kw.end())
-    FREELOC_CHECK(it->second == "dpt", "DUSt3R: head_type '" << it->second << "' is not supported (only dpt)");
-  if (auto it = kw.find("output_mode"); it != kw.end())
-    FREELOC_CHECK(it->second == "pts3d", "DUSt3R: output_mode '" << it->second << "' is not supported (only pts3d)");
+  // The head: DUSt3R's 'dpt' (output 'pts3d') or MASt3R's 'catmlp+dpt' (output 'pts3d+desc<D>', spec/mast3r.md §1).
+  const bool has_local = sd.count("downstream_head1.head_local_features.fc1.weight") > 0;
+  std::string head_type = has_local ? "catmlp+dpt" : "dpt";
+  if (auto it = kw.find("head_type"); it != kw.end()) head_type = it->second;
+  FREELOC_CHECK(head_type == "dpt" || head_type == "catmlp+dpt",
+                "DUSt3R/MASt3R: head_type '" << head_type << "' is not supported (dpt or catmlp+dpt)");
+  FREELOC_CHECK((head_type == "catmlp+dpt") == has_local,
+                source << " says head_type '" << head_type << "' but the weights "
+                       << (has_local ? "have" : "have no") << " head_local_features tensors");
   if (auto it = kw.find("depth_mode"); it != kw.end())
     FREELOC_CHECK(it->second.find("exp") != std::string::npos,
                   "DUSt3R: depth_mode " << it->second << " is not supported");
-  if (auto it = kw.find("conf_mode"); it != kw.end())
-    FREELOC_CHECK(it->second.find("exp") != std::string::npos,
-                  "DUSt3R: conf_mode " << it->second << " is not supported");
+  if (auto it = kw.find("conf_mode"); it != kw.end() && !IsNone(it->second))
+    ParseConfMode(it->second, "conf_mode", &c.conf_min, &c.conf_max);
+  std::string output_mode = head_type == "dpt" ? "pts3d" : "";
+  if (auto it = kw.find("output_mode"); it != kw.end()) output_mode = it->second;
+  if (head_type == "dpt") {
+    FREELOC_CHECK(output_mode == "pts3d",
+                  "DUSt3R: output_mode '" << output_mode << "' is not supported (only pts3d for head_type dpt)");
+  } else {
+    // D and two_confs come from the configuration, never from fc2's shape: (D + two_confs)·p² is ambiguous.
+    FREELOC_CHECK(output_mode.rfind("pts3d+desc", 0) == 0 && output_mode.size() > 10,
+                  "MASt3R: output_mode '" << output_mode << "' is not supported (pts3d+desc<D>); "
+                                          << source << " must give it (the descriptor size cannot be read from the "
+                                                       "weights)");
+    try {
+      size_t used = 0;
+      c.local_feat_dim = std::stoi(output_mode.substr(10), &used);
+      FREELOC_CHECK(used == output_mode.size() - 10 && c.local_feat_dim > 0, "");
+    } catch (...) {
+      FREELOC_THROW("MASt3R: output_mode '" << output_mode << "': the descriptor size after 'pts3d+desc' is not a "
+                                               "positive integer");
+    }
+    c.two_confs = BoolArg(kw, "two_confs", false);
+    if (auto it = kw.find("desc_mode"); it != kw.end())
+      FREELOC_CHECK(it->second == "norm", "MASt3R: desc_mode '" << it->second << "' is not supported (only norm)");
+    c.desc_conf_min = c.conf_min;
+    c.desc_conf_max = c.conf_max;
+    c.desc_conf_mode_source = "conf_mode (desc_conf_mode absent)";
+    if (auto it = kw.find("desc_conf_mode"); it != kw.end() && !IsNone(it->second)) {
+      ParseConfMode(it->second, "desc_conf_mode", &c.desc_conf_min, &c.desc_conf_max);
+      c.desc_conf_mode_source = "desc_conf_mode";
+    }
+    const std::string lf = "downstream_head1.head_local_features.";
+    const TensorView& fc1 = Need(sd, lf + "fc1.weight");
+    const TensorView& fc2 = Need(sd, lf + "fc2.weight");
+    FREELOC_CHECK(fc1.shape.size() == 2 && fc1.shape[1] == c.enc_dim + c.dec_dim,
+                  "MASt3R weights: " << lf << "fc1.weight has shape " << fc1.ShapeString()
+                                     << ", expected [hidden, " << c.enc_dim + c.dec_dim
+                                     << "] (encoder + decoder width)");
+    c.local_mlp_hidden = static_cast<int>(fc1.shape[0]);
+    const int64_t rows = static_cast<int64_t>(c.local_feat_dim + (c.two_confs ? 1 : 0)) * c.patch_size * c.patch_size;
+    FREELOC_CHECK(fc2.shape.size() == 2 && fc2.shape[0] == rows && fc2.shape[1] == c.local_mlp_hidden,
+                  "MASt3R: " << lf << "fc2.weight has shape " << fc2.ShapeString() << " but output_mode '"
+                             << output_mode << "' and two_confs=" << (c.two_confs ? "True" : "False") << " need ["
+                             << rows << ", " << c.local_mlp_hidden << "] ((D + two_confs)·" << c.patch_size << "²); "
+                             << "the configuration does not belong to these weights");
+  }
   c.Validate();
   return c;
 }

@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "freeloc/core/error.h"
 #include "freeloc/nn/dust3r.h"
 
 namespace freeloc::pipeline {
@@ -17,6 +18,13 @@ matching::PairPointmaps ToHost(const nn::Dust3rPrediction& p, const Dust3rInput&
   pm.w1 = a.width();
   pm.h2 = b.height();
   pm.w2 = b.width();
+  if (p.desc_1.nbytes && p.desc_2.nbytes) {
+    pm.desc_dim = static_cast<int>(p.desc_1.shape.back());
+    pm.desc1.assign(p.desc_1.as<float>(), p.desc_1.as<float>() + p.desc_1.numel());
+    pm.desc2.assign(p.desc_2.as<float>(), p.desc_2.as<float>() + p.desc_2.numel());
+    pm.desc_conf1.assign(p.desc_conf_1.as<float>(), p.desc_conf_1.as<float>() + p.desc_conf_1.numel());
+    pm.desc_conf2.assign(p.desc_conf_2.as<float>(), p.desc_conf_2.as<float>() + p.desc_conf_2.numel());
+  }
   return pm;
 }
 
@@ -30,8 +38,18 @@ uint64_t Fnv1a(const void* data, size_t bytes) {
 }
 }  // namespace
 
-matching::PointmapFn Dust3rPointmapFn(std::shared_ptr<nn::Dust3rModel> model) {
-  return [model](const Dust3rInput& a, const Dust3rInput& b) { return ToHost(model->Run(ViewOf(a), ViewOf(b)), a, b); };
+nn::DecodeOutputs Outputs(bool descriptors) {
+  nn::DecodeOutputs o;
+  o.descriptors = descriptors;
+  return o;
+}
+
+matching::PointmapFn Dust3rPointmapFn(std::shared_ptr<nn::Dust3rModel> model, bool descriptors) {
+  return [model, descriptors](const Dust3rInput& a, const Dust3rInput& b) {
+    const auto ea = model->Encode(ViewOf(a));
+    const auto eb = model->Encode(ViewOf(b));
+    return ToHost(model->Decode(*ea, *eb, Outputs(descriptors)), a, b);
+  };
 }
 
 struct CachingDust3r::Entry {
@@ -41,10 +59,31 @@ struct CachingDust3r::Entry {
   std::shared_ptr<const nn::Dust3rModel::Encoding> encoding;
 };
 
-CachingDust3r::CachingDust3r(std::shared_ptr<nn::Dust3rModel> model) : model_(std::move(model)) {}
+CachingDust3r::CachingDust3r(std::shared_ptr<nn::Dust3rModel> model, bool descriptors)
+    : model_(std::move(model)), descriptors_(descriptors) {}
 CachingDust3r::~CachingDust3r() = default;
 
-void CachingDust3r::Clear() { entries_.clear(); }
+void CachingDust3r::Clear() {
+  entries_.clear();
+  last_ref_.reset();
+  last_query_.reset();
+}
+
+matching::PairPointmaps CachingDust3r::RunSwappedLast() {
+  FREELOC_CHECK(last_ref_ && last_query_, "CachingDust3r::RunSwappedLast before Run");
+  using Enc = nn::Dust3rModel::Encoding;
+  nn::DecodeOutputs only1;
+  only1.view2 = false;
+  only1.descriptors = false;
+  const nn::Dust3rPrediction p = model_->Decode(*std::static_pointer_cast<const Enc>(last_query_),
+                                                *std::static_pointer_cast<const Enc>(last_ref_), only1);
+  matching::PairPointmaps pm;
+  pm.pts1.assign(p.pts3d_1.as<float>(), p.pts3d_1.as<float>() + p.pts3d_1.numel());
+  pm.conf1.assign(p.conf_1.as<float>(), p.conf_1.as<float>() + p.conf_1.numel());
+  pm.h1 = last_h_;
+  pm.w1 = last_w_;
+  return pm;
+}
 
 matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInput& b) {
   const size_t bytes = a.normalized.size() * sizeof(float);
@@ -71,7 +110,11 @@ matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInp
   }
   // (reference, reference), as for the instance proposals: the query side is that same encoding.
   const auto query = &a == &b ? hit->encoding : model_->Encode(ViewOf(b));
-  return ToHost(model_->Decode(*hit->encoding, *query), a, b);
+  last_ref_ = hit->encoding;
+  last_query_ = query;
+  last_h_ = b.height();
+  last_w_ = b.width();
+  return ToHost(model_->Decode(*hit->encoding, *query, Outputs(descriptors_)), a, b);
 }
 
 matching::PointmapFn CachingDust3r::Fn() {

@@ -16,21 +16,27 @@ class Dust3rModel;
 
 namespace freeloc::pipeline {
 
-// Runs `model` on a preprocessed pair and returns its pointmaps (view 2's points in view 1's frame) on the host.
-matching::PointmapFn Dust3rPointmapFn(std::shared_ptr<nn::Dust3rModel> model);
+// Runs `model` on a preprocessed pair and returns its pointmaps (view 2's points in view 1's frame) on the host;
+// a MASt3R model's descriptors too when `descriptors` is set.
+matching::PointmapFn Dust3rPointmapFn(std::shared_ptr<nn::Dust3rModel> model, bool descriptors = false);
 
 // The same function, but the first (reference) view's encoder output is kept and reused whenever the same input
 // comes again (compared by content: a hash, then the full data). `Clear` forgets them (a new scene). Queries are
 // encoded every time. Not thread-safe; one per scene worker.
 class CachingDust3r {
  public:
-  explicit CachingDust3r(std::shared_ptr<nn::Dust3rModel> model);
+  // `descriptors`: also compute a MASt3R model's descriptors (the matcher matches by descriptors).
+  explicit CachingDust3r(std::shared_ptr<nn::Dust3rModel> model, bool descriptors = false);
   ~CachingDust3r();
   CachingDust3r(const CachingDust3r&) = delete;
   CachingDust3r& operator=(const CachingDust3r&) = delete;
 
   matching::PointmapFn Fn();  // valid while this object lives
   matching::PairPointmaps Run(const Dust3rInput& ref, const Dust3rInput& query);
+  // The last pair run again swapped — its query as view 1, its reference as view 2, both encodings reused — with
+  // only head 1: pts1/conf1 are the query's points in the query's own camera frame (MASt3R's query depth,
+  // spec/mast3r.md §5.5). Throws before any Run.
+  matching::PairPointmaps RunSwappedLast();
   void Clear();
   int encoded() const { return encoded_; }  // reference-side encoder passes run
   int reused() const { return reused_; }    // reference-side encoder passes saved
@@ -38,7 +44,10 @@ class CachingDust3r {
  private:
   struct Entry;
   std::shared_ptr<nn::Dust3rModel> model_;
+  bool descriptors_ = false;
   std::vector<std::unique_ptr<Entry>> entries_;
+  std::shared_ptr<const void> last_ref_, last_query_;  // encodings of the last Run
+  int last_h_ = 0, last_w_ = 0;
   int encoded_ = 0, reused_ = 0;
 };
 

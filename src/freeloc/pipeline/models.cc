@@ -15,6 +15,7 @@ namespace freeloc::pipeline {
 const char* NetworkName(Network n) {
   switch (n) {
     case Network::kDust3r: return "DUSt3R";
+    case Network::kMast3r: return "MASt3R";
     case Network::kSegGpt: return "SegGPT";
     case Network::kMetric3d: return "Metric3D v2";
   }
@@ -24,6 +25,7 @@ const char* NetworkName(Network n) {
 const char* NetworkOption(Network n) {
   switch (n) {
     case Network::kDust3r: return "dust3r_model";
+    case Network::kMast3r: return "mast3r_model";
     case Network::kSegGpt: return "seggpt_model";
     case Network::kMetric3d: return "metric3d_model";
   }
@@ -34,6 +36,9 @@ std::vector<std::string> PublishedNames(Network n) {
   switch (n) {
     case Network::kDust3r:  // naver/dust3r checkpoint; HF naver/DUSt3R_ViTLarge_BaseDecoder_512_dpt
       return {"DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth", "DUSt3R_ViTLarge_BaseDecoder_512_dpt/model.safetensors"};
+    case Network::kMast3r:  // naver/mast3r checkpoint; HF naver/MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric
+      return {"MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth",
+              "MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric/model.safetensors"};
     case Network::kSegGpt:  // BAAI/SegGPT release; HF BAAI/seggpt-vit-large
       return {"seggpt_vit_large.pth", "seggpt-vit-large/model.safetensors"};
     case Network::kMetric3d:  // HF JUGGHM/Metric3D: the most accurate variant present first

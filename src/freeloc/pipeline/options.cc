@@ -8,8 +8,8 @@
 namespace freeloc::pipeline {
 
 namespace {
-const char kMatcherChoices[] = "sift, dust3r, dust3r+instances, precomputed:<name>";
-const char kDepthChoices[] = "provided:<suffix>, metric3d, none";
+const char kMatcherChoices[] = "sift, dust3r, dust3r+instances, mast3r, mast3r+instances, precomputed:<name>";
+const char kDepthChoices[] = "provided:<suffix>, metric3d, mast3r, none";
 
 // "head:tail" → {head, tail}; {text, ""} without a colon.
 std::pair<std::string, std::string> SplitColon(const std::string& text) {
@@ -64,6 +64,13 @@ void PipelineOptions::Validate() const {
                 "threshold_px: " << threshold_px << " is not a positive number of pixels (or -1 for the solver's default)");
   FREELOC_CHECK(dust3r_size >= 224, "dust3r_size: " << dust3r_size << " is too small; use 224 or 512");
   FREELOC_CHECK(match_subsample >= 1, "match_subsample: " << match_subsample << " must be >= 1");
+  FREELOC_CHECK(mast3r_subsample >= 1, "mast3r_subsample: " << mast3r_subsample << " must be >= 1 (the seed grid step)");
+  FREELOC_CHECK(mast3r_border >= 0, "mast3r_border: " << mast3r_border << " must be >= 0 pixels");
+  FREELOC_CHECK(std::isfinite(mast3r_conf_threshold),
+                "mast3r_conf_threshold: " << mast3r_conf_threshold << " is not a finite number");
+  FREELOC_CHECK(depth.kind != DepthKind::kMast3r || UsesMast3r(),
+                "depth: mast3r comes from the MASt3R matcher's pointmaps; use matcher mast3r or mast3r+instances "
+                "(or depth metric3d / provided:<suffix>)");
   FREELOC_CHECK(min_instance_matches >= 0, "min_instance_matches: " << min_instance_matches << " is negative");
   FREELOC_CHECK(solver == SolverKind::kEssential || depth.kind != DepthKind::kNone,
                 "solver: " << ToString(solver) << " needs depth (depth provided:<suffix> or metric3d)");
@@ -71,6 +78,7 @@ void PipelineOptions::Validate() const {
   runtime.Validate();
   const auto dirs = ModelDirs(models_dir);
   FREELOC_CHECK(!UsesDust3r() || !dust3r_model.empty(), MissingModelMessage(Network::kDust3r, preset, dirs));
+  FREELOC_CHECK(!UsesMast3r() || !mast3r_model.empty(), MissingModelMessage(Network::kMast3r, preset, dirs));
   FREELOC_CHECK(!UsesSegGpt() || !seggpt_model.empty(), MissingModelMessage(Network::kSegGpt, preset, dirs));
   FREELOC_CHECK(!UsesMetric3d() || !metric3d_model.empty(), MissingModelMessage(Network::kMetric3d, preset, dirs));
 }
@@ -81,11 +89,14 @@ std::string PipelineOptions::Summary() const {
                   (solver == SolverKind::kEssential ? ", scale " + ToString(scale) : "") +
                   (threshold_px > 0 ? ", threshold " + std::to_string(threshold_px) + " px" : "");
   if (UsesDust3r()) s += ", dust3r " + dust3r_model + " at " + std::to_string(dust3r_size);
+  if (UsesMast3r())
+    s += ", mast3r " + mast3r_model + " at " + std::to_string(dust3r_size) + " (subsample " +
+         std::to_string(mast3r_subsample) + ")";
   if (UsesInstances())
     s += ", instances " + ToString(instance_source) + ", instance-mode " + ToString(instance_mode);
   if (UsesSegGpt()) s += ", seggpt " + seggpt_model;
   if (UsesMetric3d()) s += ", metric3d " + metric3d_model;
-  if (UsesDust3r() || UsesMetric3d()) s += ", " + ToString(runtime.device) + " " + ToString(runtime.precision);
+  if (UsesPointmapModel() || UsesMetric3d()) s += ", " + ToString(runtime.device) + " " + ToString(runtime.precision);
   return s;
 }
 

@@ -17,10 +17,13 @@
 namespace freeloc::pipeline {
 
 // sift (the benchmark's extractor) | dust3r (global reciprocal 3D matches) | dust3r+instances (+ the paper's
-// instance knowledge, Eq. 3) | precomputed:<name> (the scene's correspondences_<name>.npz, or rows handed in).
-enum class MatcherKind { kSift, kDust3r, kDust3rInstances, kPrecomputed };
-// provided:<suffix> (frame_xxxxx.<suffix>.png beside each frame, or maps handed in) | metric3d | none.
-enum class DepthKind { kProvided, kMetric3d, kNone };
+// instance knowledge, Eq. 3) | mast3r (MASt3R descriptors, fast reciprocal NN) | mast3r+instances (the same with
+// the instance knowledge) | precomputed:<name> (the scene's correspondences_<name>.npz, or rows handed in).
+enum class MatcherKind { kSift, kDust3r, kDust3rInstances, kMast3r, kMast3rInstances, kPrecomputed };
+// provided:<suffix> (frame_xxxxx.<suffix>.png beside each frame, or maps handed in) | metric3d | mast3r (MASt3R's
+// own metric pointmaps of the pair: the reference's z from the (reference, query) pass, the query's from the swapped
+// pass) | none.
+enum class DepthKind { kProvided, kMetric3d, kMast3r, kNone };
 // essential (5-point LO-RANSAC + metric scale from both depths) | pnp (reference depth) | procrustes (both).
 enum class SolverKind { kEssential, kPnp, kProcrustes };
 // Where dust3r+instances gets its instance masks: kPropagate — the reference's given labels or proposals from its
@@ -57,11 +60,17 @@ struct PipelineOptions {
   std::string models_dir;
   std::string dust3r_model;    // official .pth or model.safetensors (+ config.json beside it)
   std::string dust3r_config;   // optional config.json with the constructor arguments
+  std::string mast3r_model;    // MASt3R .pth (constructor string inside) or HF model.safetensors + config.json
   std::string seggpt_model;    // seggpt_vit_large.pth or HF model.safetensors
   std::string metric3d_model;  // metric_depth_vit_{small,large,giant2}_800k.pth or safetensors
   int dust3r_size = 512;       // load_images size (long side)
   double match_conf_threshold = 0;  // reciprocal matching: a pixel is valid if conf >= this
   int match_subsample = 1;          // keep every k-th query pixel
+  // MASt3R descriptor matching (spec/mast3r.md §4): seed grid step S of the fast reciprocal NN, the border filter
+  // (pixels from each network image's edge) and the minimum desc_conf of both pixels (0: none; visloc: 1.001).
+  int mast3r_subsample = 8;
+  int mast3r_border = 3;
+  double mast3r_conf_threshold = 0;
   matching::InstanceMode instance_mode = matching::InstanceMode::kMask;
   InstanceSource instance_source = InstanceSource::kPropagate;
   int min_instance_matches = 16;           // instances with fewer matches keep the global ones
@@ -72,10 +81,17 @@ struct PipelineOptions {
   bool UsesDust3r() const {
     return matcher.kind == MatcherKind::kDust3r || matcher.kind == MatcherKind::kDust3rInstances;
   }
-  bool UsesInstances() const { return matcher.kind == MatcherKind::kDust3rInstances; }
+  bool UsesMast3r() const {
+    return matcher.kind == MatcherKind::kMast3r || matcher.kind == MatcherKind::kMast3rInstances;
+  }
+  bool UsesPointmapModel() const { return UsesDust3r() || UsesMast3r(); }  // the DUSt3R-family matcher stage
+  bool UsesInstances() const {
+    return matcher.kind == MatcherKind::kDust3rInstances || matcher.kind == MatcherKind::kMast3rInstances;
+  }
   bool UsesSegGpt() const { return UsesInstances() && instance_source == InstanceSource::kPropagate; }
   bool UsesMetric3d() const { return depth.kind == DepthKind::kMetric3d; }
   bool UsesProvidedDepth() const { return depth.kind == DepthKind::kProvided; }
+  bool UsesMast3rDepth() const { return depth.kind == DepthKind::kMast3r; }
   bool UsesPrecomputed() const { return matcher.kind == MatcherKind::kPrecomputed; }
   // Throws freeloc::Error naming the option field and the allowed values (or the missing weights file).
   void Validate() const;
@@ -134,6 +150,8 @@ struct EnumTable<pipeline::MatcherKind> {
       {pipeline::MatcherKind::kSift, "sift"},
       {pipeline::MatcherKind::kDust3r, "dust3r"},
       {pipeline::MatcherKind::kDust3rInstances, "dust3r+instances"},
+      {pipeline::MatcherKind::kMast3r, "mast3r"},
+      {pipeline::MatcherKind::kMast3rInstances, "mast3r+instances"},
       {pipeline::MatcherKind::kPrecomputed, "precomputed"}};
 };
 template <>
@@ -141,6 +159,7 @@ struct EnumTable<pipeline::DepthKind> {
   static constexpr const char* kField = "depth";
   static constexpr EnumEntry<pipeline::DepthKind> kEntries[] = {{pipeline::DepthKind::kProvided, "provided"},
                                                                 {pipeline::DepthKind::kMetric3d, "metric3d"},
+                                                                {pipeline::DepthKind::kMast3r, "mast3r"},
                                                                 {pipeline::DepthKind::kNone, "none"}};
 };
 template <>

@@ -24,12 +24,12 @@ TEST(Options, SpecsRoundTripThroughTheirTextForm) {
 
 TEST(Options, BadTextNamesTheFieldAndTheChoicesNotAFlag) {
   EXPECT_EQ(ErrorOf([] { MatcherSpec::FromString("orb"); }),
-            "matcher: 'orb' is not one of sift, dust3r, dust3r+instances, precomputed:<name>");
+            "matcher: 'orb' is not one of sift, dust3r, dust3r+instances, mast3r, mast3r+instances, precomputed:<name>");
   EXPECT_EQ(ErrorOf([] { MatcherSpec::FromString("sift:x"); }).rfind("matcher: 'sift:x'", 0), 0u);
   EXPECT_NE(ErrorOf([] { MatcherSpec::FromString("precomputed:"); }).find("names no correspondences"),
             std::string::npos);
   EXPECT_EQ(ErrorOf([] { DepthSpec::FromString("provided"); }),
-            "depth: 'provided' is not one of provided:<suffix>, metric3d, none");
+            "depth: 'provided' is not one of provided:<suffix>, metric3d, mast3r, none");
   PipelineOptions o;
   EXPECT_EQ(ErrorOf([&] { SetOption(&o, "solver", "ransac"); }),
             "solver: 'ransac' is not one of essential, pnp, procrustes");

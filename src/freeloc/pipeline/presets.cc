@@ -24,6 +24,12 @@ constexpr Preset kPresets[] = {
     {"seed-no-instance", MatcherKind::kDust3r, DepthKind::kMetric3d, SolverKind::kEssential, -1},
     {"seed-provided-depth", MatcherKind::kDust3rInstances, DepthKind::kProvided, SolverKind::kEssential, -1},
     {"dust3r", MatcherKind::kDust3r, DepthKind::kProvided, SolverKind::kEssential, -1},
+    // MASt3R routes (spec/mast3r.md §5): descriptor matches with its own metric depth (essential + scale), PnP on the
+    // reference pointmap, Metric3D depth instead, and the paper's method with MASt3R in place of DUSt3R.
+    {"mast3r", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kEssential, -1},
+    {"mast3r-pnp", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kPnp, -1},
+    {"mast3r-metric3d", MatcherKind::kMast3r, DepthKind::kMetric3d, SolverKind::kEssential, -1},
+    {"seed-mast3r", MatcherKind::kMast3rInstances, DepthKind::kMetric3d, SolverKind::kEssential, -1},
 };
 const char kPrecomputedForm[] = "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>";
 

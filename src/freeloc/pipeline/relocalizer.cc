@@ -28,6 +28,7 @@ std::string ErrorMessage(const std::exception& e, const std::string& file) {
 void FindModels(PipelineOptions* o) {
   const auto dirs = ModelDirs(o->models_dir);
   if (o->UsesDust3r() && o->dust3r_model.empty()) o->dust3r_model = FindModel(Network::kDust3r, dirs);
+  if (o->UsesMast3r() && o->mast3r_model.empty()) o->mast3r_model = FindModel(Network::kMast3r, dirs);
   if (o->UsesSegGpt() && o->seggpt_model.empty()) o->seggpt_model = FindModel(Network::kSegGpt, dirs);
   if (o->UsesMetric3d() && o->metric3d_model.empty()) o->metric3d_model = FindModel(Network::kMetric3d, dirs);
 }
@@ -109,6 +110,13 @@ QueryResult Relocalizer::Relocalize(const Image& image, const Camera& camera, Fr
   m.d_query = m.depth->Depth(image, camera, std::move(in.depth));
   r.depth_ms = m.depth->needs_provided() ? 0.0 : Ms(t0);
   const matching::Correspondences c = m.matcher->Match(image, camera, in, &r);
+  if (m.o.UsesMast3rDepth()) {
+    // MASt3R's own metric depth of this pair (the reference's changes with the query: pointmaps are per pair).
+    const auto t1 = std::chrono::steady_clock::now();
+    FREELOC_CHECK(m.matcher->PairDepth(m.o.solver != SolverKind::kPnp, &m.d_ref, &m.d_query),
+                  "depth mast3r: the matcher " << m.o.matcher.ToString() << " gives no depth");
+    r.depth_ms = Ms(t1);
+  }
   m.solver->Solve(c, m.k_ref, camera, m.d_ref, m.d_query, &r);
   if (matches) *matches = c;
   m.UpdateStats();

@@ -2,7 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "freeloc/core/error.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/matching/fast_nn.h"
+#include "freeloc/nn/dust3r.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "testing/synthetic_scene.h"
 #include "testing/testing.h"
 
@@ -172,6 +178,104 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
   PipelineOptions pd = o;
   pd.depth = DepthSpec::FromString("provided:sensor");
   for (const auto& q : RelocalizeScene(s, pd)) EXPECT_EQ(ToString(q.status), "no-depth");
+}
+
+// The MASt3R routes with the tiny fixture weights (numbers meaningless, plumbing real): descriptor matches equal the
+// fast reciprocal NN + border filter on the pair's own descriptors; depth mast3r is the z of the (reference, query)
+// pass's view-1 pointmap for the reference and of the swapped (query, reference) pass for the query, mapped to each
+// frame's resolution; the reference encoding is computed once per scene; pnp skips the swapped pass.
+TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
+  FREELOC_REQUIRE_SHARED("fixtures/mast3r/mast3r_tiny.pth");
+  const std::string weights = testing::SharedPath("fixtures/mast3r/mast3r_tiny.pth");
+  PipelineOptions o = ResolvePreset("mast3r");
+  o.mast3r_model = weights;
+  o.dust3r_size = 224;
+  const MapfreeScene s = MapfreeScene::Load(testing::DemoPath("val/s00001"));
+  const Image ref = s.LoadImage(s.reference);
+  Relocalizer reloc(o);
+  reloc.SetReference(ref, s.reference.camera, FrameInputs{});
+  const auto model = nn::Dust3rModel::Load(weights);
+  Dust3rPreprocessOptions pre;
+  pre.size = 224;
+  const Dust3rInput ri = PreprocessForDust3r(ref, pre);
+  std::vector<QueryStatus> first;
+  std::vector<int> first_matches;
+  for (size_t k = 0; k < 2; ++k) {  // two queries (random matches keep RANSAC busy up to its budget)
+    const MapfreeFrame& q = s.queries[k];
+    SCOPED_TRACE(q.name);
+    const Image qi = s.LoadImage(q);
+    const QueryResult r = reloc.Relocalize(qi, q.camera, FrameInputs{});
+    first.push_back(r.status);
+    first_matches.push_back(r.matches);
+    // Random weights: a status, never a confident pose.
+    EXPECT_FALSE(r.ok()) << r.StatusText();
+    const Dust3rInput qn = PreprocessForDust3r(qi, pre);
+    const auto p = model->Run({ri.normalized.data(), ri.height(), ri.width()}, {qn.normalized.data(), qn.height(), qn.width()});
+    const int D = static_cast<int>(p.desc_1.shape.back());
+    const auto raw = matching::FastReciprocalNN({p.desc_1.as<float>(), nullptr, ri.height(), ri.width(), D},
+                                                {p.desc_2.as<float>(), nullptr, qn.height(), qn.width(), D}, {});
+    const auto kept = matching::FilterDescriptorMatches(raw, ri.width(), ri.height(), qn.width(), qn.height(), {});
+    EXPECT_EQ(r.global_matches, static_cast<int>(kept.size()));
+    EXPECT_GT(r.global_matches, 0);
+    // Depth: the reference's from this pair's view 1, the query's from the swapped pass, at original resolution.
+    const DepthMap& dr = reloc.reference_depth();
+    const DepthMap& dq = reloc.last_query_depth();
+    ASSERT_EQ(dr.width, ref.width);
+    ASSERT_EQ(dq.width, qi.width);
+    const auto sw = model->Run({qn.normalized.data(), qn.height(), qn.width()}, {ri.normalized.data(), ri.height(), ri.width()});
+    int compared = 0;
+    for (int y = 5; y < ref.height; y += 97)
+      for (int x = 3; x < ref.width; x += 89) {
+        double xn, yn;
+        ri.ToNetwork(x, y, &xn, &yn);
+        const long xi = std::lround(xn), yi = std::lround(yn);
+        if (xi < 0 || yi < 0 || xi >= ri.width() || yi >= ri.height()) continue;
+        const float z = p.pts3d_1.as<float>()[(yi * ri.width() + xi) * 3 + 2];
+        EXPECT_EQ(dr.at(x, y), z > 0 ? z : 0.f);
+        qn.ToNetwork(x, y, &xn, &yn);
+        const long xq = std::lround(xn), yq = std::lround(yn);
+        if (xq < 0 || yq < 0 || xq >= qn.width() || yq >= qn.height()) continue;
+        const float zq = sw.pts3d_1.as<float>()[(yq * qn.width() + xq) * 3 + 2];
+        EXPECT_EQ(dq.at(x, y), zq > 0 ? zq : 0.f);
+        ++compared;
+      }
+    EXPECT_GT(compared, 10);
+  }
+  EXPECT_EQ(reloc.stats().reference_encodings, 1);  // the reference is encoded once for the scene
+  EXPECT_GE(reloc.stats().reference_reuses, 1);
+  // Deterministic; pnp needs no query depth (no swapped pass).
+  PipelineOptions pnp = ResolvePreset("mast3r-pnp");
+  pnp.mast3r_model = weights;
+  pnp.dust3r_size = 224;
+  Relocalizer r2(pnp);
+  r2.SetReference(ref, s.reference.camera, FrameInputs{});
+  const QueryResult a = r2.Relocalize(s.LoadImage(s.queries[0]), s.queries[0].camera, FrameInputs{});
+  EXPECT_TRUE(r2.last_query_depth().empty());
+  EXPECT_FALSE(r2.reference_depth().empty());
+  EXPECT_FALSE(a.ok());
+  Relocalizer r3(o);
+  r3.SetReference(ref, s.reference.camera, FrameInputs{});
+  const QueryResult b = r3.Relocalize(s.LoadImage(s.queries[0]), s.queries[0].camera, FrameInputs{});
+  EXPECT_EQ(b.status, first[0]);
+  EXPECT_EQ(b.matches, first_matches[0]);
+}
+
+TEST(Relocalizer, Mast3rPresetsNeedMast3rWeights) {
+  PipelineOptions o = ResolvePreset("mast3r");
+  o.models_dir = "/nonexistent";
+  const std::string e = testing::ErrorOf([&] { o.Validate(); });
+  EXPECT_NE(e.find("MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth"), std::string::npos) << e;
+  EXPECT_NE(e.find("docs/models.md"), std::string::npos) << e;
+  // depth mast3r without the MASt3R matcher is refused; a DUSt3R checkpoint is not a MASt3R model.
+  PipelineOptions d = ResolvePreset("dust3r");
+  d.dust3r_model = "x.pth";
+  d.depth = DepthSpec::FromString("mast3r");
+  EXPECT_NE(testing::ErrorOf([&] { d.Validate(); }).find("matcher mast3r"), std::string::npos);
+  if (testing::SharedExists("fixtures/pth/dust3r_tiny.pth")) {
+    o.mast3r_model = testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+    const std::string e2 = testing::ErrorOf([&] { Relocalizer r(o); });
+    EXPECT_NE(e2.find("no local-feature head"), std::string::npos) << e2;
+  }
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "freeloc/pipeline/stages.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
@@ -64,12 +65,21 @@ class Dust3rMatcher : public Matcher {
  public:
   Dust3rMatcher(const PipelineOptions& o, std::shared_ptr<nn::Dust3rModel> dust3r,
                 std::shared_ptr<nn::SegGptModel> seggpt)
-      : o_(o), fn_(std::move(dust3r)), seggpt_(std::move(seggpt)) {
+      : o_(o), fn_(dust3r, o.UsesMast3r()), seggpt_(std::move(seggpt)) {
+    FREELOC_CHECK(!o.UsesMast3r() || dust3r->config().is_mast3r(),
+                  "mast3r_model " << o.mast3r_model
+                                  << ": a DUSt3R checkpoint (no local-feature head); give the MASt3R weights "
+                                     "(MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth)");
     instance_.mode = o.instance_mode;
     instance_.preprocess.size = o.dust3r_size;
     instance_.match.conf_threshold = o.match_conf_threshold;
     instance_.match.subsample = o.match_subsample;
     instance_.match.threads = o.runtime.threads;
+    instance_.descriptors = o.UsesMast3r();
+    instance_.fast_nn.subsample = o.mast3r_subsample;
+    instance_.fast_nn.threads = o.runtime.threads;
+    instance_.descriptor_filter.border = o.mast3r_border;
+    instance_.descriptor_filter.min_conf = o.mast3r_conf_threshold;
     instance_.min_matches = o.min_instance_matches;
     instance_.Validate();
   }
@@ -77,6 +87,7 @@ class Dust3rMatcher : public Matcher {
   void SetReference(const Image& image, const Camera&, const std::vector<uint16_t>* labels) override {
     ref_ = image;
     fn_.Clear();
+    have_last_ = false;
     ref_in_ = PreprocessForDust3r(image, instance_.preprocess);
     ref_masks_.clear();
     if (!o_.UsesInstances()) return;
@@ -94,9 +105,11 @@ class Dust3rMatcher : public Matcher {
 
   matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs& in, QueryResult* r) override {
     auto t0 = std::chrono::steady_clock::now();
-    const Dust3rInput q_in = PreprocessForDust3r(query, instance_.preprocess);
-    std::vector<matching::Correspondence> merged =
-        matching::GlobalCorrespondences(fn_.Fn()(ref_in_, q_in), ref_in_, q_in, instance_.match);
+    q_in_ = PreprocessForDust3r(query, instance_.preprocess);
+    const Dust3rInput& q_in = q_in_;
+    last_ = fn_.Fn()(ref_in_, q_in);
+    have_last_ = true;
+    std::vector<matching::Correspondence> merged = matching::GlobalCorrespondences(last_, ref_in_, q_in, instance_);
     r->global_matches = static_cast<int>(merged.size());
     r->match_ms = Ms(t0);
     if (o_.UsesInstances() && !ref_masks_.empty()) {
@@ -113,6 +126,17 @@ class Dust3rMatcher : public Matcher {
     return c;
   }
 
+  bool PairDepth(bool with_query, DepthMap* ref, DepthMap* query) override {
+    if (!o_.UsesMast3r() || !have_last_) return false;
+    *ref = NetworkDepthToImage(last_.pts1, last_.h1, last_.w1, ref_in_);
+    *query = DepthMap();
+    if (with_query) {
+      const matching::PairPointmaps sw = fn_.RunSwappedLast();
+      *query = NetworkDepthToImage(sw.pts1, sw.h1, sw.w1, q_in_);
+    }
+    return true;
+  }
+
   void AddStats(CacheStats* s) const override {
     s->reference_encodings = fn_.encoded();
     s->reference_reuses = fn_.reused();
@@ -120,6 +144,22 @@ class Dust3rMatcher : public Matcher {
   }
 
  private:
+  // z of a network-resolution pointmap (view 1's own camera frame) at every pixel of the original image: the network
+  // pixel nearest to each original pixel (DESIGN §2's pixel-centre mapping); 0 outside the crop or behind the camera.
+  static DepthMap NetworkDepthToImage(const std::vector<float>& pts, int h, int w, const Dust3rInput& in) {
+    DepthMap d(in.orig_width, in.orig_height);
+    for (int y = 0; y < d.height; ++y)
+      for (int x = 0; x < d.width; ++x) {
+        double xn, yn;
+        in.ToNetwork(x, y, &xn, &yn);
+        const long xi = std::lround(xn), yi = std::lround(yn);
+        if (xi < 0 || yi < 0 || xi >= w || yi >= h) continue;
+        const float z = pts[(static_cast<size_t>(yi) * w + static_cast<size_t>(xi)) * 3 + 2];
+        if (z > 0 && std::isfinite(z)) d.at(x, y) = z;
+      }
+    return d;
+  }
+
   static void CheckLabels(const std::vector<uint16_t>& labels, const Image& image, const char* frame) {
     FREELOC_CHECK(labels.size() == static_cast<size_t>(image.width) * image.height,
                   "instance labels of the " << frame << ": " << labels.size() << " values for a " << image.width
@@ -167,7 +207,9 @@ class Dust3rMatcher : public Matcher {
   std::shared_ptr<nn::SegGptModel> seggpt_;
   matching::InstanceOptions instance_;
   Image ref_;
-  Dust3rInput ref_in_;
+  Dust3rInput ref_in_, q_in_;
+  matching::PairPointmaps last_;  // the last query's global pass (MASt3R depth comes from it)
+  bool have_last_ = false;
   std::vector<std::pair<int, std::vector<uint8_t>>> ref_masks_;  // 0/1 at the reference's resolution
 };
 // ----------------------------------------------------------------------------------------------------------------
@@ -354,6 +396,10 @@ std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& o) {
     case MatcherKind::kDust3rInstances:
       return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.dust3r_model, o.dust3r_config, o.runtime),
                                              o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
+    case MatcherKind::kMast3r:
+    case MatcherKind::kMast3rInstances:
+      return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.mast3r_model, "", o.runtime),
+                                             o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
   }
   FREELOC_THROW("matcher: " << o.matcher.ToString() << " has no implementation");
 }
@@ -364,6 +410,7 @@ std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
     case DepthKind::kMetric3d: return std::make_unique<Metric3dDepth>(CachedMetric3d(o.metric3d_model, o.runtime));
     case DepthKind::kProvided: return std::make_unique<ProvidedDepth>();
     case DepthKind::kNone: return std::make_unique<NoDepth>();
+    case DepthKind::kMast3r: return std::make_unique<NoDepth>();  // the matcher's pair pass gives it (PairDepth)
   }
   FREELOC_THROW("depth: " << o.depth.ToString() << " has no implementation");
 }

@@ -29,7 +29,8 @@ struct FrameInputs {
 };
 
 // sift (the benchmark's extractor; reference features once) | dust3r (global reciprocal 3D matches; reference
-// encoding once) | dust3r+instances (+ reference instances — given or proposed — propagated by SegGPT or given
+// encoding once) | mast3r (MASt3R descriptors, fast reciprocal NN; reference encoding once) | dust3r+instances /
+// mast3r+instances (+ reference instances — given or proposed — propagated by SegGPT or given
 // for the query, per-instance DUSt3R, Eq. 3 merge) | precomputed (the rows handed in).
 class Matcher {
  public:
@@ -41,6 +42,10 @@ class Matcher {
   virtual matching::Correspondences Match(const Image& query, const Camera& camera, const FrameInputs& inputs,
                                           QueryResult* r) = 0;
   virtual void AddStats(CacheStats* /*stats*/) const {}
+  // The metric depth the matcher's own network gave for the last Match (MASt3R's pointmaps: the reference's z from
+  // the (reference, query) pass; with `with_query` also the query's, from a second decoder pass with the query as
+  // view 1), each at its frame's resolution (0 = invalid). False when the matcher has none (depth mast3r needs it).
+  virtual bool PairDepth(bool /*with_query*/, DepthMap* /*ref*/, DepthMap* /*query*/) { return false; }
 };
 
 // metric3d (Metric3D v2 on the image) | provided (the depth handed in) | none (always empty).

@@ -1,5 +1,6 @@
 #include "freeloc/nn/internal/torch_util.h"
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -59,9 +60,46 @@ void ApplyRuntime(const RuntimeOptions& runtime) {
   if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
 }
 
+std::string QuoteNonFiniteJson(const std::string& text) {
+  std::string out;
+  out.reserve(text.size() + 16);
+  bool in_string = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      out += c;
+      if (c == '\\' && i + 1 < text.size()) {
+        out += text[++i];
+      } else if (c == '"') {
+        in_string = false;
+      }
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+      out += c;
+      continue;
+    }
+    auto word = [&](const char* w) { return text.compare(i, std::strlen(w), w) == 0; };
+    if (word("-Infinity")) {
+      out += "\"-inf\"";
+      i += 8;
+    } else if (word("Infinity")) {
+      out += "\"inf\"";
+      i += 7;
+    } else if (word("NaN")) {
+      out += "\"nan\"";
+      i += 2;
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
 nlohmann::json ParseModelConfig(const std::string& text, const std::string& source, const std::string& what) {
   try {
-    return nlohmann::json::parse(text);
+    return nlohmann::json::parse(QuoteNonFiniteJson(text));
   } catch (const std::exception& e) {
     FREELOC_THROW(source << ": the " << what << " config is not valid JSON (" << e.what() << ")");
   }
