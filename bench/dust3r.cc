@@ -22,33 +22,6 @@ using freeloc::bench::NowSeconds;
 
 namespace {
 
-// Full-model state dict with random weights, shapes from the fixture's list of the released model's tensors.
-std::map<std::string, freeloc::TensorView> RandomFullModel(const std::string& shapes_json) {
-  std::ifstream f(shapes_json);
-  if (!f.good()) {
-    std::fprintf(stderr, "bench/dust3r: %s not found (it lists the released model's tensor shapes)\n",
-                 shapes_json.c_str());
-    std::exit(1);
-  }
-  const nlohmann::json j = nlohmann::json::parse(f);
-  torch::manual_seed(0);
-  std::map<std::string, freeloc::TensorView> sd;
-  for (const auto& e : j) {
-    const std::string name = e[0];
-    const std::vector<int64_t> shape = e[1];
-    torch::Tensor t;
-    if (name.find("norm") != std::string::npos && name.find(".weight") != std::string::npos) {
-      t = torch::ones(shape);
-    } else if (name.find(".bias") != std::string::npos) {
-      t = torch::zeros(shape);
-    } else {
-      t = torch::randn(shape) * 0.02;
-    }
-    sd[name] = freeloc::nn::internal::ToView(t);
-  }
-  return sd;
-}
-
 // One ViT block's worth of GEMM work at N tokens (qkv, proj, fc1, fc2) in a dtype: seconds.
 double BlockGemms(int64_t n, int64_t c, int64_t hidden, torch::Dtype dt) {
   torch::InferenceMode g;
@@ -87,7 +60,7 @@ int main(int argc, char** argv) {
   const double gemm32 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kFloat32);
   const double gemm16 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kBFloat16);
   const auto sd =
-      RandomFullModel(std::string(FREELOC_SHARED_DIR) + "/fixtures/dust3r/full_model_state_dict_shapes.json");
+      freeloc::bench::RandomFullModel(std::string(FREELOC_SHARED_DIR) + "/fixtures/dust3r/full_model_state_dict_shapes.json");
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
   const auto model = freeloc::nn::Dust3rModel::Create(

@@ -23,36 +23,6 @@ using freeloc::bench::Fmt;
 using freeloc::bench::Median;
 using freeloc::bench::NowSeconds;
 
-namespace {
-
-// Random full-size weights (LayerNorm weights 1, biases 0, other weights N(0, 0.02²)).
-std::map<std::string, freeloc::TensorView> RandomFullModel(const std::string& shapes_json) {
-  std::ifstream f(shapes_json);
-  if (!f.good()) {
-    std::fprintf(stderr, "bench/mast3r: %s not found (it lists the released model's tensor shapes)\n",
-                 shapes_json.c_str());
-    std::exit(1);
-  }
-  const nlohmann::json j = nlohmann::json::parse(f);
-  torch::manual_seed(0);
-  std::map<std::string, freeloc::TensorView> sd;
-  for (const auto& e : j) {
-    const std::string name = e[0];
-    const std::vector<int64_t> shape = e[1];
-    torch::Tensor t;
-    if (name.find("norm") != std::string::npos && name.find(".weight") != std::string::npos)
-      t = torch::ones(shape);
-    else if (name.find(".bias") != std::string::npos)
-      t = torch::zeros(shape);
-    else
-      t = torch::randn(shape) * 0.02;
-    sd[name] = freeloc::nn::internal::ToView(t);
-  }
-  return sd;
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
   int threads = 2, reps = 3;
   for (int i = 1; i < argc; ++i) {
@@ -68,7 +38,7 @@ int main(int argc, char** argv) {
   torch::set_num_threads(threads);
   const double gemm32 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kFloat32);
   const auto sd =
-      RandomFullModel(std::string(FREELOC_SHARED_DIR) + "/fixtures/mast3r/full_model_state_dict_shapes.json");
+      freeloc::bench::RandomFullModel(std::string(FREELOC_SHARED_DIR) + "/fixtures/mast3r/full_model_state_dict_shapes.json");
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
   const std::map<std::string, std::string> kw = {{"enc_num_heads", "16"},     {"dec_num_heads", "12"},

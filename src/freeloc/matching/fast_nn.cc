@@ -336,6 +336,22 @@ __attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline voi
   }
 }
 
+// work(t) for t = 0 … nt − 1, on nt threads (the calling one alone when nt is 1).
+template <typename Fn>
+void RunOnThreads(int nt, const Fn& work) {
+  if (nt == 1) return work(0);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < nt; ++t) pool.emplace_back(work, t);
+  for (auto& th : pool) th.join();
+}
+
+// Each query's best screened value over the threads' block ranges.
+template <typename T>
+void MergeRunningMax(const std::vector<std::vector<T>>& runmax, std::vector<double>* best) {
+  for (const auto& per_thread : runmax)
+    for (size_t i = 0; i < per_thread.size(); ++i) (*best)[i] = std::max((*best)[i], static_cast<double>(per_thread[i]));
+}
+
 __attribute__((target("avx512f,avx512bw,avx512vnni"))) void ScreenInt8Range(
     const uint8_t* packed, int D4, int blk_begin, int blk_end, int M, const int32_t* q32, const int32_t* thr, int n,
     int32_t* runmax, std::vector<Candidate>* out) {
@@ -393,17 +409,8 @@ void Database::ScreenInt8All(const std::vector<const float*>& queries, int nt,
     ScreenInt8Range(sample8_.data(), D4_, s0, s1, INT_MAX, q32.data(), thr_i.data(), n, rm, &discard);
     ScreenInt8Range(packed8_.data(), D4_, b0, b1, M_, q32.data(), thr_i.data(), n, rm, &(*cand)[static_cast<size_t>(t)]);
   };
-  if (nt == 1) {
-    work(0);
-  } else {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < nt; ++t) pool.emplace_back(work, t);
-    for (auto& th : pool) th.join();
-  }
-  for (int t = 0; t < nt; ++t)
-    for (int i = 0; i < n; ++i)
-      (*best)[static_cast<size_t>(i)] =
-          std::max((*best)[static_cast<size_t>(i)], static_cast<double>(runmax[static_cast<size_t>(t)][static_cast<size_t>(i)]));
+  RunOnThreads(nt, work);
+  MergeRunningMax(runmax, best);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -483,17 +490,8 @@ void Database::ScreenFloatAll(const std::vector<const float*>& queries, int nt,
     ScreenFloatRange(packedf_.data(), D_, b0, b1, M_, qs.data(), thr_f.data(), n, runmax[static_cast<size_t>(t)].data(),
                      &(*cand)[static_cast<size_t>(t)]);
   };
-  if (nt == 1) {
-    work(0);
-  } else {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < nt; ++t) pool.emplace_back(work, t);
-    for (auto& th : pool) th.join();
-  }
-  for (int t = 0; t < nt; ++t)
-    for (int i = 0; i < n; ++i)
-      (*best)[static_cast<size_t>(i)] =
-          std::max((*best)[static_cast<size_t>(i)], static_cast<double>(runmax[static_cast<size_t>(t)][static_cast<size_t>(i)]));
+  RunOnThreads(nt, work);
+  MergeRunningMax(runmax, best);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
