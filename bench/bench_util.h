@@ -1,9 +1,11 @@
 // Small helpers for the benchmark programs: timing, medians, peak RSS, Markdown tables.
 #pragma once
 
+#include <dlfcn.h>
 #include <link.h>
 #include <sys/resource.h>
 
+#include <cstdlib>
 #include <fstream>
 
 #include <algorithm>
@@ -39,6 +41,15 @@ inline std::string MachineLine() {
         return 0;
       },
       &blas);
+  using CoreName = char* (*)();
+  const auto corename = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
+  if (corename && corename()) {
+    blas += std::string(" (OpenBLAS ") + corename() + " kernels";
+    const char* sel = std::getenv("FREELOC_BLAS_SELECTED");
+    const char* user = std::getenv("OPENBLAS_CORETYPE");
+    blas += sel ? std::string(", selected by freeloc: ") + sel : user ? std::string(", OPENBLAS_CORETYPE=") + user : "";
+    blas += ")";
+  }
   return "CPU: " + model + " (" + std::to_string(n) + " threads; " + isa + ") · BLAS: " +
          (blas.empty() ? "none loaded by this program" : blas);
 }

@@ -90,6 +90,7 @@ int main(int argc, char** argv) {
     cached.push_back(NowSeconds() - t0);
   }
   const double pair = freeloc::bench::Median(total);
+  std::printf("%s\n\n", freeloc::bench::MachineLine().c_str());
   std::printf(
       "## bench/dust3r — DUSt3R_ViTLarge_BaseDecoder_512_dpt (random weights), 512×384 pair, %d threads, "
       "median of %d after a warm-up\n\n",

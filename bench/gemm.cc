@@ -85,6 +85,7 @@ int main(int argc, char** argv) {
     }
   }
   torch::set_num_threads(threads);
+  std::printf("%s\n\n", freeloc::bench::MachineLine().c_str());
   std::printf("## bench/gemm — LibTorch %s, %d threads (torch::get_num_threads() = %d), %s, median of %d\n\n",
               TORCH_VERSION, threads, torch::get_num_threads(), BlasInfo().c_str(), reps);
   const std::vector<Shape> shapes = {

@@ -16,7 +16,11 @@ The same C++ pipeline as the ``freeloc`` command, numpy in and out. Poses are ``
 import json as _json
 import os as _os
 
-from ._freeloc import (  # noqa: F401
+from . import _blas
+
+_blas.select()  # OpenBLAS reads OPENBLAS_CORETYPE when _freeloc loads it, so this comes first
+
+from ._freeloc import (  # noqa: F401,E402
     Dust3r,
     Error,
     Metric3D,
@@ -31,7 +35,7 @@ from ._freeloc import (  # noqa: F401
     read_image,
     run,
 )
-from . import _freeloc
+from . import _freeloc  # noqa: E402
 
 __all__ = [
     "Dust3r", "Error", "Metric3D", "PoseResult", "Relocalizer", "SegGPT", "__version__", "estimate_relative_pose",

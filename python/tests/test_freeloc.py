@@ -6,6 +6,7 @@ import json
 import os
 import struct
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -239,3 +240,24 @@ def test_mast3r_descriptors_equal_freeloc_pointmap(tmp_path):
     for k in ("pts3d_2", "desc_1", "desc_conf_1", "desc_2", "desc_conf_2"):
         assert got[k].shape == want[k].shape and np.array_equal(got[k], want[k]), k
     assert got["desc_1"].shape[2] == 8 and np.allclose(np.linalg.norm(got["desc_1"], axis=2), 1, atol=1e-5)
+
+
+def test_blas_coretype_table_matches_the_cpp_one():
+    """The Python copy of the OpenBLAS core-type decision gives the C++ answers on the shared cases."""
+    from freeloc import _blas
+    with open(os.path.join(SRC, "tests", "data", "blas", "coretype_cases.json")) as f:
+        cases = json.load(f)["cases"]
+    assert len(cases) >= 10
+    for c in cases:
+        assert _blas.choose_coretype(c["vendor"], set(c["flags"].split()), c["reported"]) == c["expect"], c["name"]
+
+
+def test_blas_selection_respects_the_user_and_reports_the_kernels():
+    """A user-set OPENBLAS_CORETYPE is kept; `freeloc -v` says which kernels run."""
+    env = dict(os.environ, OPENBLAS_CORETYPE="Haswell")
+    r = subprocess.run([sys.executable, "-c", "import freeloc, os; print(os.environ['OPENBLAS_CORETYPE'])"],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0 and r.stdout.strip() == "Haswell", r.stderr
+    r = subprocess.run([BIN, "-v", "match", "--model", "none.pth", "a.png", "b.png", "--out", "x.txt"],
+                       capture_output=True, text=True, env=env)
+    assert "BLAS: OpenBLAS" in r.stderr and "OPENBLAS_CORETYPE=Haswell set by the user" in r.stderr, r.stderr

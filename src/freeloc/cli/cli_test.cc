@@ -887,3 +887,29 @@ TEST(Cli, Mast3rPresetsRunAndEval) {
     EXPECT_TRUE(Contains(r.out, "no valid pose estimate")) << r.out;
   }
 }
+
+// On a CPU OpenBLAS does not know, a network command re-executes itself once with OPENBLAS_CORETYPE set to the
+// kernels the CPU runs (simulated here: FREELOC_BLAS_ASSUME_REPORTED makes freeloc act as if OpenBLAS had reported a
+// generic core); `-v` names the kernels. Commands without networks, a user-set OPENBLAS_CORETYPE and
+// FREELOC_BLAS_SELECT=0 are left alone.
+TEST(Cli, UnknownCpuGetsFastBlasKernels) {
+  const std::string cmd = "-v match --model none.pth a.png b.png --out x.txt";
+  Result r = RunFreeloc(cmd, "-u FREELOC_MODELS -u OPENBLAS_CORETYPE FREELOC_BLAS_ASSUME_REPORTED=Prescott");
+  EXPECT_EQ(r.code, 1) << r.out;  // the files do not exist: the point is what ran before
+  if (!Contains(r.out, "BLAS: OpenBLAS")) GTEST_SKIP() << "the BLAS is not OpenBLAS here: " << r.out;
+  const bool fast_cpu = Contains(freeloc::testing::ReadText("/proc/cpuinfo"), " avx");
+  if (fast_cpu) {
+    EXPECT_TRUE(Contains(r.out, "selected by freeloc: OpenBLAS reported Prescott -> ")) << r.out;
+    // The kernels OpenBLAS runs after the re-exec are the selected ones.
+    const size_t a = r.out.find("Prescott -> ") + 12;
+    const std::string pick = r.out.substr(a, r.out.find(' ', a) - a);
+    EXPECT_TRUE(Contains(r.out, "OpenBLAS, " + pick + " kernels")) << r.out;
+  }
+  r = RunFreeloc(cmd, "-u FREELOC_MODELS OPENBLAS_CORETYPE=Haswell FREELOC_BLAS_ASSUME_REPORTED=Prescott");
+  EXPECT_TRUE(Contains(r.out, "OPENBLAS_CORETYPE=Haswell set by the user")) << r.out;
+  r = RunFreeloc(cmd, "-u FREELOC_MODELS -u OPENBLAS_CORETYPE FREELOC_BLAS_SELECT=0 FREELOC_BLAS_ASSUME_REPORTED=Prescott");
+  EXPECT_TRUE(Contains(r.out, "OpenBLAS's own choice")) << r.out;
+  r = RunFreeloc("-v eval --data /nonexistent --submission x.zip",
+                 "-u FREELOC_MODELS -u OPENBLAS_CORETYPE FREELOC_BLAS_ASSUME_REPORTED=Prescott");
+  EXPECT_FALSE(Contains(r.out, "selected by freeloc")) << r.out;
+}

@@ -1,19 +1,50 @@
 // freeloc — map-free metric relocalization. Entry point: global options, subcommand dispatch, error policy.
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstring>
 #include <cstdlib>
 #include <new>
 #include <string>
 #include <vector>
 
 #include "freeloc/cli/commands.h"
+#include "freeloc/core/blas_select.h"
 #include "freeloc/core/error.h"
 #include "freeloc/core/limits.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/core/version.h"
 
+namespace {
+
+// OpenBLAS picks its kernels when the process loads it, before main. On a CPU it does not know (it then runs generic
+// SSE kernels, 3–5× slower), a command that runs networks executes itself again, once, with OPENBLAS_CORETYPE set to
+// the kernels this CPU runs (core/blas_select.h). A user-set OPENBLAS_CORETYPE, or FREELOC_BLAS_SELECT=0, is left
+// alone; if the exec fails the command goes on with the kernels it has.
+void SelectBlasKernels(char** argv) {
+  const char* off = std::getenv("FREELOC_BLAS_SELECT");
+  if (std::getenv("OPENBLAS_CORETYPE") || (off && std::strcmp(off, "0") == 0)) return;
+  bool network = false;
+  for (char** a = argv + 1; *a && !network; ++a)
+    for (const char* c : {"pointmap", "segment", "depth", "match", "run", "relocalize", "demo"})
+      network = network || std::strcmp(*a, c) == 0;
+  if (!network) return;
+  // FREELOC_BLAS_ASSUME_REPORTED (tests): act as if OpenBLAS had reported that core.
+  const char* assume = std::getenv("FREELOC_BLAS_ASSUME_REPORTED");
+  const std::string reported = assume ? assume : freeloc::LoadedOpenBlasCore();
+  const std::string pick = freeloc::ChooseOpenBlasCoretype(freeloc::ThisCpu(), reported);
+  if (pick.empty()) return;
+  setenv("OPENBLAS_CORETYPE", pick.c_str(), 1);
+  setenv("FREELOC_BLAS_SELECTED", (reported + " -> " + pick).c_str(), 1);
+  execv("/proc/self/exe", argv);  // returns only on failure
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace freeloc;
+  SelectBlasKernels(argv);
   cli::GlobalOptions global;
   cli::RunFn run;
 
@@ -63,6 +94,16 @@ int main(int argc, char** argv) {
   }
 
   SetLogLevel(global.quiet ? LogLevel::kError : global.verbose ? LogLevel::kDebug : LogLevel::kInfo);
+  if (global.verbose) {
+    const std::string core = LoadedOpenBlasCore();
+    const char* selected = std::getenv("FREELOC_BLAS_SELECTED");
+    const char* user = std::getenv("OPENBLAS_CORETYPE");
+    FREELOC_LOG(DEBUG) << "BLAS: " << (core.empty() ? "not OpenBLAS (no core to select)" : "OpenBLAS, " + core + " kernels")
+                       << (selected ? std::string(" (selected by freeloc: OpenBLAS reported ") + selected + " on " +
+                                          ThisCpu().model_name + ")"
+                           : user ? std::string(" (OPENBLAS_CORETYPE=") + user + " set by the user)"
+                                  : std::string(" (OpenBLAS's own choice)"));
+  }
   if (global.threads > 0) {
     // Must be set before any threaded library initialises its pool (LibTorch/OpenMP, OpenBLAS).
     const std::string n = std::to_string(global.threads);
