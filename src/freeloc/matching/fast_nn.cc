@@ -57,6 +57,9 @@ namespace {
 constexpr int kLanes = 16;       // database points per block
 constexpr int kRows = 8;         // queries per register block
 constexpr int kTileBlocks = 256;  // blocks per cache tile (4096 points)
+// int8 layout: a block is a 4×4-pixel square; a super-block (the unit the bound prunes) a kSuperPx × kSuperPx tile.
+constexpr int kSuperPx = 8;
+constexpr int kSuperBlocks = (kSuperPx / 4) * (kSuperPx / 4);
 
 // The exact similarity: float products are exact in double; the sum runs in index order.
 inline double ExactDot(const float* a, const float* b, int D) {
@@ -84,10 +87,20 @@ void CheckView(const DescriptorView& v, const char* which) {
 
 int Threads(int t) { return std::max(1, t > 0 ? t : static_cast<int>(std::thread::hardware_concurrency())); }
 
+// work(t) for t = 0 … nt − 1, on nt threads (the calling one alone when nt is 1).
+template <typename Fn>
+void RunOnThreads(int nt, const Fn& work) {
+  if (nt == 1) return work(0);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < nt; ++t) pool.emplace_back(work, t);
+  for (auto& th : pool) th.join();
+}
+
 // One view's descriptors as the searched database, packed once per pair and direction.
 class Database {
  public:
-  Database(const DescriptorView& v, NnKernel kernel) : x_(v.desc), M_(v.height * v.width), D_(v.dim) {
+  Database(const DescriptorView& v, NnKernel kernel)
+      : x_(v.desc), M_(v.height * v.width), D_(v.dim), W_(v.width), H_(v.height) {
     valid_.assign(static_cast<size_t>(M_), 1);
     for (int j = 0; j < M_; ++j) {
       const float* p = x_ + static_cast<size_t>(j) * D_;
@@ -136,27 +149,45 @@ class Database {
     for (int i = 0; i < n; ++i)
       for (int d = 0; d < D_; ++d)
         if (!std::isfinite(queries[static_cast<size_t>(i)][d])) qok[static_cast<size_t>(i)] = 0;
-    const int nt = std::min(Threads(threads), std::max(1, nblk_ / 64));
+    const int nt = std::min(Threads(threads), std::max(1, (int8_ ? nblk8_ : nblk_) / 64));
     std::vector<std::vector<Candidate>> cand(static_cast<size_t>(nt));
     std::vector<double> best_screen(static_cast<size_t>(n), -std::numeric_limits<double>::infinity());
     std::vector<double> thr(static_cast<size_t>(n));
     if (int8_) ScreenInt8All(queries, nt, &cand, &best_screen, &thr);
     else ScreenFloatAll(queries, nt, &cand, &best_screen, &thr);
-    // Exact scoring of the candidates within 2ε of the best screened value, combined with ⊕ in any order.
-    std::vector<double> bv(static_cast<size_t>(n), -std::numeric_limits<double>::infinity());
-    int64_t scored = 0;
-    for (const auto& list : cand)
-      for (const Candidate& c : list) {
+    // Exact scoring of the candidates within 2ε of the best screened value, each thread its own list, combined with ⊕
+    // (any order gives the same answer).
+    std::vector<std::vector<double>> bv(static_cast<size_t>(nt), std::vector<double>(static_cast<size_t>(n),
+                                                                                    -std::numeric_limits<double>::infinity()));
+    std::vector<std::vector<int>> bi(static_cast<size_t>(nt), std::vector<int>(static_cast<size_t>(n), -1));
+    std::vector<int64_t> scored_t(static_cast<size_t>(nt), 0);
+    RunOnThreads(nt, [&](int t) {
+      std::vector<double>& v_t = bv[static_cast<size_t>(t)];
+      std::vector<int>& i_t = bi[static_cast<size_t>(t)];
+      for (const Candidate& c : cand[static_cast<size_t>(t)]) {
         const size_t q = static_cast<size_t>(c.q);
-        if (!qok[q] || !valid(c.idx)) continue;
-        if (c.val < best_screen[q] - thr[q]) continue;
+        if (!qok[q] || !valid(c.idx) || c.val < best_screen[q] - thr[q]) continue;
         const double v = ExactDot(queries[q], row(c.idx), D_);
-        ++scored;
-        if (Better(v, c.idx, bv[q], (*out)[q])) {
-          bv[q] = v;
-          (*out)[q] = c.idx;
+        ++scored_t[static_cast<size_t>(t)];
+        if (Better(v, c.idx, v_t[q], i_t[q])) {
+          v_t[q] = v;
+          i_t[q] = c.idx;
         }
       }
+    });
+    int64_t scored = 0;
+    for (int t = 0; t < nt; ++t) {
+      scored += scored_t[static_cast<size_t>(t)];
+      for (int q = 0; q < n; ++q) {
+        const double v = bv[static_cast<size_t>(t)][static_cast<size_t>(q)];
+        const int i = bi[static_cast<size_t>(t)][static_cast<size_t>(q)];
+        if (i >= 0 && (t == 0 || Better(v, i, bv[0][static_cast<size_t>(q)], bi[0][static_cast<size_t>(q)]))) {
+          bv[0][static_cast<size_t>(q)] = v;
+          bi[0][static_cast<size_t>(q)] = i;
+        }
+      }
+    }
+    *out = bi[0];
     for (int i = 0; i < n; ++i)
       if (!qok[static_cast<size_t>(i)]) (*out)[static_cast<size_t>(i)] = -1;
     if (candidates) *candidates += scored;
@@ -180,37 +211,90 @@ class Database {
   }
 
  private:
+  // The int8 layout: kSuperPx × kSuperPx tiles (super-blocks) in row-major order, each of 4×4-pixel blocks (16 lanes),
+  // so that a block and a super-block hold neighbouring pixels — MASt3R descriptors vary smoothly, and a
+  // super-block's bound then prunes most of the map for each query (ScreenInt8RangeT). Codes round(x·s_x) + 128.
   void PackInt8() {
     D4_ = (D_ + 3) / 4;
     sx_ = absmax_ > 0 ? 127.0 / absmax_ : 1.0;
-    packed8_.assign(static_cast<size_t>(nblk_) * D4_ * 64, 128);
-    for (int j = 0; j < M_; ++j) {
-      if (!valid(j)) continue;
-      const float* p = row(j);
-      uint8_t* blk = packed8_.data() + static_cast<size_t>(j / kLanes) * D4_ * 64;
-      const int lane = j % kLanes;
-      double e2 = 0, t2 = 0;
-      for (int d = 0; d < D_; ++d) {
-        const double v = p[d] * sx_;  // |rounding error| ≤ 0.5 (the bound's assumption)
-        const int c = std::clamp(static_cast<int>(v + (v >= 0 ? 0.5 : -0.5)), -127, 127);
-        blk[(d / 4) * 64 + lane * 4 + d % 4] = static_cast<uint8_t>(c + 128);
-        const double xt = c / sx_;
-        e2 += (p[d] - xt) * (p[d] - xt);
-        t2 += xt * xt;
+    const int tw = (W_ + kSuperPx - 1) / kSuperPx, th = (H_ + kSuperPx - 1) / kSuperPx;
+    nsup_ = tw * th;
+    nblk8_ = nsup_ * kSuperBlocks;
+    const int Dp = D4_ * 4;
+    packed8_.assign(static_cast<size_t>(nblk8_) * D4_ * 64, 128);
+    pix_.assign(static_cast<size_t>(nblk8_) * kLanes, -1);
+    sup_c_.assign(static_cast<size_t>(nsup_) * Dp, 0.f);
+    sup_r_.assign(static_cast<size_t>(nsup_), -1.f);  // < 0: no valid pixel (never scanned for a real maximum)
+    std::vector<int64_t> sum(static_cast<size_t>(nsup_) * Dp, 0);
+    std::vector<int> count(static_cast<size_t>(nsup_), 0);
+    const double inv_sx = 1.0 / sx_;
+    for (int y = 0; y < H_; ++y)
+      for (int x = 0; x < W_; ++x) {
+        const int j = y * W_ + x;
+        const int sb = (y / kSuperPx) * tw + x / kSuperPx;
+        const int blk = sb * kSuperBlocks + ((y % kSuperPx) / 4) * (kSuperPx / 4) + (x % kSuperPx) / 4;
+        const int lane = (y % 4) * 4 + x % 4;
+        pix_[static_cast<size_t>(blk) * kLanes + lane] = j;
+        if (!valid(j)) continue;
+        const float* p = row(j);
+        uint8_t* bp = packed8_.data() + static_cast<size_t>(blk) * D4_ * 64 + lane * 4;
+        int64_t* sp = &sum[static_cast<size_t>(sb) * Dp];
+        double e2 = 0, t2 = 0;
+        for (int d = 0; d < D_; ++d) {
+          const double v = p[d] * sx_;  // |rounding error| ≤ 0.5 (the bound's assumption)
+          const int c = std::clamp(static_cast<int>(v + (v >= 0 ? 0.5 : -0.5)), -127, 127);
+          bp[(d / 4) * 64 + d % 4] = static_cast<uint8_t>(c + 128);
+          const double xt = c * inv_sx;
+          e2 += (p[d] - xt) * (p[d] - xt);
+          t2 += xt * xt;
+          sp[d] += c;
+        }
+        ++count[static_cast<size_t>(sb)];
+        ex2max_ = std::max(ex2max_, e2);  // max ‖x − x̃‖₂² and max ‖x̃‖₂² over the map (roots below)
+        xt2max_ = std::max(xt2max_, t2);
       }
-      ex2max_ = std::max(ex2max_, std::sqrt(e2));  // max ‖x − x̃‖₂ and max ‖x̃‖₂ over the map
-      xt2max_ = std::max(xt2max_, std::sqrt(t2));
+    ex2max_ = std::sqrt(ex2max_) * (1 + 1e-12);
+    xt2max_ = std::sqrt(xt2max_) * (1 + 1e-12);
+    // Super-block centroids and radii, in code units (the radius from the float centroid, rounded up).
+    for (int sb = 0; sb < nsup_; ++sb) {
+      if (!count[static_cast<size_t>(sb)]) continue;
+      std::vector<float> c(static_cast<size_t>(Dp));
+      for (int d = 0; d < Dp; ++d) {
+        c[static_cast<size_t>(d)] =
+            static_cast<float>(static_cast<double>(sum[static_cast<size_t>(sb) * Dp + d]) / count[static_cast<size_t>(sb)]);
+        sup_c_[static_cast<size_t>(d) * nsup_ + sb] = c[static_cast<size_t>(d)];  // dimension-major
+      }
+      // float arithmetic (24 squares of values below 255: relative error < 1e-5), covered by the rounding up below.
+      float r2 = 0;
+      for (int b = 0; b < kSuperBlocks; ++b) {
+        const uint8_t* bp = packed8_.data() + (static_cast<size_t>(sb) * kSuperBlocks + b) * D4_ * 64;
+        const int32_t* pb = &pix_[(static_cast<size_t>(sb) * kSuperBlocks + b) * kLanes];
+        for (int l = 0; l < kLanes; ++l) {
+          if (pb[l] < 0 || !valid(pb[l])) continue;
+          float d2 = 0;
+          for (int d = 0; d < D_; ++d) {
+            const float diff = static_cast<float>(static_cast<int>(bp[(d / 4) * 64 + l * 4 + d % 4]) - 128) -
+                               c[static_cast<size_t>(d)];
+            d2 += diff * diff;
+          }
+          r2 = std::max(r2, d2);
+        }
+      }
+      sup_r_[static_cast<size_t>(sb)] = static_cast<float>(std::sqrt(static_cast<double>(r2)) * (1 + 1e-4) + 1e-2);
     }
   }
 
   // Every kSampleStride-th block, screened first to give each query a running maximum close to its final one
   // (a real screened value, so never above it): far fewer stale candidates are recorded on the full scan.
-  static constexpr int kSampleStride = 4;  // 25 % more screening, ~4× fewer stale records (bench/matching)
+  static constexpr int kSampleStride = 8;  // 1/8 more screening; fewer stale records, more tiles skipped (bench/matching)
   void PackSample8() {
     const size_t bytes = static_cast<size_t>(D4_) * 64;
-    for (int b = 0; b < nblk_; b += kSampleStride)
+    for (int b = 0; b < nblk8_; b += kSampleStride) {
       sample8_.insert(sample8_.end(), packed8_.begin() + static_cast<ptrdiff_t>(b * bytes),
                       packed8_.begin() + static_cast<ptrdiff_t>((b + 1) * bytes));
+      sample_pix_.insert(sample_pix_.end(), pix_.begin() + static_cast<ptrdiff_t>(b) * kLanes,
+                         pix_.begin() + static_cast<ptrdiff_t>(b + 1) * kLanes);
+    }
   }
 
   void PackFloat() {
@@ -229,7 +313,7 @@ class Database {
                       std::vector<double>* best, std::vector<double>* thr) const;
 
   const float* x_;
-  int M_, D_;
+  int M_, D_, W_, H_;
   std::vector<char> valid_;
   int invalid_ = 0;
   double l1max_ = 0, l2max_ = 0, absmax_ = 0;
@@ -237,6 +321,12 @@ class Database {
   bool int8_ = false;
   double sx_ = 1, ex2max_ = 0, xt2max_ = 0;
   std::vector<uint8_t> packed8_, sample8_;
+  int nsup_ = 0, nblk8_ = 0;
+  std::vector<int32_t> pix_, sample_pix_;
+  std::vector<float> sup_c_, sup_r_;
+
+ public:
+  mutable int64_t tiles_scanned_ = 0, tiles_skipped_ = 0;  // int8: (row group, tile) pairs scanned and skipped
   std::vector<float> packedf_;
 };
 
@@ -246,103 +336,180 @@ class Database {
 
 // The slow path of a block whose screened values reach a query's limit: record the lanes at or above it and raise
 // the query's running maximum. Rare after the first blocks.
+// Only real, valid pixels are recorded and raise the running maximum (padding lanes and NaN pixels hold code 0, whose
+// value is not a similarity of any candidate).
 template <typename T>
-void RecordLanes(const T* lanes, uint32_t mask, int b, int M, int q, T* runmax, const T* thr,
-                 std::vector<Candidate>* out) {
+void RecordLanes(const T* lanes, uint32_t mask, int b, const int32_t* pix, const char* valid, int M, int q, T* runmax,
+                 const T* thr, std::vector<Candidate>* out) {
   for (int l = 0; l < kLanes; ++l) {
     if (!(mask >> l & 1)) continue;
-    const int idx = b * kLanes + l;
-    if (idx >= M || !(lanes[l] >= runmax[q] - thr[q])) continue;
+    const int idx = pix ? pix[b * kLanes + l] : b * kLanes + l;  // pix: the int8 layout's lane → pixel table
+    if (idx < 0 || idx >= M || !valid[idx] || !(lanes[l] >= runmax[q] - thr[q])) continue;
     out->push_back({q, idx, static_cast<double>(lanes[l])});
     if (lanes[l] > runmax[q]) runmax[q] = lanes[l];
   }
 }
 
-// D4 (groups of 4 dimensions) as a template parameter for the common sizes, so the accumulators stay in registers.
+// What one int8 scan needs. The database is laid out in tiles: a block is a 4×4 pixel square (16 lanes), a super-block
+// the blocks of a kSuperPx × kSuperPx tile; `pix` maps block·16 + lane to the pixel (−1: padding beyond the image edge).
+struct Int8Scan {
+  const uint8_t* packed;
+  int D4;
+  const int32_t* pix;  // block·16 + lane → pixel index, −1 for padding
+  const char* valid;   // per pixel
+  int M;
+  const int32_t* q32;  // n (+ kRows padding) × D4 query words
+  const int32_t* thr;
+  int n;
+  int32_t* runmax;
+  std::vector<Candidate>* out;
+  // Super-block pruning (null: scan every block): per super-block the centroid of its codes (Dp floats) and the
+  // radius of its codes around it; per query its codes as floats, their norm and the u8 bias 128·Σq8.
+  const float* sup_cT = nullptr;  // Dp × nsup, dimension-major
+  int nsup = 0;
+  const float* sup_r = nullptr;
+  const float* qf = nullptr;
+  const float* qn = nullptr;
+  const float* qbias = nullptr;
+  int Dp = 0;
+  int64_t* tiles_scanned = nullptr;  // (row group, super-block) pairs scanned / skipped, for the statistics
+  int64_t* tiles_skipped = nullptr;
+};
+
+// Blocks [b_from, b_to) for the query rows q0 … q0 + kRows − 1 (r of them real).
 template <int kD4>
-__attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline void ScreenInt8RangeT(
-    const uint8_t* packed, int D4_runtime, int blk_begin, int blk_end, int M, const int32_t* q32, const int32_t* thr, int n,
-    int32_t* runmax, std::vector<Candidate>* out) {
-  const int D4 = kD4 > 0 ? kD4 : D4_runtime;
-  int32_t limit[kRows];
-  for (int tb = blk_begin; tb < blk_end; tb += kTileBlocks) {
-    const int te = std::min(blk_end, tb + kTileBlocks);
-    for (int q0 = 0; q0 < n; q0 += kRows) {
-      const int r = std::min(kRows, n - q0);
-      const int32_t* qb = q32 + static_cast<size_t>(q0) * D4;
-      // Padded rows (beyond n) never reach INT_MAX / 2 (and acc − limit cannot overflow: |acc| < 2²⁴).
-      for (int i = 0; i < kRows; ++i) limit[i] = i < r ? runmax[q0 + i] - thr[q0 + i] : INT_MAX / 2;
-      int b = tb;
-      // Two blocks per step: each broadcast query value feeds two multiply-adds.
-      for (; b + 1 < te; b += 2) {
-        const uint8_t* xb = packed + static_cast<size_t>(b) * D4 * 64;
-        __m512i acc[2 * kRows];
-        for (int i = 0; i < 2 * kRows; ++i) acc[i] = _mm512_set1_epi32(0);
+__attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline void ScanBlocks(
+    const Int8Scan& s, int q0, int r, int32_t* limit, int b_from, int b_to) {
+  const int D4 = kD4 > 0 ? kD4 : s.D4;
+  const int32_t* qb = s.q32 + static_cast<size_t>(q0) * D4;
+  int b = b_from;
+  // Two blocks per step: each broadcast query value feeds two multiply-adds.
+  for (; b + 1 < b_to; b += 2) {
+    const uint8_t* xb = s.packed + static_cast<size_t>(b) * D4 * 64;
+    __m512i acc[2 * kRows];
+    for (int i = 0; i < 2 * kRows; ++i) acc[i] = _mm512_set1_epi32(0);
 #pragma GCC unroll 16
-        for (int k = 0; k < D4; ++k) {
-          const __m512i x0 = _mm512_loadu_si512(xb + k * 64);
-          const __m512i x1 = _mm512_loadu_si512(xb + (D4 + k) * 64);
+    for (int k = 0; k < D4; ++k) {
+      const __m512i x0 = _mm512_loadu_si512(xb + k * 64);
+      const __m512i x1 = _mm512_loadu_si512(xb + (D4 + k) * 64);
 #pragma GCC unroll 16
-          for (int i = 0; i < kRows; ++i) {
-            const __m512i qv = _mm512_set1_epi32(qb[static_cast<size_t>(i) * D4 + k]);
-            acc[i] = _mm512_dpbusd_epi32(acc[i], x0, qv);
-            acc[kRows + i] = _mm512_dpbusd_epi32(acc[kRows + i], x1, qv);
-          }
-        }
-        __m512i over = _mm512_sub_epi32(_mm512_max_epi32(acc[0], acc[kRows]), _mm512_set1_epi32(limit[0]));
-#pragma GCC unroll 16
-        for (int i = 1; i < kRows; ++i)
-          over = _mm512_max_epi32(over, _mm512_sub_epi32(_mm512_max_epi32(acc[i], acc[kRows + i]), _mm512_set1_epi32(limit[i])));
-        if (__builtin_expect(_mm512_cmpge_epi32_mask(over, _mm512_set1_epi32(0)) == 0, 1)) continue;
-        alignas(64) int32_t all[2 * kRows][kLanes];
-#pragma GCC unroll 16
-        for (int i = 0; i < 2 * kRows; ++i) _mm512_store_si512(all[i], acc[i]);
-        for (int i = 0; i < r; ++i)
-          for (int half = 0; half < 2; ++half) {  // block b's lanes before block b + 1's: ascending index order
-            const int32_t* lanes = all[half * kRows + i];
-            uint32_t mask = 0;
-            for (int l = 0; l < kLanes; ++l) mask |= static_cast<uint32_t>(lanes[l] >= limit[i]) << l;
-            if (!mask) continue;
-            RecordLanes(lanes, mask, b + half, M, q0 + i, runmax, thr, out);
-            limit[i] = runmax[q0 + i] - thr[q0 + i];
-          }
+      for (int i = 0; i < kRows; ++i) {
+        const __m512i qv = _mm512_set1_epi32(qb[static_cast<size_t>(i) * D4 + k]);
+        acc[i] = _mm512_dpbusd_epi32(acc[i], x0, qv);
+        acc[kRows + i] = _mm512_dpbusd_epi32(acc[kRows + i], x1, qv);
       }
-      for (; b < te; ++b) {
-        const uint8_t* xb = packed + static_cast<size_t>(b) * D4 * 64;
-        __m512i acc[kRows];
-        for (int i = 0; i < kRows; ++i) acc[i] = _mm512_set1_epi32(0);
-        for (int k = 0; k < D4; ++k) {
-          const __m512i x = _mm512_loadu_si512(xb + k * 64);
-          for (int i = 0; i < kRows; ++i)
-            acc[i] = _mm512_dpbusd_epi32(acc[i], x, _mm512_set1_epi32(qb[static_cast<size_t>(i) * D4 + k]));
-        }
-        __m512i over = _mm512_sub_epi32(acc[0], _mm512_set1_epi32(limit[0]));
-        for (int i = 1; i < kRows; ++i) over = _mm512_max_epi32(over, _mm512_sub_epi32(acc[i], _mm512_set1_epi32(limit[i])));
-        if (_mm512_cmpge_epi32_mask(over, _mm512_set1_epi32(0)) == 0) continue;
-        // Slow path. The accumulators go to memory here (with constant indices), so that the hot loop above keeps
-        // them in registers.
-        alignas(64) int32_t all[kRows][kLanes];
+    }
+    // Any lane of any row at or above its row's limit? (acc − limit, maximum over rows, one compare: no mask
+    // registers live across the loop.)
+    __m512i over = _mm512_sub_epi32(_mm512_max_epi32(acc[0], acc[kRows]), _mm512_set1_epi32(limit[0]));
 #pragma GCC unroll 16
-        for (int i = 0; i < kRows; ++i) _mm512_store_si512(all[i], acc[i]);
-        for (int i = 0; i < r; ++i) {
-          uint32_t mask = 0;
-          for (int l = 0; l < kLanes; ++l) mask |= static_cast<uint32_t>(all[i][l] >= limit[i]) << l;
-          if (!mask) continue;
-          RecordLanes(all[i], mask, b, M, q0 + i, runmax, thr, out);
-          limit[i] = runmax[q0 + i] - thr[q0 + i];
-        }
+    for (int i = 1; i < kRows; ++i)
+      over = _mm512_max_epi32(over, _mm512_sub_epi32(_mm512_max_epi32(acc[i], acc[kRows + i]), _mm512_set1_epi32(limit[i])));
+    if (__builtin_expect(_mm512_cmpge_epi32_mask(over, _mm512_set1_epi32(0)) == 0, 1)) continue;
+    // Slow path. The accumulators go to memory here (with constant indices), so that the hot loop keeps them in
+    // registers.
+    alignas(64) int32_t all[2 * kRows][kLanes];
+#pragma GCC unroll 16
+    for (int i = 0; i < 2 * kRows; ++i) _mm512_store_si512(all[i], acc[i]);
+    for (int i = 0; i < r; ++i)
+      for (int half = 0; half < 2; ++half) {
+        const int32_t* lanes = all[half * kRows + i];
+        uint32_t mask = 0;
+        for (int l = 0; l < kLanes; ++l) mask |= static_cast<uint32_t>(lanes[l] >= limit[i]) << l;
+        if (!mask) continue;
+        RecordLanes(lanes, mask, b + half, s.pix, s.valid, s.M, q0 + i, s.runmax, s.thr, s.out);
+        limit[i] = s.runmax[q0 + i] - s.thr[q0 + i];
       }
+  }
+  for (; b < b_to; ++b) {
+    const uint8_t* xb = s.packed + static_cast<size_t>(b) * D4 * 64;
+    __m512i acc[kRows];
+    for (int i = 0; i < kRows; ++i) acc[i] = _mm512_set1_epi32(0);
+    for (int k = 0; k < D4; ++k) {
+      const __m512i x = _mm512_loadu_si512(xb + k * 64);
+      for (int i = 0; i < kRows; ++i)
+        acc[i] = _mm512_dpbusd_epi32(acc[i], x, _mm512_set1_epi32(qb[static_cast<size_t>(i) * D4 + k]));
+    }
+    alignas(64) int32_t all[kRows][kLanes];
+    for (int i = 0; i < kRows; ++i) _mm512_store_si512(all[i], acc[i]);
+    for (int i = 0; i < r; ++i) {
+      uint32_t mask = 0;
+      for (int l = 0; l < kLanes; ++l) mask |= static_cast<uint32_t>(all[i][l] >= limit[i]) << l;
+      if (!mask) continue;
+      RecordLanes(all[i], mask, b, s.pix, s.valid, s.M, q0 + i, s.runmax, s.thr, s.out);
+      limit[i] = s.runmax[q0 + i] - s.thr[q0 + i];
     }
   }
 }
 
-// work(t) for t = 0 … nt − 1, on nt threads (the calling one alone when nt is 1).
-template <typename Fn>
-void RunOnThreads(int nt, const Fn& work) {
-  if (nt == 1) return work(0);
-  std::vector<std::thread> pool;
-  for (int t = 0; t < nt; ++t) pool.emplace_back(work, t);
-  for (auto& th : pool) th.join();
+// Blocks [blk_begin, blk_end) for every query, in cache tiles of kTileBlocks blocks. With super-block data, a tile's
+// super-block is skipped for a group of rows when, for each row, its bound q8·c + ‖q8‖·r (+ the u8 bias and a
+// margin for the float arithmetic) — an upper bound of every value in it — is below the row's limit: then no value
+// there can come within thr of the row's final maximum, which is at least its running maximum.
+template <int kD4>
+__attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline void ScreenInt8RangeT(
+    const Int8Scan& s, int blk_begin, int blk_end) {
+  int32_t limit[kRows];
+  for (int tb = blk_begin; tb < blk_end; tb += kTileBlocks) {
+    const int te = std::min(blk_end, tb + kTileBlocks);
+    for (int q0 = 0; q0 < s.n; q0 += kRows) {
+      const int r = std::min(kRows, s.n - q0);
+      // Padded rows (beyond n) never reach INT_MAX / 2 (and acc − limit cannot overflow: |acc| < 2²⁴).
+      for (int i = 0; i < kRows; ++i) limit[i] = i < r ? s.runmax[q0 + i] - s.thr[q0 + i] : INT_MAX / 2;
+      if (!s.sup_cT) {
+        ScanBlocks<kD4>(s, q0, r, limit, tb, te);
+        continue;
+      }
+      // The bounds of this tile range's super-blocks for the group's rows, vectorised over super-blocks (centroids
+      // stored dimension-major); a super-block is scanned when any real row's bound reaches its limit.
+      const int sb0 = tb / kSuperBlocks, sb1 = (te + kSuperBlocks - 1) / kSuperBlocks, nk = sb1 - sb0;
+      static_assert(kTileBlocks / kSuperBlocks <= 64, "one bit per super-block of a tile range");
+      uint64_t scan = 0;
+      const float* rad = s.sup_r + sb0;
+      // Per row: bound = (qn + rel)·r + base + rel·rel_c + Σ_d q_d·c_d (rel, the float-rounding margin).
+      const float rel_c = 128.f * std::sqrt(static_cast<float>(s.Dp));
+      float slope[kRows], icpt[kRows], lim[kRows];
+      for (int i = 0; i < kRows; ++i) {
+        const int qi = q0 + std::min(i, r - 1);
+        const float qn = s.qn[qi], rel = 1e-4f * qn;
+        slope[i] = qn + rel;
+        icpt[i] = s.qbias[qi] + 8.f + rel * rel_c;
+        lim[i] = i < r ? static_cast<float>(limit[i]) : 3e38f;
+      }
+      const float* qf = s.qf + static_cast<size_t>(q0) * s.Dp;
+      const int rows_avail = std::min(kRows, s.n - q0);  // qf rows that exist (the rest repeat the last real one)
+      for (int k = 0; k < nk; k += 16) {
+        const __mmask16 in = nk - k >= 16 ? 0xffff : static_cast<__mmask16>((1u << (nk - k)) - 1);
+        const __m512 rk = _mm512_maskz_loadu_ps(in, rad + k);
+        __m512 acc[kRows];
+#pragma GCC unroll 16
+        for (int i = 0; i < kRows; ++i) acc[i] = _mm512_fmadd_ps(_mm512_set1_ps(slope[i]), rk, _mm512_set1_ps(icpt[i]));
+        for (int d = 0; d < s.Dp; ++d) {
+          const __m512 c = _mm512_maskz_loadu_ps(in, s.sup_cT + static_cast<size_t>(d) * s.nsup + sb0 + k);
+#pragma GCC unroll 16
+          for (int i = 0; i < kRows; ++i)
+            acc[i] = _mm512_fmadd_ps(_mm512_set1_ps(qf[static_cast<size_t>(std::min(i, rows_avail - 1)) * s.Dp + d]), c,
+                                     acc[i]);
+        }
+        __mmask16 hit = 0;
+#pragma GCC unroll 16
+        for (int i = 0; i < kRows; ++i)
+          hit = static_cast<__mmask16>(hit | _mm512_mask_cmp_ps_mask(in, acc[i], _mm512_set1_ps(lim[i]), _CMP_GE_OQ));
+        // Empty super-blocks (radius < 0) are never scanned.
+        hit = static_cast<__mmask16>(hit & _mm512_mask_cmp_ps_mask(in, rk, _mm512_set1_ps(0.f), _CMP_GE_OQ));
+        scan |= static_cast<uint64_t>(hit) << k;
+      }
+      for (int k = 0; k < nk; ++k) {
+        const int sb = sb0 + k;
+        if (scan >> k & 1) {
+          ScanBlocks<kD4>(s, q0, r, limit, sb * kSuperBlocks, std::min(te, (sb + 1) * kSuperBlocks));
+          ++*s.tiles_scanned;
+        } else {
+          ++*s.tiles_skipped;
+        }
+      }
+    }
+  }
 }
 
 // Each query's best screened value over the threads' block ranges.
@@ -352,15 +519,14 @@ void MergeRunningMax(const std::vector<std::vector<T>>& runmax, std::vector<doub
     for (size_t i = 0; i < per_thread.size(); ++i) (*best)[i] = std::max((*best)[i], static_cast<double>(per_thread[i]));
 }
 
-__attribute__((target("avx512f,avx512bw,avx512vnni"))) void ScreenInt8Range(
-    const uint8_t* packed, int D4, int blk_begin, int blk_end, int M, const int32_t* q32, const int32_t* thr, int n,
-    int32_t* runmax, std::vector<Candidate>* out) {
-  switch (D4) {
-    case 2: return ScreenInt8RangeT<2>(packed, D4, blk_begin, blk_end, M, q32, thr, n, runmax, out);  // D ≤ 8
-    case 4: return ScreenInt8RangeT<4>(packed, D4, blk_begin, blk_end, M, q32, thr, n, runmax, out);  // D ≤ 16
-    case 6: return ScreenInt8RangeT<6>(packed, D4, blk_begin, blk_end, M, q32, thr, n, runmax, out);  // D ≤ 24 (released)
-    case 8: return ScreenInt8RangeT<8>(packed, D4, blk_begin, blk_end, M, q32, thr, n, runmax, out);  // D ≤ 32
-    default: return ScreenInt8RangeT<0>(packed, D4, blk_begin, blk_end, M, q32, thr, n, runmax, out);
+__attribute__((target("avx512f,avx512bw,avx512vnni"))) void ScreenInt8Range(const Int8Scan& s, int blk_begin,
+                                                                               int blk_end) {
+  switch (s.D4) {
+    case 2: return ScreenInt8RangeT<2>(s, blk_begin, blk_end);  // D ≤ 8
+    case 4: return ScreenInt8RangeT<4>(s, blk_begin, blk_end);  // D ≤ 16
+    case 6: return ScreenInt8RangeT<6>(s, blk_begin, blk_end);  // D ≤ 24 (released)
+    case 8: return ScreenInt8RangeT<8>(s, blk_begin, blk_end);  // D ≤ 32
+    default: return ScreenInt8RangeT<0>(s, blk_begin, blk_end);
   }
 }
 
@@ -396,21 +562,55 @@ void Database::ScreenInt8All(const std::vector<const float*>& queries, int nt,
     thr_i[static_cast<size_t>(i)] = static_cast<int32_t>(std::min(t, 4.0e8));
     (*thr)[static_cast<size_t>(i)] = thr_i[static_cast<size_t>(i)];
   }
+  // The queries' codes as floats, their norms and u8 biases, for the super-block bounds.
+  const int Dp = D4_ * 4;
+  std::vector<float> qf(static_cast<size_t>(n) * Dp, 0.f), qn(static_cast<size_t>(n)), qbias(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const auto* bytes = reinterpret_cast<const int8_t*>(q32.data() + static_cast<size_t>(i) * D4_);
+    double n2 = 0, sum = 0;
+    for (int d = 0; d < Dp; ++d) {
+      qf[static_cast<size_t>(i) * Dp + d] = bytes[d];
+      n2 += bytes[d] * bytes[d];
+      sum += bytes[d];
+    }
+    qn[static_cast<size_t>(i)] = static_cast<float>(std::sqrt(n2));
+    qbias[static_cast<size_t>(i)] = static_cast<float>(128 * sum);
+  }
   std::vector<std::vector<int32_t>> runmax(static_cast<size_t>(nt),
                                            std::vector<int32_t>(static_cast<size_t>(n), INT_MIN / 2));
+  std::vector<int64_t> scanned(static_cast<size_t>(nt), 0), skipped(static_cast<size_t>(nt), 0);
   auto work = [&](int t) {
-    const int b0 = static_cast<int>(static_cast<int64_t>(nblk_) * t / nt);
-    const int b1 = static_cast<int>(static_cast<int64_t>(nblk_) * (t + 1) / nt);
+    // Whole super-blocks per thread.
+    const int b0 = static_cast<int>(static_cast<int64_t>(nsup_) * t / nt) * kSuperBlocks;
+    const int b1 = static_cast<int>(static_cast<int64_t>(nsup_) * (t + 1) / nt) * kSuperBlocks;
     int32_t* rm = runmax[static_cast<size_t>(t)].data();
     // The sampled blocks of this range first: a running maximum close to the final one, so that the full scan
-    // records few stale candidates (what the sample records is discarded; the full scan visits those blocks again).
+    // records few stale candidates and skips more tiles (what the sample records is discarded; the full scan visits
+    // those blocks again).
     std::vector<Candidate> discard;
     const int s0 = (b0 + kSampleStride - 1) / kSampleStride, s1 = (b1 + kSampleStride - 1) / kSampleStride;
-    ScreenInt8Range(sample8_.data(), D4_, s0, s1, INT_MAX, q32.data(), thr_i.data(), n, rm, &discard);
-    ScreenInt8Range(packed8_.data(), D4_, b0, b1, M_, q32.data(), thr_i.data(), n, rm, &(*cand)[static_cast<size_t>(t)]);
+    const Int8Scan sample{sample8_.data(), D4_, sample_pix_.data(), valid_.data(), M_, q32.data(), thr_i.data(),
+                          n, rm, &discard};
+    ScreenInt8Range(sample, s0, s1);
+    Int8Scan full{packed8_.data(), D4_, pix_.data(), valid_.data(), M_, q32.data(), thr_i.data(),
+                  n, rm, &(*cand)[static_cast<size_t>(t)]};
+    full.sup_cT = sup_c_.data();
+    full.nsup = nsup_;
+    full.sup_r = sup_r_.data();
+    full.qf = qf.data();
+    full.qn = qn.data();
+    full.qbias = qbias.data();
+    full.Dp = Dp;
+    full.tiles_scanned = &scanned[static_cast<size_t>(t)];
+    full.tiles_skipped = &skipped[static_cast<size_t>(t)];
+    ScreenInt8Range(full, b0, b1);
   };
   RunOnThreads(nt, work);
   MergeRunningMax(runmax, best);
+  for (int t = 0; t < nt; ++t) {
+    tiles_scanned_ += scanned[static_cast<size_t>(t)];
+    tiles_skipped_ += skipped[static_cast<size_t>(t)];
+  }
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -422,8 +622,8 @@ typedef float V8f __attribute__((vector_size(32)));
 // it, SSE2 otherwise).
 constexpr int kFloatRows = 4;
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void ScreenFloatRange(
-    const float* packed, int D, int blk_begin, int blk_end, int M, const float* qs, const float* thr, int n,
-    float* runmax, std::vector<Candidate>* out) {
+    const float* packed, int D, int blk_begin, int blk_end, int M, const char* valid, const float* qs,
+    const float* thr, int n, float* runmax, std::vector<Candidate>* out) {
   alignas(64) float lanes[kLanes];
   float limit[kFloatRows];
   for (int tb = blk_begin; tb < blk_end; tb += kTileBlocks) {
@@ -454,7 +654,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
           if (!(best >= limit[i])) continue;
           std::memcpy(lanes, &lo[i], 32);
           std::memcpy(lanes + 8, &hi[i], 32);
-          RecordLanes(lanes, 0xffffu, b, M, q0 + i, runmax, thr, out);
+          RecordLanes(lanes, 0xffffu, b, nullptr, valid, M, q0 + i, runmax, thr, out);
           limit[i] = runmax[q0 + i] - thr[q0 + i];
         }
       }
@@ -487,7 +687,8 @@ void Database::ScreenFloatAll(const std::vector<const float*>& queries, int nt,
   auto work = [&](int t) {
     const int b0 = static_cast<int>(static_cast<int64_t>(nblk_) * t / nt);
     const int b1 = static_cast<int>(static_cast<int64_t>(nblk_) * (t + 1) / nt);
-    ScreenFloatRange(packedf_.data(), D_, b0, b1, M_, qs.data(), thr_f.data(), n, runmax[static_cast<size_t>(t)].data(),
+    ScreenFloatRange(packedf_.data(), D_, b0, b1, M_, valid_.data(), qs.data(), thr_f.data(), n,
+                     runmax[static_cast<size_t>(t)].data(),
                      &(*cand)[static_cast<size_t>(t)]);
   };
   RunOnThreads(nt, work);
@@ -610,6 +811,8 @@ std::vector<PixelMatch> Run(const DescriptorView& v1, const DescriptorView& v2, 
     m.conf2 = v2.desc_conf ? v2.desc_conf[b] : 0.f;
     out.push_back(m);
   }
+  const int64_t sc = db1.tiles_scanned_ + db2.tiles_scanned_, sk = db1.tiles_skipped_ + db2.tiles_skipped_;
+  st.tiles_skipped = sc + sk > 0 ? static_cast<double>(sk) / static_cast<double>(sc + sk) : 0.0;
   st.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (stats_out) *stats_out = std::move(st);
   return out;

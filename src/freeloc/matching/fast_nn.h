@@ -44,6 +44,7 @@ struct FastNnStats {
   int invalid_pixels = 0;   // descriptors with a NaN/inf component (never selected, never seeded)
   int64_t lookups = 0;      // NN lookups actually computed (after memoisation and deduplication)
   int64_t candidates = 0;   // database points scored exactly after screening
+  double tiles_skipped = 0;  // int8 kernel: fraction of (8-query group, 16×16-pixel tile) pairs its bound skipped
   std::string kernel;       // "int8-vnni" or "float32"
   double ms = 0;
 };

@@ -89,10 +89,12 @@ TEST(FastNn, EqualsExhaustiveReferenceOnRandomDescriptors) {
   struct Case {
     int h1, w1, h2, w2, d, s;
     bool unit, smooth;
+    bool opposed = false;  // view 2 points away from view 1: every similarity negative (padding must never win)
   };
   for (const Case& c : {Case{37, 53, 41, 29, 24, 4, true, false}, Case{64, 48, 48, 64, 24, 8, true, true},
                         Case{23, 31, 23, 31, 7, 3, false, false}, Case{80, 112, 96, 64, 8, 5, true, true},
-                        Case{16, 16, 300, 2, 33, 2, true, false}}) {
+                        Case{16, 16, 300, 2, 33, 2, true, false}, Case{45, 61, 43, 58, 24, 4, true, true, true},
+                        Case{96, 128, 96, 128, 24, 8, true, true}}) {
     SCOPED_TRACE(::testing::Message() << c.h1 << "x" << c.w1 << " / " << c.h2 << "x" << c.w2 << " D=" << c.d);
     auto make = [&](int h, int w, float phase) {
       std::vector<float> v(static_cast<size_t>(h) * w * c.d);
@@ -119,7 +121,17 @@ TEST(FastNn, EqualsExhaustiveReferenceOnRandomDescriptors) {
       for (int k = 0; k < 3; ++k) v[(rng() % (static_cast<size_t>(h) * w)) * c.d] = std::nanf("");
       return v;
     };
-    const auto d1 = make(c.h1, c.w1, 0.f), d2 = make(c.h2, c.w2, 0.3f);
+    const auto d1 = make(c.h1, c.w1, 0.f);
+    auto d2 = make(c.h2, c.w2, 0.3f);
+    if (c.opposed) {
+      // Shift every view-2 descriptor into the half-space opposite the view-1 mean direction.
+      std::vector<double> mean(static_cast<size_t>(c.d), 0.0);
+      for (size_t i = 0; i < d1.size(); ++i)
+        if (std::isfinite(d1[i])) mean[i % c.d] += d1[i];
+      double n = 0;
+      for (double m : mean) n += m * m;
+      for (size_t i = 0; i < d2.size(); ++i) d2[i] = static_cast<float>(-2.0 * mean[i % c.d] / std::sqrt(n) + 0.1 * d2[i]);
+    }
     const DescriptorView a{d1.data(), nullptr, c.h1, c.w1, c.d}, b{d2.data(), nullptr, c.h2, c.w2, c.d};
     FastNnOptions o;
     o.subsample = c.s;
