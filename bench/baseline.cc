@@ -1,4 +1,4 @@
-// bench/baseline — freeloc's `sift-essential` against the map-free benchmark code's SIFT + Ess.Mat + D.Scale
+// bench/baseline — freeloc's `sift-essential` (its shipped vote, the depth-anchored scale, the hybrid solver) against the map-free benchmark code's SIFT + Ess.Mat + D.Scale
 // baseline (spec/mapfree-protocol.md §4), side by side on the same scenes, SIFT included in both:
 //   official: OpenCV SIFT 2048 / RootSIFT / FLANN / ratio 0.8 (the same extractor as freeloc's) per pair, pixels
 //             normalised by each K, cv::findEssentialMat(USAC_MAGSAC, prob 0.9999, 3 px / mean focal),
@@ -10,12 +10,14 @@
 // with the bundled TUM photos, 540×720, exact and degraded depth), or any map-free folder with --data/--depth
 // (e.g. held-back scenes). Both submissions go through freeloc's evaluator (the official metrics).
 //
-//   baseline [--scenes N] [--queries Q] [--keep DIR] | [--data SPLIT_DIR --depth SUFFIX[,SUFFIX…]] [--per-query]
+//   baseline [--scenes N] [--queries Q] [--seed S] [--keep DIR] | [--data SPLIT_DIR] [--depth SUFFIX[,SUFFIX…]]
+//            [--per-query]
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <unistd.h>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 
 #include "bench_util.h"
@@ -90,7 +92,8 @@ std::vector<std::string> Split(const std::string& s) {
 
 int main(int argc, char** argv) {
   int n_scenes = 10, n_queries = 4;
-  std::string data, keep, depths = "exact,degraded";
+  uint32_t seed = 4242;  // scene s has seed + 17·s; tune on one seed, report on others (held out)
+  std::string data, keep, depths = "exact,degraded,degraded8,mono";
   bool per_query = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--scenes") && i + 1 < argc) n_scenes = std::atoi(argv[++i]);
@@ -99,6 +102,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--data") && i + 1 < argc) data = argv[++i];
     if (!std::strcmp(argv[i], "--depth") && i + 1 < argc) depths = argv[++i];
     if (!std::strcmp(argv[i], "--per-query")) per_query = true;
+    if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) seed = static_cast<uint32_t>(std::atoll(argv[++i]));
   }
   namespace fs = std::filesystem;
   const std::string tmp = (fs::temp_directory_path() / ("freeloc_baseline_" + std::to_string(getpid()))).string();
@@ -115,12 +119,14 @@ int main(int argc, char** argv) {
     for (int s = 0; s < n_scenes; ++s) {
       char name[16];
       std::snprintf(name, sizeof(name), "s%05d", s);
-      testing::WriteTexturedScene(split + "/" + name, 4242u + 17u * static_cast<uint32_t>(s), n_queries, photos);
+      testing::WriteTexturedScene(split + "/" + name, seed + 17u * static_cast<uint32_t>(s), n_queries, photos);
     }
-    std::printf("Photo-textured synthetic scenes: %d rooms × %d queries, 540×720, baseline 0.2–1.2 m, rotation ≤ "
-                "8.6°; depth `exact` and `degraded` (global 5 %%, smooth 5 %%, outlier blobs 10 %%, holes 5 %%); "
-                "generated in %.1f s into %s.\n\n",
-                n_scenes, n_queries, bench::NowSeconds() - t0, split.c_str());
+    std::printf("Photo-textured synthetic scenes (seed %u + 17·s): %d rooms × %d queries, 540×720, baseline 0.2–1.2 m, "
+                "rotation ≤ 8.6°; depth `exact`, `degraded` (global 5 %%, smooth 5 %%, outlier blobs 10 %%, holes 5 %%), "
+                "`degraded8` (global ±8 %%, smooth ±5 %%, holes 5 %%) and `mono` (monocular-like: log-normal global "
+                "scale σ 0.2 clipped to ±50 %%, shift ±0.15 m, smooth field 5–10 %%, edges bled 2–4 px, 1 %% salt, 5 %% "
+                "holes); generated in %.1f s into %s.\n\n",
+                seed, n_scenes, n_queries, bench::NowSeconds() - t0, split.c_str());
   } else {
     std::printf("Data: %s, depth %s.\n\n", split.c_str(), depths.c_str());
   }
@@ -130,23 +136,43 @@ int main(int argc, char** argv) {
   std::sort(scenes.begin(), scenes.end());
   fs::create_directories(tmp);
 
+  // freeloc's estimators on the same matches and depths: sift-essential as shipped (5-point + robust scale vote),
+  // with the depth-anchored scale, and with the hybrid depth-aware solver.
+  struct Method {
+    const char* name;
+    const char* solver;
+    const char* scale;
+  };
+  const std::vector<Method> methods = {{"freeloc sift-essential (vote)", "essential", "robust"},
+                                       {"freeloc sift-essential --scale anchored", "essential", "anchored"},
+                                       {"freeloc sift-essential --solver hybrid", "hybrid", "robust"}};
   bench::MarkdownTable speed({"depth", "method", "queries", "median ms / query", "mean ms / query"});
   bench::MarkdownTable every({"depth", "method", "median t err (m)", "p90 t err (m)", "median R err (°)",
-                              "precision (25 cm, 5°)", "AUC (25 cm, 5°)", "failures"});
+                              "precision (25 cm, 5°)", "AUC (25 cm, 5°)", "failures", "answered (conf 0)"});
   for (const std::string& depth : Split(depths)) {
-    std::map<std::string, std::vector<SubmissionEntry>> sub_official, sub_freeloc;
-    std::vector<double> ms_official, ms_freeloc;
-    AllQueries all_official, all_freeloc;
-    pipeline::PipelineOptions o = pipeline::ResolvePreset("sift-essential");
-    o.depth = pipeline::DepthSpec::FromString("provided:" + depth);
+    const size_t nm = methods.size();
+    std::map<std::string, std::vector<SubmissionEntry>> sub_official;
+    std::vector<std::map<std::string, std::vector<SubmissionEntry>>> sub_freeloc(nm);
+    std::vector<double> ms_official;
+    std::vector<std::vector<double>> ms_freeloc(nm);
+    AllQueries all_official;
+    std::vector<AllQueries> all_freeloc(nm);
+    std::vector<int> answered(nm, 0);
     for (const auto& name : scenes) {
       const MapfreeScene sc = MapfreeScene::Load(split + "/" + name);
       const Image ref = sc.LoadImage(sc.reference);
       const DepthMap dr = sc.LoadDepth(sc.reference, depth);
       sub_official[name];
-      sub_freeloc[name];
-      pipeline::Relocalizer reloc(o);
-      reloc.SetReference(ref, sc.reference.camera, dr);
+      std::vector<std::unique_ptr<pipeline::Relocalizer>> relocs;
+      for (size_t m = 0; m < nm; ++m) {
+        sub_freeloc[m][name];
+        pipeline::PipelineOptions o = pipeline::ResolvePreset("sift-essential");
+        o.depth = pipeline::DepthSpec::FromString("provided:" + depth);
+        pipeline::SetOption(&o, "solver", methods[m].solver);
+        pipeline::SetOption(&o, "scale", methods[m].scale);
+        relocs.push_back(std::make_unique<pipeline::Relocalizer>(o));
+        relocs.back()->SetReference(ref, sc.reference.camera, dr);
+      }
       for (const auto& q : sc.queries) {
         const Image qi = sc.LoadImage(q);
         const DepthMap dq = sc.LoadDepth(q, depth);
@@ -155,46 +181,61 @@ int main(int argc, char** argv) {
         if (off.ok) sub_official[name].push_back({q.name, off.pose, off.confidence});
         const bool has_gt = sc.gt.count(q.name) > 0;
         if (has_gt) all_official.Add(off, sc.gt.at(q.name));
-        const double t0 = bench::NowSeconds();
-        const pipeline::QueryResult r = reloc.Relocalize(qi, q.camera, dq);
-        ms_freeloc.push_back((bench::NowSeconds() - t0) * 1e3);
-        if (r.ok()) sub_freeloc[name].push_back({q.name, r.query_from_ref, r.confidence});
-        if (has_gt) all_freeloc.Add({r.ok(), r.query_from_ref, r.confidence, 0}, sc.gt.at(q.name));
+        std::string line;
+        for (size_t m = 0; m < nm; ++m) {
+          const double t0 = bench::NowSeconds();
+          const pipeline::QueryResult r = relocs[m]->Relocalize(qi, q.camera, dq);
+          ms_freeloc[m].push_back((bench::NowSeconds() - t0) * 1e3);
+          answered[m] += r.answered;
+          if (r.submitted()) sub_freeloc[m][name].push_back({q.name, r.query_from_ref, r.confidence});
+          if (has_gt) all_freeloc[m].Add({r.submitted(), r.query_from_ref, r.confidence, 0}, sc.gt.at(q.name));
+          if (per_query && has_gt) {
+            const Rigid3d& gt = sc.gt.at(q.name);
+            char buf[160];
+            std::snprintf(buf, sizeof(buf), "  [%zu] %.3f m %.2f° %s", m, (r.query_from_ref.Center() - gt.Center()).norm(),
+                          RotationAngleDeg(r.query_from_ref.rotation, gt.rotation), r.route.c_str());
+            line += buf;
+          }
+        }
         if (per_query && has_gt) {
           const Rigid3d& gt = sc.gt.at(q.name);
-          std::printf("%s %s %s |t| %.3f  official %.3f m %.2f°  freeloc %.3f m %.2f° (%d inl, scale %d)\n",
-                      depth.c_str(), name.c_str(), q.name.c_str(), gt.translation.norm(),
-                      off.ok ? (off.pose.Center() - gt.Center()).norm() : -1.0,
-                      off.ok ? RotationAngleDeg(off.pose.rotation, gt.rotation) : -1.0,
-                      r.ok() ? (r.query_from_ref.Center() - gt.Center()).norm() : -1.0,
-                      r.ok() ? RotationAngleDeg(r.query_from_ref.rotation, gt.rotation) : -1.0, r.inliers,
-                      r.scale_inliers);
+          std::printf("%s %s %s |t| %.3f  official %.3f m %.2f°%s\n", depth.c_str(), name.c_str(), q.name.c_str(),
+                      gt.translation.norm(), off.ok ? (off.pose.Center() - gt.Center()).norm() : -1.0,
+                      off.ok ? RotationAngleDeg(off.pose.rotation, gt.rotation) : -1.0, line.c_str());
         }
       }
     }
-    const std::string zo = tmp + "/official_" + depth + ".zip", zf = tmp + "/freeloc_" + depth + ".zip";
+    std::vector<eval::EvalRun> reports;
+    const std::string zo = tmp + "/official_" + depth + ".zip";
     WriteSubmission(zo, sub_official);
-    WriteSubmission(zf, sub_freeloc);
-    std::printf("### depth `%s`, the official metrics (every 5th frame of each scene; left: official baseline, "
-                "right: freeloc sift-essential)\n\n",
-                depth.c_str());
-    std::printf("%s\n", eval::MarkdownCompare({eval::RunEvaluation(split, scenes, zo),
-                                               eval::RunEvaluation(split, scenes, zf)})
-                            .c_str());
-    auto row = [&](const char* method, const AllQueries& a) {
+    reports.push_back(eval::RunEvaluation(split, scenes, zo));
+    for (size_t m = 0; m < nm; ++m) {
+      const std::string zf = tmp + "/freeloc" + std::to_string(m) + "_" + depth + ".zip";
+      WriteSubmission(zf, sub_freeloc[m]);
+      reports.push_back(eval::RunEvaluation(split, scenes, zf));
+    }
+    std::printf("### depth `%s`, the official metrics (every 5th frame of each scene; columns: official SIFT + "
+                "Ess.Mat + D.Scale, then", depth.c_str());
+    for (size_t m = 0; m < nm; ++m) std::printf("%s %s", m ? "," : "", methods[m].name);
+    std::printf(")\n\n%s\n", eval::MarkdownCompare(reports).c_str());
+    auto row = [&](const char* method, const AllQueries& a, int n_answered) {
       std::vector<std::string> cells = {depth, method};
       for (auto& c : a.Cells()) cells.push_back(c);
+      cells.push_back(std::to_string(n_answered));
       every.Row(cells);
     };
-    row("official SIFT + Ess.Mat + D.Scale", all_official);
-    row("freeloc sift-essential", all_freeloc);
-    double so = 0, sf = 0;
-    for (double v : ms_official) so += v;
-    for (double v : ms_freeloc) sf += v;
-    speed.Row({depth, "official SIFT + Ess.Mat + D.Scale", std::to_string(ms_official.size()),
-               Fmt("%.1f", bench::Median(ms_official)), Fmt("%.1f", so / ms_official.size())});
-    speed.Row({depth, "freeloc sift-essential", std::to_string(ms_freeloc.size()), Fmt("%.1f", bench::Median(ms_freeloc)),
-               Fmt("%.1f", sf / ms_freeloc.size())});
+    auto speed_row = [&](const char* method, const std::vector<double>& ms) {
+      double sum = 0;
+      for (double v : ms) sum += v;
+      speed.Row({depth, method, std::to_string(ms.size()), Fmt("%.1f", bench::Median(ms)),
+                 Fmt("%.1f", sum / std::max<size_t>(1, ms.size()))});
+    };
+    row("official SIFT + Ess.Mat + D.Scale", all_official, 0);
+    speed_row("official SIFT + Ess.Mat + D.Scale", ms_official);
+    for (size_t m = 0; m < nm; ++m) {
+      row(methods[m].name, all_freeloc[m], answered[m]);
+      speed_row(methods[m].name, ms_freeloc[m]);
+    }
   }
   std::printf("### every query (camera-centre and rotation errors against the ground truth)\n\n");
   every.Print();

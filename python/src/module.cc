@@ -219,6 +219,7 @@ PoseResult EstimateRelativePose(const py::handle& x_ref, const py::handle& x_que
     py::gil_scoped_release nogil;
     solver->Solve(c, kr, kq, dr, dq, &p.r);
   }
+  pipeline::AnswerUnsolved(o, &p.r);
   return p;
 }
 
@@ -499,6 +500,10 @@ void BindPoses(py::module_& m) {
       .def_property_readonly("message", [](const PoseResult& p) { return p.r.message; })
       .def_property_readonly("ok", [](const PoseResult& p) { return p.r.ok(); })
       .def_property_readonly("metric", [](const PoseResult& p) { return p.r.metric(); })
+      .def_property_readonly("answered", [](const PoseResult& p) { return p.r.answered; },
+                             "not solved: the prior pose (identity) with confidence 0, as submitted (always_answer)")
+      .def_property_readonly("route", [](const PoseResult& p) { return p.r.route; },
+                             "the solver's route: essential, hybrid, hybrid>essential (fell back), pnp, procrustes")
       .def_property_readonly("qvec", [](const PoseResult& p) {
         const auto q = p.r.query_from_ref.QuaternionWxyz();
         return Array({q[0], q[1], q[2], q[3]}, {4});

@@ -77,6 +77,27 @@ def test_pose_without_depth_is_a_unit_translation():
     assert abs(np.linalg.norm(r.t) - 1) < 1e-9
 
 
+def test_unsolved_pairs_are_answered_with_the_prior_unless_told_not_to():
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(0, 600, (40, 2)), rng.uniform(0, 400, (40, 2))  # unrelated points: no consensus
+    r = freeloc.estimate_relative_pose(a, b, K_TUM, K_TUM)
+    assert not r.ok and r.answered and r.status in ("no-consensus", "too-few-matches")
+    assert r.confidence == 0 and np.allclose(r.t, 0) and np.allclose(r.R, np.eye(3))
+    assert r.as_dict()["answered"] is True
+    r = freeloc.estimate_relative_pose(a, b, K_TUM, K_TUM, always_answer=0)
+    assert not r.ok and not r.answered
+
+
+def test_hybrid_solver_is_metric_and_names_its_route():
+    m = np.loadtxt(MATCHES)
+    r = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"),
+                                       solver="hybrid")
+    assert r.ok and r.metric and r.route.startswith("hybrid")
+    e = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"))
+    assert e.route == "essential"
+    assert np.linalg.norm(r.t - e.t) < 0.05  # the same real pair: both metric, within centimetres
+
+
 def test_arrays_of_any_layout_and_dtype_give_the_same_pose():
     m = np.loadtxt(MATCHES)
     base = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM)

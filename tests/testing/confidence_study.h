@@ -1,6 +1,6 @@
-// The confidence study (issue 9, deliver 7), shared by pipeline/confidence_test.cc and bench/confidence: a seeded
-// population of synthetic queries of varied difficulty — baseline, match count, pixel noise, outlier fraction, exact
-// or monocular-style degraded depth — run through the pipeline's essential + robust-scale solver, scored with the
+// The confidence study (issue 9, deliver 7; issue 14), shared by pipeline/confidence_test.cc and bench/confidence: a
+// seeded population of synthetic queries of varied difficulty — baseline, match count, pixel noise, outlier fraction,
+// exact, degraded or monocular-like depth — run through one of the pipeline's solvers, scored with the
 // official map-free errors, and ranked by several confidences to compare the AUCs they give. Header-only.
 #pragma once
 
@@ -20,12 +20,14 @@ namespace freeloc::testing {
 
 struct StudyQuery {
   bool exact_depth = true;
+  int depth_mode = 0;  // 0 exact, 1 degraded (DegradeDepth), 2 monocular-like (DegradeDepthMonocular)
   pipeline::QueryResult result;
   eval::FrameErrors err;  // official errors (valid when result.ok)
 };
 
-// Query `i` of the population (deterministic in `seed` and `i`).
-inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height) {
+// Query `i` of the population (deterministic in `seed` and `i`), solved by `solver` (essential | hybrid | pnp |
+// procrustes) on the precomputed correspondences: depth exact for i % 3 == 0, degraded for 1, monocular-like for 2.
+inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height, const std::string& solver = "essential") {
   std::mt19937 rng(seed * 7919u + static_cast<uint32_t>(i));
   std::uniform_real_distribution<double> u01(0, 1);
   const double baseline = 0.1 + 1.4 * u01(rng);
@@ -33,7 +35,8 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height) {
   const double noise = 0.3 + 2.2 * u01(rng);
   const double outliers = 0.6 * u01(rng);
   StudyQuery q;
-  q.exact_depth = (i % 2) == 0;
+  q.depth_mode = i % 3;
+  q.exact_depth = q.depth_mode == 0;
   const SyntheticScene sc = MakeRoomScene(seed + 100003u * static_cast<uint32_t>(i), baseline, width, height);
   std::vector<Eigen::Vector2d> p1, p2;
   sc.Correspondences(n, noise, rng(), &p1, &p2);
@@ -41,14 +44,17 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height) {
   for (size_t k = 0; k < p1.size(); ++k)
     if (u01(rng) < outliers) p2[k] = Eigen::Vector2d(ux(rng), uy(rng));
   DepthMap dr = sc.depth_ref, dq = sc.depth_query;
-  if (!q.exact_depth) {
+  if (q.depth_mode == 1) {
     const double g = 0.15 * u01(rng), sm = 0.10 * u01(rng), out = 0.30 * u01(rng);
     dr = DegradeDepth(dr, rng(), g, sm, out, 0.05);
     dq = DegradeDepth(dq, rng(), g, sm, out, 0.05);
+  } else if (q.depth_mode == 2) {
+    dr = DegradeDepthMonocular(dr, rng());
+    dq = DegradeDepthMonocular(dq, rng());
   }
   std::vector<Eigen::Vector4d> pre;
   for (size_t k = 0; k < p1.size(); ++k) pre.emplace_back(p1[k].x(), p1[k].y(), p2[k].x(), p2[k].y());
-  pipeline::PipelineOptions o = pipeline::ResolvePreset("precomputed:SIFT-essential");
+  pipeline::PipelineOptions o = pipeline::ResolvePreset("precomputed:SIFT-" + solver);
   o.depth = pipeline::DepthSpec::FromString("provided:synthetic");
   pipeline::Relocalizer reloc(o);
   reloc.SetReference(Image(width, height), sc.ref, dr);
@@ -72,7 +78,7 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height) {
 enum class StudyConfidence { kInlierCount, kScaleSupport, kFreeloc, kOracle };
 inline const char* StudyConfidenceName(StudyConfidence c) {
   switch (c) {
-    case StudyConfidence::kInlierCount: return "essential inlier count";
+    case StudyConfidence::kInlierCount: return "inlier count";
     case StudyConfidence::kScaleSupport: return "scale-vote support";
     case StudyConfidence::kFreeloc: return "freeloc (predicted error)";
     case StudyConfidence::kOracle: return "oracle (−true error)";

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -146,6 +147,72 @@ inline DepthMap DegradeDepth(const DepthMap& in, uint32_t seed, double global_si
   for (int i = 0; i < hole_frac * total; ++i) {
     d.data[static_cast<size_t>(u01(rng) * total) % d.data.size()] = 0.f;
   }
+  return d;
+}
+
+// Monocular-like depth (issue 14, deliver 5), each part drawn from `seed`:
+//  * a per-image global scale error, log-normal with σ = `log_sigma`, clipped to ×[0.5, 1.5];
+//  * an additive shift, uniform in ±`shift_m`;
+//  * a smooth low-frequency multiplicative field of amplitude uniform in [field_min, field_max];
+//  * depth edges bled 2–4 px into the neighbouring surface (the nearer surface spreads: the map's min filter wherever
+//    the window holds a depth step of more than 10 %);
+//  * `salt` of the pixels replaced by the true depth × U(0.3, 3);
+//  * `holes` of the pixels set invalid (0).
+struct MonoDepthOptions {
+  double log_sigma = 0.2, shift_m = 0.15, field_min = 0.05, field_max = 0.10, salt = 0.01, holes = 0.05;
+  int bleed_min_px = 2, bleed_max_px = 4;
+};
+inline DepthMap DegradeDepthMonocular(const DepthMap& in, uint32_t seed, const MonoDepthOptions& o = {}) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0, 1);
+  std::uniform_real_distribution<double> u01(0, 1);
+  const double global = std::clamp(std::exp(o.log_sigma * g(rng)), 0.5, 1.5);
+  const double shift = o.shift_m * (2 * u01(rng) - 1);
+  const double amp = o.field_min + (o.field_max - o.field_min) * u01(rng);
+  const double fx1 = 0.4 + 0.8 * u01(rng), fy1 = 0.4 + 0.8 * u01(rng), ph1 = 6.28 * u01(rng), ph2 = 6.28 * u01(rng);
+  const int bleed = o.bleed_min_px + static_cast<int>(u01(rng) * (o.bleed_max_px - o.bleed_min_px + 1));
+  const int w = in.width, h = in.height;
+  // Edge bleeding on the true depth: separable min / max filters of radius `bleed`.
+  auto filter = [&](const std::vector<float>& src, bool take_min) {
+    std::vector<float> tmp(src.size()), out(src.size());
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        float v = src[static_cast<size_t>(y) * w + x];
+        for (int k = std::max(0, x - bleed); k <= std::min(w - 1, x + bleed); ++k) {
+          const float c = src[static_cast<size_t>(y) * w + k];
+          if (c > 0) v = take_min ? (v > 0 ? std::min(v, c) : c) : std::max(v, c);
+        }
+        tmp[static_cast<size_t>(y) * w + x] = v;
+      }
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        float v = tmp[static_cast<size_t>(y) * w + x];
+        for (int k = std::max(0, y - bleed); k <= std::min(h - 1, y + bleed); ++k) {
+          const float c = tmp[static_cast<size_t>(k) * w + x];
+          if (c > 0) v = take_min ? (v > 0 ? std::min(v, c) : c) : std::max(v, c);
+        }
+        out[static_cast<size_t>(y) * w + x] = v;
+      }
+    return out;
+  };
+  const std::vector<float> lo = filter(in.data, true), hi = filter(in.data, false);
+  DepthMap d = in;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      float v = in.data[i];
+      if (!(v > 0)) continue;
+      if (hi[i] > 1.1f * lo[i]) v = lo[i];  // a depth step within the window: the nearer surface bleeds over
+      const double sx = static_cast<double>(x) / w, sy = static_cast<double>(y) / h;
+      const double field = 1 + amp * std::sin(6.28 * fx1 * sx + ph1) * std::cos(6.28 * fy1 * sy + ph2);
+      d.data[i] = static_cast<float>(std::max(0.05, v * global * field + shift));
+    }
+  const int total = w * h;
+  for (int k = 0; k < o.salt * total; ++k) {
+    const size_t i = static_cast<size_t>(u01(rng) * total) % d.data.size();
+    if (in.data[i] > 0) d.data[i] = static_cast<float>(in.data[i] * (0.3 + 2.7 * u01(rng)));
+  }
+  for (int k = 0; k < o.holes * total; ++k) d.data[static_cast<size_t>(u01(rng) * total) % d.data.size()] = 0.f;
   return d;
 }
 

@@ -76,8 +76,21 @@ inline void WriteDepthMm(const std::string& path, const DepthMap& d) {
   WritePng16(path, d.width, d.height, mm);
 }
 
+// The depth variants of a textured scene from the exact map of frame `frame` (each seeded by the scene seed and the
+// frame, independently of the others): "degraded8" — ±8 % global scale (uniform), a ±5 % smooth field, 5 % holes;
+// "mono" — monocular-like (DegradeDepthMonocular's defaults).
+inline void WriteDepthVariants(const std::string& stem, const DepthMap& exact, uint32_t seed, int frame) {
+  std::mt19937 rng(seed * 2654435761u + 977u * static_cast<uint32_t>(frame) + 1u);
+  std::uniform_real_distribution<double> u01(0, 1);
+  DepthMap d8 = DegradeDepth(exact, rng(), 0.0, 0.05, 0.0, 0.05);
+  const float global = static_cast<float>(0.92 + 0.16 * u01(rng));
+  for (float& v : d8.data) v *= global;
+  WriteDepthMm(stem + ".degraded8.png", d8);
+  WriteDepthMm(stem + ".mono.png", DegradeDepthMonocular(exact, rng()));
+}
+
 // One map-free scene folder `dir` (reference seq0/frame_00000.png, queries seq1/frame_{00000,00005,…}.png so every
-// query is an evaluated key), depth suffixes "exact" and "degraded", GT poses, intrinsics.
+// query is an evaluated key), depth suffixes "exact", "degraded", "degraded8" and "mono", GT poses, intrinsics.
 inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int queries, const std::vector<Image>& photos,
                                int width = 540, int height = 720) {
   namespace fs = std::filesystem;
@@ -103,6 +116,7 @@ inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int querie
   WriteImagePng(dir + "/seq0/frame_00000.png", ref_img);
   WriteDepthMm(dir + "/seq0/frame_00000.exact.png", base.depth_ref);
   WriteDepthMm(dir + "/seq0/frame_00000.degraded.png", DegradeDepth(base.depth_ref, rng(), 0.05, 0.05, 0.10, 0.05));
+  WriteDepthVariants(dir + "/seq0/frame_00000", base.depth_ref, seed, -1);
   add("seq0/frame_00000.png", base.ref, Rigid3d());
   for (int i = 0; i < queries; ++i) {
     SyntheticScene sc = base;
@@ -118,6 +132,7 @@ inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int querie
     const DepthMap d = sc.Render(sc.query, sc.query_from_ref);
     WriteDepthMm(dir + "/" + name + ".exact.png", d);
     WriteDepthMm(dir + "/" + name + ".degraded.png", DegradeDepth(d, rng(), 0.05, 0.05, 0.10, 0.05));
+    WriteDepthVariants(dir + "/" + name, d, seed, i);
     add(std::string(name) + ".png", sc.query, sc.query_from_ref);
   }
   std::FILE* f = std::fopen((dir + "/intrinsics.txt").c_str(), "w");

@@ -609,7 +609,9 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   r = RunFreeloc("-q eval --data " + data + " --submission " + tmp.File("s.zip") + " --json -");
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
-  EXPECT_EQ(j["counts"]["estimates"], 2);
+  // Always answer (issue 14): the no-depth queries are submitted too, with the prior pose and confidence 0.
+  EXPECT_EQ(j["counts"]["estimates"], 3);
+  EXPECT_TRUE(Contains(log, "\"answered\":true")) << log;
   EXPECT_LT(j["Average Median Translation Error"].get<double>(), 0.03);
   r = RelocalizeS00003(data);
   ASSERT_EQ(r.code, 0) << r.out;
@@ -666,9 +668,16 @@ TEST(Cli, RunReportsBadInputClearly) {
   const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
   EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00002/seq1/frame_00000.png")) << log;
   EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00003/seq1/frame_00000.png")) << log;
+  // Always answer (issue 14): the failed queries are submitted with the prior pose and confidence 0 — unless
+  // always_answer is 0, when nothing is submitted for them.
   const auto zip = freeloc::ZipContents::Read(tmp.File("b.zip")).files;
-  EXPECT_EQ(zip.at("pose_s00002.txt"), "");
-  EXPECT_EQ(zip.at("pose_s00003.txt"), "");
+  EXPECT_EQ(zip.at("pose_s00002.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0\n");
+  EXPECT_EQ(zip.at("pose_s00003.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0\n");
+  r = RunFreeloc(run + tmp.File("b0.zip") + " --set always_answer=0");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto zip0 = freeloc::ZipContents::Read(tmp.File("b0.zip")).files;
+  EXPECT_EQ(zip0.at("pose_s00002.txt"), "");
+  EXPECT_EQ(zip0.at("pose_s00003.txt"), "");
   // A missing reference image fails its scene's queries.
   fs::remove(split + "/s00003/seq0/frame_00000.png");
   r = RunFreeloc(run + tmp.File("c.zip") + " --scenes s00003");
@@ -881,10 +890,22 @@ TEST(Cli, Mast3rPresetsRunAndEval) {
       ASSERT_EQ(r.code, 0) << r.out;
       EXPECT_EQ(freeloc::testing::ReadText(tmp.File("a.zip")), freeloc::testing::ReadText(tmp.File("b.zip")));
     }
-    // The submission is valid and evaluates; with no pose in it (random weights) the evaluator says so.
+    // The submission is valid and evaluates: random weights solve nothing, so every query is answered with the
+    // prior pose and confidence 0 (always answer, issue 14).
+    for (const auto& [name, text] : freeloc::ZipContents::Read(tmp.File("a.zip")).files) {
+      std::stringstream lines(text);
+      for (std::string line; std::getline(lines, line);)
+        EXPECT_TRUE(Contains(line, ".png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0")) << name << ": " << line;
+    }
     r = RunFreeloc("eval --data " + data + " --submission " + tmp.File("a.zip") + " --scenes s00002");
-    EXPECT_EQ(r.code, 1) << r.out;
-    EXPECT_TRUE(Contains(r.out, "no valid pose estimate")) << r.out;
+    EXPECT_EQ(r.code, 0) << r.out;
+    if (std::string(preset) == "mast3r") {  // without always_answer nothing is submitted: the evaluator says so
+      r = RunFreeloc(run + "--models " + models.path() + " --set always_answer=0 --out " + tmp.File("c.zip"));
+      ASSERT_EQ(r.code, 0) << r.out;
+      r = RunFreeloc("eval --data " + data + " --submission " + tmp.File("c.zip") + " --scenes s00002");
+      EXPECT_EQ(r.code, 1) << r.out;
+      EXPECT_TRUE(Contains(r.out, "no valid pose estimate")) << r.out;
+    }
   }
 }
 

@@ -77,8 +77,8 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
   sub->add_option("--matcher", a->matcher,
                   "override: sift | dust3r | dust3r+instances | mast3r | mast3r+instances | precomputed:<name>");
   sub->add_option("--depth", a->depth, "override: provided:<suffix> | metric3d | mast3r | none");
-  sub->add_option("--solver", a->solver, "override: essential | pnp | procrustes");
-  sub->add_option("--scale", a->scale, "override: robust | official");
+  sub->add_option("--solver", a->solver, "override: essential | pnp | procrustes | hybrid");
+  sub->add_option("--scale", a->scale, "override: robust | official | anchored");
   sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels (> 0)")
       ->check(CLI::Validator(
           [](std::string& v) {

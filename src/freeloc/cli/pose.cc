@@ -9,6 +9,7 @@
 #include "freeloc/io/correspondence_file.h"
 #include "freeloc/io/mapfree.h"
 #include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/stages.h"
 
 namespace freeloc::cli {
@@ -39,7 +40,9 @@ void PrintText(const pipeline::QueryResult& q, const pipeline::PipelineOptions& 
   std::printf("status:      %s\n", q.StatusText().c_str());
   std::printf("qvec (wxyz): %.9f %.9f %.9f %.9f\n", qv[0], qv[1], qv[2], qv[3]);
   std::printf("tvec:        %.6f %.6f %.6f %s\n", t.x(), t.y(), t.z(),
-              q.metric() ? "(metres)" : "(unit norm: no depth given, translation direction only)");
+              q.metric()     ? "(metres)"
+              : q.answered ? "(the prior pose, submitted with confidence 0: not solved)"
+                           : "(unit norm: no depth given, translation direction only)");
   std::printf("inliers:     %d of %d (%d agree on the scale)\n", q.inliers, q.matches, q.scale_inliers);
   std::printf("confidence:  %.6g\n", q.confidence);
 }
@@ -54,6 +57,7 @@ int RunPose(const PoseArgs& a, const GlobalOptions& g) {
   if (!a.query_depth.empty()) dq = ReadDepthPng(a.query_depth);
   pipeline::QueryResult q;
   pipeline::MakePoseSolver(o)->Solve(c, kr, kq, dr, dq, &q);
+  pipeline::AnswerUnsolved(o, &q);
   if (a.json) {
     std::printf("%s\n", pipeline::QueryRecordJson("", q, &o, 2).c_str());
   } else {

@@ -72,7 +72,9 @@ void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, b
       "confidence:  %.6g\nmatches:     %d (%d inliers)\ninstances:   %d of %d used\n"
       "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n",
       o.Summary().c_str(), q.StatusText().c_str(), qv[0], qv[1], qv[2], qv[3], t.x(), t.y(), t.z(),
-      q.metric() ? "(metres)" : "(unit norm: no depth)", q.confidence, q.matches, q.inliers, q.instances_used,
+      q.metric()     ? "(metres)"
+      : q.answered ? "(the prior pose, submitted with confidence 0: not solved)"
+                   : "(unit norm: no depth)", q.confidence, q.matches, q.inliers, q.instances_used,
       q.instances, q.depth_ms, q.match_ms, q.instance_ms, q.solve_ms);
 }
 

@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "freeloc/core/error.h"
+#include "freeloc/geometry/essential.h"
 
 namespace freeloc::geometry {
 
@@ -149,6 +150,93 @@ void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) 
   res->confidence = inlier_ratio / (res->relative_std_error + 1e-3);
 }
 
+// Median/MAD-trimmed mean of `v` (log ratios): the location, its standard error, and the number kept.
+void TrimmedLogMean(std::vector<double> v, double* mean, double* se, int* kept) {
+  std::vector<double> w = v;
+  std::nth_element(w.begin(), w.begin() + static_cast<long>(w.size() / 2), w.end());
+  const double med = w[w.size() / 2];
+  for (size_t i = 0; i < v.size(); ++i) w[i] = std::abs(v[i] - med);
+  std::nth_element(w.begin(), w.begin() + static_cast<long>(w.size() / 2), w.end());
+  const double window = std::max(0.01, 3 * 1.4826 * w[w.size() / 2]);
+  double s = 0, s2 = 0;
+  int n = 0;
+  for (double x : v)
+    if (std::abs(x - med) <= window) {
+      s += x;
+      s2 += x * x;
+      ++n;
+    }
+  *kept = n;
+  *mean = n > 0 ? s / n : med;
+  const double var = n > 1 ? std::max(0.0, (s2 - s * s / n) / (n - 1)) : 1.0;
+  *se = std::sqrt(var / std::max(1, n));
+}
+
+constexpr double kCommonScaleError = 0.05;
+
+void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                   const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
+                   const Camera& ref, const Camera& query, const ScaleOptions& opt, ScaleResult* res) {
+  const PoseRt unit{query_from_ref.R(), query_from_ref.translation.normalized()};
+  // What one point's log ratio may differ by on a right pose: the depth map's own error (10 %) plus the
+  // triangulation's, ~ angular noise ÷ parallax (1 px of noise).
+  const double sigma = 2.0 / (ref.fx + ref.fy + query.fx + query.fy) * 2.0;  // 1 px in radians
+  std::vector<double> lr, lq, window;
+  double depth_sum = 0;
+  for (size_t i = 0; i < px_ref.size(); ++i) {
+    const Eigen::Vector3d x1 = ref.Unproject(px_ref[i].x(), px_ref[i].y());
+    const Eigen::Vector3d x2 = query.Unproject(px_query[i].x(), px_query[i].y());
+    double l1, l2;
+    if (!TriangulateDepths(unit, x1, x2, &l1, &l2) || !(l1 > 0) || !(l2 > 0)) continue;
+    const double dr = BilinearDepth(depth_ref, px_ref[i].x(), px_ref[i].y());
+    const double dq = BilinearDepth(depth_query, px_query[i].x(), px_query[i].y());
+    if (dr > 0) {
+      lr.push_back(std::log(dr / l1));
+      depth_sum += dr;
+      const double parallax = std::max(1e-6, std::abs(std::asin(std::min(
+                                                 1.0, (unit.R * x1).normalized().cross(x2.normalized()).norm()))));
+      window.push_back(0.1 + 3 * sigma / parallax);
+    }
+    if (dq > 0) lq.push_back(std::log(dq / l2));
+  }
+  res->num_candidates = static_cast<int>(lr.size());
+  if (lr.empty()) {
+    res->reason = "no-valid-depth";
+    return;
+  }
+  double mr = 0, ser = 0;
+  int kr = 0;
+  TrimmedLogMean(lr, &mr, &ser, &kr);
+  if (kr < std::max(1, opt.min_inliers)) {
+    res->reason = "no-consensus";
+    return;
+  }
+  double log_scale = mr, anchor = 0;
+  if (lq.size() >= static_cast<size_t>(std::max(1, opt.min_inliers))) {
+    double mq = 0, seq = 0;
+    int kq = 0;
+    TrimmedLogMean(lq, &mq, &seq, &kq);
+    if (kq >= opt.min_inliers && std::abs(mr - mq) <= std::log(2.0)) {
+      log_scale = 0.5 * (mr + mq);
+      ser = 0.5 * std::sqrt(ser * ser + seq * seq);
+      anchor = 0.5 * std::abs(mr - mq);
+    }
+  }
+  res->success = true;
+  res->reason = "ok";
+  res->scale = std::exp(log_scale);
+  // The consensus: points whose depth agrees with the pose's triangulation within what their parallax allows — a
+  // wrong pose (a wrong rotation's triangulation) leaves many outside, a right one few (the confidence uses it).
+  int agree = 0;
+  for (size_t i = 0; i < lr.size(); ++i) agree += std::abs(lr[i] - mr) < window[i];
+  res->num_inliers = std::max(agree, std::min(kr, opt.min_inliers));
+  // The depth maps' common scale error cannot show in their disagreement: a prior of kCommonScaleError of |t|.
+  res->relative_std_error = std::sqrt(ser * ser + anchor * anchor + kCommonScaleError * kCommonScaleError);
+  res->std_error_m = res->scale * res->relative_std_error;
+  res->mean_distance_m = depth_sum / static_cast<double>(lr.size());
+  res->confidence = (static_cast<double>(kr) / lr.size()) / (res->relative_std_error + 1e-3);
+}
+
 }  // namespace
 
 ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
@@ -159,6 +247,10 @@ ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
   FREELOC_CHECK(px_ref.size() == px_query.size(), "metric scale: point lists differ in length");
   FREELOC_CHECK(!depth_ref.empty() && !depth_query.empty(), "metric scale: both depth maps are needed");
   ScaleResult res;
+  if (opt.method == ScaleMethod::kAnchored) {
+    AnchoredScale(px_ref, px_query, query_from_ref, depth_ref, depth_query, ref, query, opt, &res);
+    return res;
+  }
   const Candidates c = ScaleCandidates(px_ref, px_query, query_from_ref, depth_ref, depth_query, ref, query, opt);
   res.num_candidates = static_cast<int>(c.s.size());
   if (c.s.empty()) {

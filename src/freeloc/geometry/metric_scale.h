@@ -9,6 +9,11 @@
 //    density: precise near points are not outvoted by wide far-point windows), an inverse-variance weighted
 //    refit on the consensus set (iterated), and a confidence from the refit's standard error that predicts the
 //    scale's accuracy.
+//  * kAnchored — the depth anchors the scale instead of voting on a difference of two depths: each inlier is
+//    triangulated with the unit-baseline pose, and its depth divided by the triangulated depth says what |t| is
+//    (log ratios, median/MAD-trimmed mean). The reference depth anchors; when the query depth's anchoring agrees
+//    within a factor 2 the two are combined by their geometric mean. A depth-map scale error of e % becomes e % of
+//    |t| (halved in log terms when both agree), not e % of the scene depth as in the vote (issue 14).
 #pragma once
 
 #include <Eigen/Core>
@@ -22,7 +27,7 @@
 
 namespace freeloc::geometry {
 
-enum class ScaleMethod { kOfficial, kRobust };  // text forms: EnumTable<geometry::ScaleMethod> below
+enum class ScaleMethod { kOfficial, kRobust, kAnchored };  // text forms: EnumTable<geometry::ScaleMethod> below
 
 struct ScaleOptions {
   ScaleMethod method = ScaleMethod::kRobust;
@@ -63,6 +68,7 @@ template <>
 struct EnumTable<geometry::ScaleMethod> {
   static constexpr const char* kField = "scale";
   static constexpr EnumEntry<geometry::ScaleMethod> kEntries[] = {{geometry::ScaleMethod::kRobust, "robust"},
-                                                                  {geometry::ScaleMethod::kOfficial, "official"}};
+                                                                  {geometry::ScaleMethod::kOfficial, "official"},
+                                                                  {geometry::ScaleMethod::kAnchored, "anchored"}};
 };
 }  // namespace freeloc

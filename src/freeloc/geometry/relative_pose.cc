@@ -157,8 +157,8 @@ double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vec
   return cost;
 }
 
-namespace {
 // The smaller principal spread (standard deviation, pixels) of the inlier points of one image.
+namespace {
 double MinorSpread(const std::vector<Eigen::Vector2d>& px, const std::vector<char>& inliers) {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   int n = 0;
@@ -176,6 +176,7 @@ double MinorSpread(const std::vector<Eigen::Vector2d>& px, const std::vector<cha
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
   return std::sqrt(std::max(0.0, eig.eigenvalues()(0)));
 }
+}  // namespace
 
 // Degenerate support: the inliers lie on (almost) a line or a single pixel in either image — the essential
 // matrix is not determined by them (a 2-pixel band: collinear points, one edge, one blob).
@@ -201,7 +202,6 @@ int ChanceInliers(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eige
   }
   return total / kShuffles;
 }
-}  // namespace
 
 RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_ref,
                                         const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,

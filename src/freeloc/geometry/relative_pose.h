@@ -59,6 +59,14 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
 double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
                           const std::vector<int>& idx, double loss_scale, int max_iterations, PoseRt* pose);
 
+// Degenerate support: the inliers lie on (almost) a line or a single pixel in either image (a 2-pixel band).
+bool InliersDegenerate(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                       const std::vector<char>& inliers);
+// Sampson inliers of `pose` when the query rays are paired with other reference rays (fixed derangements,
+// averaged): what chance alone gives this model with these point distributions.
+int ChanceInliers(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2, const PoseRt& pose,
+                  double threshold_sq);
+
 // Throws freeloc::Error naming `what` when a coordinate is NaN or infinite.
 void CheckFinite(const std::vector<Eigen::Vector2d>& pts, const std::string& what);
 

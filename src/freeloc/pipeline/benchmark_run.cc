@@ -376,7 +376,7 @@ void MaybeKillForTest(const RunComm* comm) {
   if (comm && v && std::atoi(v) == comm->rank()) std::raise(SIGKILL);
 }
 
-// The submission (successful queries; an empty pose file for every scene attempted), the log (header + one record
+// The submission (solved queries, and the answered ones with confidence 0; an empty pose file for every scene attempted), the log (header + one record
 // per query) and the sidecar (header + summary), each written atomically.
 void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) {
   std::map<std::string, std::vector<SubmissionEntry>> sub;
@@ -385,10 +385,8 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
     sub[name];
     for (const auto& q : res->results[name]) {
       ++res->queries;
-      if (q.ok()) {
-        ++res->relocalized;
-        sub[name].push_back({q.frame, q.query_from_ref, std::max(0.0, q.confidence)});
-      }
+      if (q.ok()) ++res->relocalized;
+      if (q.submitted()) sub[name].push_back({q.frame, q.query_from_ref, q.ok() ? std::max(0.0, q.confidence) : 0.0});
       log += QueryRecordJson(name, q) + "\n";
     }
   }

@@ -15,8 +15,13 @@ PredictedError PredictPoseError(const PoseEvidence& e) {
   const double trans = std::sqrt(dir * dir + e.scale_std_error_m * e.scale_std_error_m);
   // Risk of a wrong model: few of the correspondences agreed (essential) or few depths agreed (scale).
   const double ess_ratio = e.matches > 0 ? static_cast<double>(e.inliers) / e.matches : 0.0;
-  const double scale_ratio = e.scale_candidates > 0 ? static_cast<double>(e.scale_inliers) / e.scale_candidates : 0.0;
-  const double agree = std::sqrt(std::max(ess_ratio, 1e-3) * std::max(scale_ratio, 1e-3));
+  // No scale vote (PnP, Procrustes: the depth is inside the model): only the inliers' agreement counts.
+  const double scale_ratio = e.scale_candidates > 0 ? static_cast<double>(e.scale_inliers) / e.scale_candidates : 1.0;
+  // … and few inliers: a model a few dozen matches support is more often a wrong one (a near-degenerate essential
+  // matrix, a rotation that fits a subset) than the residuals show — support below kSupport halves the trust.
+  constexpr double kSupport = 30;
+  const double support = e.inliers / (e.inliers + kSupport);
+  const double agree = std::sqrt(std::max(ess_ratio, 1e-3) * std::max(scale_ratio, 1e-3)) * std::max(support, 1e-3);
   PredictedError p;
   p.rotation_deg = rot * kRadToDeg / agree;
   p.translation_m = trans / agree;

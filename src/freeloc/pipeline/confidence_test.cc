@@ -23,7 +23,7 @@ PoseEvidence Typical() {
 TEST(Confidence, PredictedErrorFollowsTheEvidence) {
   const PredictedError base = PredictPoseError(Typical());
   // σ = 1/500 rad, n = 400: R ≈ 0.1 mrad / agreement; t from the direction ≈ 0.3 mm, the scale 1 cm dominates.
-  const double agree = std::sqrt(0.8 * 300.0 / 380.0);
+  const double agree = std::sqrt(0.8 * 300.0 / 380.0) * (400.0 / 430.0);  // × the support term n / (n + 30)
   EXPECT_NEAR(base.rotation_deg, (1.0 / 500 / 20) * 180 / M_PI / agree, 1e-12);
   EXPECT_NEAR(base.translation_m, std::hypot(1.0 / 500 * 3 / 20, 0.01) / agree, 1e-12);
   auto worse = [&](auto change) {
@@ -33,6 +33,7 @@ TEST(Confidence, PredictedErrorFollowsTheEvidence) {
     return ConfidenceFromPredictedError(p) < ConfidenceFromPredictedError(base);
   };
   EXPECT_TRUE(worse([](PoseEvidence& e) { e.inliers = 40; }));
+  EXPECT_TRUE(worse([](PoseEvidence& e) { e.inliers = 40, e.matches = 50; }));  // few inliers, even if most agree
   EXPECT_TRUE(worse([](PoseEvidence& e) { e.residual_px = 3; }));
   EXPECT_TRUE(worse([](PoseEvidence& e) { e.scale_std_error_m = 0.05; }));
   EXPECT_TRUE(worse([](PoseEvidence& e) { e.matches = 2000; }));       // a lower inlier ratio
@@ -44,27 +45,27 @@ TEST(Confidence, PredictedErrorFollowsTheEvidence) {
   EXPECT_GT(c, 0);
 }
 
-// The seeded synthetic population of the study (bench/confidence runs it larger): ranking by freeloc's confidence
-// gives higher map-free AUCs than ranking by the raw inlier count, most of all with degraded depth, where the
-// inlier count cannot see a bad scale.
+// The seeded synthetic population of the study (bench/confidence runs it larger; its default seed 1 is the one the
+// model was tuned on, this one is held out): for every solver, ranking by freeloc's confidence gives a higher
+// map-free pose AUC than ranking by the raw inlier count — the inlier count cannot see a bad scale — and a VCRE AUC
+// as high (within one query's share: a single VCRE failure decides it on 100 queries).
 TEST(Confidence, RanksBetterThanTheInlierCountOnSyntheticQueries) {
-  std::vector<testing::StudyQuery> all, degraded;
-  for (int i = 0; i < 120; ++i) {
-    all.push_back(testing::RunStudyQuery(2, i, 640, 480));
-    if (!all.back().exact_depth) degraded.push_back(all.back());
-  }
-  for (const auto* qs : {&all, &degraded}) {
-    const auto ours = testing::ScoreStudy(*qs, testing::StudyConfidence::kFreeloc);
-    const auto inl = testing::ScoreStudy(*qs, testing::StudyConfidence::kInlierCount);
-    const auto oracle = testing::ScoreStudy(*qs, testing::StudyConfidence::kOracle);
-    std::printf("%zu queries: AUC pose %.4f (inliers %.4f, oracle %.4f), AUC VCRE %.4f (inliers %.4f, oracle %.4f)\n",
-                qs->size(), ours.auc_pose, inl.auc_pose, oracle.auc_pose, ours.auc_vcre, inl.auc_vcre,
+  for (const char* solver : {"essential", "hybrid", "pnp", "procrustes"}) {
+    std::vector<testing::StudyQuery> all;  // degraded and monocular-like depth: where the ranking matters
+    for (int i = 0; i < 150; ++i)
+      if (i % 3 != 0) all.push_back(testing::RunStudyQuery(2, i, 640, 480, solver));
+    const auto ours = testing::ScoreStudy(all, testing::StudyConfidence::kFreeloc);
+    const auto inl = testing::ScoreStudy(all, testing::StudyConfidence::kInlierCount);
+    const auto oracle = testing::ScoreStudy(all, testing::StudyConfidence::kOracle);
+    std::printf("%s, %zu queries: AUC pose %.4f (inliers %.4f, oracle %.4f), AUC VCRE %.4f (inliers %.4f, oracle "
+                "%.4f)\n",
+                solver, all.size(), ours.auc_pose, inl.auc_pose, oracle.auc_pose, ours.auc_vcre, inl.auc_vcre,
                 oracle.auc_vcre);
-    ASSERT_GT(ours.estimates, static_cast<int>(qs->size()) * 9 / 10);
-    ASSERT_LT(ours.precision_pose, 1.0);  // some estimates are wrong: there is something to rank
-    EXPECT_GT(ours.auc_pose, inl.auc_pose + 0.01);
-    EXPECT_GE(ours.auc_vcre, inl.auc_vcre);
-    EXPECT_LE(ours.auc_pose, oracle.auc_pose + 1e-9);
+    ASSERT_GE(ours.estimates, static_cast<int>(all.size()) * 85 / 100) << solver;
+    ASSERT_LT(ours.precision_pose, 1.0) << solver;  // some estimates are wrong: there is something to rank
+    EXPECT_GT(ours.auc_pose, inl.auc_pose) << solver;
+    EXPECT_GE(ours.auc_vcre, inl.auc_vcre - 1.0 / all.size()) << solver;
+    EXPECT_LE(ours.auc_pose, oracle.auc_pose + 1e-9) << solver;
   }
 }
 

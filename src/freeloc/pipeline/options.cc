@@ -62,6 +62,10 @@ void PipelineOptions::Validate() const {
                 "depth: provided needs a suffix (provided:<suffix>, e.g. provided:sensor)");
   FREELOC_CHECK(threshold_px == -1 || (std::isfinite(threshold_px) && threshold_px > 0),
                 "threshold_px: " << threshold_px << " is not a positive number of pixels (or -1 for the solver's default)");
+  FREELOC_CHECK(std::isfinite(reprojection_px) && reprojection_px > 0,
+                "reprojection_px: " << reprojection_px << " is not a positive number of pixels");
+  FREELOC_CHECK(depth_shifts == 0 || depth_shifts == 1, "depth_shifts: " << depth_shifts << " is not 0 or 1");
+  FREELOC_CHECK(always_answer == 0 || always_answer == 1, "always_answer: " << always_answer << " is not 0 or 1");
   FREELOC_CHECK(dust3r_size >= 224, "dust3r_size: " << dust3r_size << " is too small; use 224 or 512");
   FREELOC_CHECK(match_subsample >= 1, "match_subsample: " << match_subsample << " must be >= 1");
   FREELOC_CHECK(mast3r_subsample >= 1, "mast3r_subsample: " << mast3r_subsample << " must be >= 1 (the seed grid step)");
@@ -72,7 +76,7 @@ void PipelineOptions::Validate() const {
                 "depth: mast3r comes from the MASt3R matcher's pointmaps; use matcher mast3r or mast3r+instances "
                 "(or depth metric3d / provided:<suffix>)");
   FREELOC_CHECK(min_instance_matches >= 0, "min_instance_matches: " << min_instance_matches << " is negative");
-  FREELOC_CHECK(solver == SolverKind::kEssential || depth.kind != DepthKind::kNone,
+  FREELOC_CHECK(solver == SolverKind::kEssential || solver == SolverKind::kHybrid || depth.kind != DepthKind::kNone,
                 "solver: " << ToString(solver) << " needs depth (depth provided:<suffix> or metric3d)");
   proposals.Validate();
   runtime.Validate();
@@ -87,6 +91,9 @@ std::string PipelineOptions::Summary() const {
   std::string s = "preset " + preset + ": matcher " + matcher.ToString() + ", depth " + depth.ToString() +
                   ", solver " + ToString(solver) +
                   (solver == SolverKind::kEssential ? ", scale " + ToString(scale) : "") +
+                  (solver == SolverKind::kHybrid ? ", reprojection " + std::to_string(reprojection_px) + " px" +
+                                                       (depth_shifts ? ", depth shifts" : "")
+                                                 : "") +
                   (threshold_px > 0 ? ", threshold " + std::to_string(threshold_px) + " px" : "");
   if (UsesDust3r()) s += ", dust3r " + dust3r_model + " at " + std::to_string(dust3r_size);
   if (UsesMast3r())

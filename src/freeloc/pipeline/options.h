@@ -24,8 +24,10 @@ enum class MatcherKind { kSift, kDust3r, kDust3rInstances, kMast3r, kMast3rInsta
 // own metric pointmaps of the pair: the reference's z from the (reference, query) pass, the query's from the swapped
 // pass) | none.
 enum class DepthKind { kProvided, kMetric3d, kMast3r, kNone };
-// essential (5-point LO-RANSAC + metric scale from both depths) | pnp (reference depth) | procrustes (both).
-enum class SolverKind { kEssential, kPnp, kProcrustes };
+// essential (5-point LO-RANSAC + metric scale from both depths) | pnp (reference depth) | procrustes (both) |
+// hybrid (depth-aware hybrid LO-RANSAC, geometry/hybrid_pose.h; metric scale anchored on the reference depth, on
+// both when they agree; falls back to essential + scale vote when the depth model fits worse).
+enum class SolverKind { kEssential, kPnp, kProcrustes, kHybrid };
 // Where dust3r+instances gets its instance masks: kPropagate — the reference's given labels or proposals from its
 // own pointmap, propagated into each query by SegGPT; kGiven — label images given for both frames (no SegGPT).
 enum class InstanceSource { kPropagate, kGiven };
@@ -53,8 +55,16 @@ struct PipelineOptions {
   MatcherSpec matcher;
   DepthSpec depth;
   SolverKind solver = SolverKind::kEssential;
-  geometry::ScaleMethod scale = geometry::ScaleMethod::kRobust;  // essential only
+  // essential (and hybrid's fallback): anchored — the depths anchor |t| (issue 14; the vote's error grows with
+  // depth ÷ baseline); robust — freeloc's scale vote; official — the benchmark's vote.
+  geometry::ScaleMethod scale = geometry::ScaleMethod::kAnchored;
   double threshold_px = -1;                                      // < 0: the solver's default
+  double reprojection_px = 16;  // hybrid: two-way reprojection threshold through the depths, pixels
+  int depth_shifts = 0;         // hybrid: 1 = also estimate an additive shift of each depth map
+  // Every query gets a pose in the submission (issue 14): a query the solver cannot answer is submitted with the
+  // prior pose (the reference camera's: identity rotation, zero translation) and confidence 0; its status still
+  // says why. 0 = submit solved queries only.
+  int always_answer = 1;
   // Networks. Paths left empty are looked up by their published file names in `models_dir`, then in the folders of
   // $FREELOC_MODELS (FindModels); Validate names what is still missing.
   std::string models_dir;
@@ -120,6 +130,10 @@ struct QueryResult {
   bool metric() const { return status == QueryStatus::kOk; }
   std::string StatusText() const;  // "ok", "no-consensus", "error: <message>" — for people
   Rigid3d query_from_ref;
+  // !ok() with always_answer: query_from_ref is the prior (identity), submitted with confidence 0.
+  bool answered = false;
+  bool submitted() const { return ok() || answered; }
+  std::string route;  // the solver's route: "essential", "hybrid", "hybrid>essential" (fell back), "pnp", …
   double confidence = 0;  // essential + robust scale: confidence.h; official scale: its support; pnp/procrustes: inliers
   int matches = 0, inliers = 0;
   std::vector<char> inlier_mask;          // per correspondence into the solver (not in the JSON records)
@@ -167,7 +181,8 @@ struct EnumTable<pipeline::SolverKind> {
   static constexpr const char* kField = "solver";
   static constexpr EnumEntry<pipeline::SolverKind> kEntries[] = {{pipeline::SolverKind::kEssential, "essential"},
                                                                  {pipeline::SolverKind::kPnp, "pnp"},
-                                                                 {pipeline::SolverKind::kProcrustes, "procrustes"}};
+                                                                 {pipeline::SolverKind::kProcrustes, "procrustes"},
+                                                                 {pipeline::SolverKind::kHybrid, "hybrid"}};
 };
 template <>
 struct EnumTable<pipeline::InstanceSource> {

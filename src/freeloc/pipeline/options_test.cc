@@ -32,7 +32,7 @@ TEST(Options, BadTextNamesTheFieldAndTheChoicesNotAFlag) {
             "depth: 'provided' is not one of provided:<suffix>, metric3d, mast3r, none");
   PipelineOptions o;
   EXPECT_EQ(ErrorOf([&] { SetOption(&o, "solver", "ransac"); }),
-            "solver: 'ransac' is not one of essential, pnp, procrustes");
+            "solver: 'ransac' is not one of essential, pnp, procrustes, hybrid");
   EXPECT_EQ(ErrorOf([&] { SetOption(&o, "threshold_px", "1.5px"); }), "threshold_px: '1.5px' is not a finite number");
   EXPECT_EQ(ErrorOf([&] { SetOption(&o, "precision", "fp8"); }), "precision: 'fp8' is not one of fp32, bf16");
   EXPECT_EQ(ErrorOf([&] { SetOption(&o, "dust3r_size", "2.5"); }), "dust3r_size: '2.5' is not an integer");

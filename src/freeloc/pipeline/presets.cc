@@ -16,22 +16,24 @@ struct Preset {
 };
 
 // The benchmark's SIFT baseline uses a 3 px essential threshold; dense DUSt3R matches the solver default (1 px).
+// The network presets use the hybrid depth-aware solver (issue 14: bench/baseline, docs/geometry.md); sift-essential
+// keeps the benchmark's essential + depth scale (with the anchored scale) unless told --solver hybrid.
 constexpr Preset kPresets[] = {
     {"sift-essential", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kEssential, 3.0},
     {"sift-pnp", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kPnp, -1},
     {"sift-procrustes", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kProcrustes, -1},
-    {"seed", MatcherKind::kDust3rInstances, DepthKind::kMetric3d, SolverKind::kEssential, -1},
-    {"seed-no-instance", MatcherKind::kDust3r, DepthKind::kMetric3d, SolverKind::kEssential, -1},
-    {"seed-provided-depth", MatcherKind::kDust3rInstances, DepthKind::kProvided, SolverKind::kEssential, -1},
-    {"dust3r", MatcherKind::kDust3r, DepthKind::kProvided, SolverKind::kEssential, -1},
-    // MASt3R routes (spec/mast3r.md §5): descriptor matches with its own metric depth (essential + scale), PnP on the
+    {"seed", MatcherKind::kDust3rInstances, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
+    {"seed-no-instance", MatcherKind::kDust3r, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
+    {"seed-provided-depth", MatcherKind::kDust3rInstances, DepthKind::kProvided, SolverKind::kHybrid, -1},
+    {"dust3r", MatcherKind::kDust3r, DepthKind::kProvided, SolverKind::kHybrid, -1},
+    // MASt3R routes (spec/mast3r.md §5): descriptor matches with its own metric depth (hybrid solver), PnP on the
     // reference pointmap, Metric3D depth instead, and the paper's method with MASt3R in place of DUSt3R.
-    {"mast3r", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kEssential, -1},
+    {"mast3r", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kHybrid, -1},
     {"mast3r-pnp", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kPnp, -1},
-    {"mast3r-metric3d", MatcherKind::kMast3r, DepthKind::kMetric3d, SolverKind::kEssential, -1},
-    {"seed-mast3r", MatcherKind::kMast3rInstances, DepthKind::kMetric3d, SolverKind::kEssential, -1},
+    {"mast3r-metric3d", MatcherKind::kMast3r, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
+    {"seed-mast3r", MatcherKind::kMast3rInstances, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
 };
-const char kPrecomputedForm[] = "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>";
+const char kPrecomputedForm[] = "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes|hybrid>";
 
 std::string AvailablePresets() {
   std::string s;
@@ -52,7 +54,7 @@ PipelineOptions ResolvePrecomputed(const std::string& name) {
   FREELOC_CHECK(TryParseEnum(rest.substr(dash + 1), &o.solver),
                 "preset: '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of "
                             << EnumNames<SolverKind>());
-  if (o.solver == SolverKind::kEssential) o.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
+  if (o.solver == SolverKind::kEssential || o.solver == SolverKind::kHybrid) o.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
   return o;
 }
 

@@ -76,6 +76,8 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   if (!r.message.empty()) j["message"] = r.message;
   j["ok"] = r.ok();
   j["metric"] = r.metric();
+  if (r.answered) j["answered"] = true;  // not solved: the prior pose, submitted with confidence 0
+  if (!r.route.empty()) j["route"] = r.route;
   j["qvec"] = {q[0], q[1], q[2], q[3]};
   j["tvec"] = {t.x(), t.y(), t.z()};
   j["confidence"] = r.confidence;
@@ -110,6 +112,8 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.instances = j.value("instances", 0);
     r.instances_used = j.value("instances_used", 0);
     r.scale_inliers = j.value("scale_inliers", 0);
+    r.answered = j.value("answered", false);
+    r.route = j.value("route", std::string());
     r.predicted_translation_m = j.value("predicted_translation_m", 0.0);
     r.predicted_rotation_deg = j.value("predicted_rotation_deg", 0.0);
     r.depth_ms = j.value("depth_ms", 0.0);

@@ -96,8 +96,23 @@ matching::Correspondences Relocalizer::Match(const Image& image, const Camera& c
   return c;
 }
 
+void AnswerUnsolved(const PipelineOptions& o, QueryResult* r) {
+  if (r->ok() || !o.always_answer) return;
+  r->answered = true;
+  r->query_from_ref = Rigid3d();  // the prior: the reference camera's pose
+  r->confidence = 0;
+  r->predicted_translation_m = r->predicted_rotation_deg = 0;
+}
+
 QueryResult Relocalizer::Relocalize(const Image& image, const Camera& camera, FrameInputs in,
                                     matching::Correspondences* matches) {
+  QueryResult r = Solve(image, camera, std::move(in), matches);
+  AnswerUnsolved(impl_->o, &r);
+  return r;
+}
+
+QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameInputs in,
+                               matching::Correspondences* matches) {
   Impl& m = *impl_;
   FREELOC_CHECK(m.have_ref, "Relocalizer::Relocalize before SetReference");
   QueryResult r;
@@ -136,7 +151,7 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
 
 namespace {
 
-std::vector<QueryResult> FailScene(const MapfreeScene& scene, const std::string& message,
+std::vector<QueryResult> FailScene(const MapfreeScene& scene, const PipelineOptions& o, const std::string& message,
                                    const std::function<void(const QueryResult&)>& on_query) {
   FREELOC_LOG(WARNING) << scene.name << ": " << message;
   std::vector<QueryResult> out;
@@ -145,6 +160,7 @@ std::vector<QueryResult> FailScene(const MapfreeScene& scene, const std::string&
     r.frame = q.name;
     r.status = QueryStatus::kError;
     r.message = message;
+    AnswerUnsolved(o, &r);
     out.push_back(r);
     if (on_query) on_query(r);
   }
@@ -177,7 +193,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
     if (o.UsesPrecomputed()) pre = scene.LoadCorrespondences(o.matcher.correspondences);
   } catch (const std::exception& e) {
     // A missing or damaged reference (or correspondence file) fails the scene's queries; the run goes on.
-    return FailScene(scene, "reference: " + ErrorMessage(e, scene.FramePath(scene.reference)), on_query);
+    return FailScene(scene, o, "reference: " + ErrorMessage(e, scene.FramePath(scene.reference)), on_query);
   }
   std::vector<QueryResult> out;
   for (size_t i = 0; i < scene.queries.size(); ++i) {
@@ -195,6 +211,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
       r.status = QueryStatus::kError;
       r.message = ErrorMessage(e, scene.FramePath(q));
       FREELOC_LOG(WARNING) << scene.name << "/" << q.name << ": " << r.message;
+      AnswerUnsolved(o, &r);
     }
     r.frame = q.name;
     if (on_matches) on_matches(r, c);

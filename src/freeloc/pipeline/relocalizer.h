@@ -42,7 +42,8 @@ class Relocalizer {
     SetReference(image, camera, std::move(in));
   }
   // One query against the current reference. `matches` (optional) receives the correspondences the solver got
-  // (original pixels). Estimator failures are statuses; exceptions (bad input, network errors) propagate.
+  // (original pixels). Estimator failures are statuses (answered with the prior pose under always_answer);
+  // exceptions (bad input, network errors) propagate.
   QueryResult Relocalize(const Image& image, const Camera& camera, FrameInputs inputs,
                          matching::Correspondences* matches = nullptr);
   QueryResult Relocalize(const Image& image, const Camera& camera, DepthMap depth = {},
@@ -64,9 +65,14 @@ class Relocalizer {
   const DepthMap& last_query_depth() const;
 
  private:
+  QueryResult Solve(const Image& image, const Camera& camera, FrameInputs inputs, matching::Correspondences* matches);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// The always-answer rule (PipelineOptions::always_answer): an unsolved `r` gets the prior pose (identity) with
+// confidence 0 and answered = true; its status is kept. Solved results and always_answer 0 are left as they are.
+void AnswerUnsolved(const PipelineOptions& options, QueryResult* r);
 
 // One pair (a Relocalizer used once). `depth_ref`/`depth_query` may be empty.
 QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k_ref, const Camera& k_query,

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "freeloc/core/error.h"
 #include "freeloc/io/image_io.h"
@@ -92,6 +94,56 @@ TEST(Relocalizer, CustomMatcherWithBuiltInStages) {
   EXPECT_THROW(Relocalizer(o, nullptr, MakeDepthEstimator(o), MakePoseSolver(o)), Error);
 }
 
+// The hybrid solver through the pipeline (precomputed correspondences, provided depth): metric and exact to the
+// centimetre; with an unusable query depth map it falls back to the essential route (the reference depth still
+// anchors the scale); unrelated matches are no-consensus and — always answer — submitted with the prior pose and
+// confidence 0, unless always_answer is 0.
+TEST(Relocalizer, HybridSolverFallbackAndAlwaysAnswer) {
+  const testing::SyntheticScene scene = testing::MakeRoomScene(5, 0.8, 320, 240);
+  std::vector<Eigen::Vector2d> a, b;
+  scene.Correspondences(400, 0.5, 11, &a, &b);
+  std::vector<Eigen::Vector4d> rows;
+  for (size_t i = 0; i < a.size(); ++i) rows.emplace_back(a[i].x(), a[i].y(), b[i].x(), b[i].y());
+  PipelineOptions o = ResolvePreset("precomputed:SIFT-hybrid");
+  o.depth = DepthSpec::FromString("provided:synthetic");
+  ASSERT_EQ(o.solver, SolverKind::kHybrid);
+  Relocalizer reloc(o);
+  reloc.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
+  QueryResult r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query, &rows);
+  ASSERT_TRUE(r.ok()) << r.StatusText();
+  EXPECT_EQ(r.route, "hybrid");
+  EXPECT_FALSE(r.answered);
+  EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.02);
+  EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 0.2);
+  EXPECT_GT(r.confidence, 0);
+  // No valid query depth: the depth model has nothing to check against; the essential route answers.
+  DepthMap holes = scene.depth_query;
+  std::fill(holes.data.begin(), holes.data.end(), 0.f);
+  r = reloc.Relocalize(Image(320, 240), scene.query, holes, &rows);
+  ASSERT_TRUE(r.ok()) << r.StatusText();
+  EXPECT_EQ(r.route, "hybrid>essential");
+  EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.05);
+  // Unrelated matches.
+  std::vector<Eigen::Vector4d> noise;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> ux(0, 319), uy(0, 239);
+  for (int i = 0; i < 200; ++i) noise.emplace_back(ux(rng), uy(rng), ux(rng), uy(rng));
+  r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query, &noise);
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(r.answered);
+  EXPECT_TRUE(r.submitted());
+  EXPECT_EQ(r.confidence, 0);
+  EXPECT_EQ(r.query_from_ref.translation.norm(), 0);
+  EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, Eigen::Quaterniond::Identity()), 1e-12);
+  o.always_answer = 0;
+  Relocalizer silent(o);
+  silent.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
+  r = silent.Relocalize(Image(320, 240), scene.query, scene.depth_query, &noise);
+  EXPECT_FALSE(r.ok());
+  EXPECT_FALSE(r.answered);
+  EXPECT_FALSE(r.submitted());
+}
+
 TEST(Relocalizer, PresetsAndOverrides) {
   // The paper's method and its Table 2 ablations.
   const PipelineOptions seed = ResolvePreset("seed"), ni = ResolvePreset("seed-no-instance"),
@@ -102,7 +154,10 @@ TEST(Relocalizer, PresetsAndOverrides) {
   EXPECT_EQ(ni.depth.ToString(), "metric3d");
   EXPECT_EQ(pd.matcher.ToString(), "dust3r+instances");
   EXPECT_EQ(pd.depth.ToString(), "provided:sensor");
-  for (const auto* p : {&seed, &ni, &pd}) EXPECT_EQ(p->solver, SolverKind::kEssential);
+  // Issue 14: the network presets solve with the hybrid depth-aware solver (sift-essential keeps essential).
+  for (const auto* p : {&seed, &ni, &pd}) EXPECT_EQ(p->solver, SolverKind::kHybrid);
+  EXPECT_EQ(ResolvePreset("sift-essential").solver, SolverKind::kEssential);
+  EXPECT_EQ(ResolvePreset("sift-essential").scale, geometry::ScaleMethod::kAnchored);
   PipelineOptions o = ResolvePreset("sift-pnp");
   o.depth = DepthSpec::FromString("none");
   EXPECT_THROW(o.Validate(), Error);

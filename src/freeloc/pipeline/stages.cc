@@ -7,6 +7,7 @@
 #include "freeloc/core/logging.h"
 #include "freeloc/geometry/absolute_pose.h"
 #include "freeloc/geometry/essential.h"
+#include "freeloc/geometry/hybrid_pose.h"
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/relative_pose.h"
 #include "freeloc/matching/instance.h"
@@ -304,6 +305,7 @@ class EssentialSolver : public PoseSolver {
              const DepthMap& d_query, QueryResult* r) const override {
     const auto t0 = std::chrono::steady_clock::now();
     r->matches = static_cast<int>(c.size());
+    r->route = "essential";
     CheckDepthCovers(c.ref, d_ref, "reference");
     CheckDepthCovers(c.query, d_query, "query");
     if (c.size() < 5) {
@@ -345,7 +347,7 @@ class EssentialSolver : public PoseSolver {
     }
     r->query_from_ref.translation *= s.scale;
     r->confidence = s.confidence;  // official: the baseline's support count
-    if (scale_.method == geometry::ScaleMethod::kRobust) {
+    if (scale_.method != geometry::ScaleMethod::kOfficial) {
       const PredictedError pe = PredictPoseError(EssentialEvidence(c, rel, s, k_ref, k_query));
       r->predicted_translation_m = pe.translation_m;
       r->predicted_rotation_deg = pe.rotation_deg;
@@ -358,6 +360,78 @@ class EssentialSolver : public PoseSolver {
   geometry::ScaleOptions scale_;
 };
 
+// The depth-aware hybrid estimator (geometry/hybrid_pose.h) with the essential route as its guard and fallback:
+// both run; the hybrid model is taken unless it explains clearly fewer correspondences epipolarly than the
+// 5-point model does (a depth map that pulls the pose away from what the matches say), or fails. Its translation is
+// in reference-depth units; when the query depth agrees on the scale within a factor 2, the two anchorings are
+// combined by their geometric mean (t / √s), else the reference's is kept.
+class HybridSolver : public PoseSolver {
+ public:
+  explicit HybridSolver(const PipelineOptions& o) : essential_(o) {
+    if (o.threshold_px > 0) options_.threshold_px = o.threshold_px;
+    options_.reprojection_px = o.reprojection_px;
+    options_.shifts = o.depth_shifts != 0;
+  }
+
+  void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
+             const DepthMap& d_query, QueryResult* r) const override {
+    const auto t0 = std::chrono::steady_clock::now();
+    QueryResult ess = *r;
+    essential_.Solve(c, k_ref, k_query, d_ref, d_query, &ess);
+    if (d_ref.empty() || d_query.empty() || c.size() < 5) {  // no depth model to use: the essential route
+      *r = ess;
+      r->route = "essential";
+      return;
+    }
+    std::vector<double> zr(c.size()), zq(c.size());
+    for (size_t i = 0; i < c.size(); ++i) {
+      zr[i] = geometry::BilinearDepth(d_ref, c.ref[i].x(), c.ref[i].y());
+      zq[i] = geometry::BilinearDepth(d_query, c.query[i].x(), c.query[i].y());
+    }
+    const geometry::HybridPoseResult h = geometry::EstimateHybridPose(c.ref, c.query, zr, zq, k_ref, k_query, options_);
+    const bool fits = h.status.success && h.status.num_inliers >= 0.8 * ess.inliers;
+    if (!fits) {
+      *r = ess;
+      r->route = "hybrid>essential";
+      r->solve_ms = Ms(t0);
+      return;
+    }
+    r->matches = static_cast<int>(c.size());
+    r->inliers = h.status.num_inliers;
+    r->inlier_mask = h.inliers;
+    r->scale_inliers = h.depth_inliers;
+    const double log_s = std::log(h.model.scale);
+    const bool both = std::abs(log_s) <= std::log(2.0);
+    const Eigen::Vector3d t = both ? Eigen::Vector3d(h.model.t / std::sqrt(h.model.scale)) : h.model.t;
+    r->query_from_ref = Rigid3d(Eigen::Quaterniond(h.model.R).normalized(), t);
+    r->status = QueryStatus::kOk;
+    r->route = both ? "hybrid" : "hybrid (reference depth)";
+    // The confidence model of every solver (confidence.h): the scale's standard error from the depth inliers'
+    // scatter, and the two anchorings' disagreement (half of it left after the geometric mean).
+    PoseEvidence ev;
+    ev.matches = r->matches;
+    ev.inliers = h.status.num_inliers;
+    ev.residual_px = h.residual_px;
+    ev.focal_px = 0.25 * (k_ref.fx + k_ref.fy + k_query.fx + k_query.fy);
+    ev.mean_depth_m = h.mean_depth;
+    ev.scale_candidates = h.depth_candidates;
+    ev.scale_inliers = h.depth_inliers;
+    const double anchor = both ? 0.5 * std::abs(log_s) : std::abs(log_s);
+    constexpr double kCommonScaleError = 0.05;  // as the anchored scale (metric_scale.cc): what no disagreement shows
+    ev.scale_std_error_m = t.norm() * std::sqrt(h.scale_std_error * h.scale_std_error + anchor * anchor +
+                                                kCommonScaleError * kCommonScaleError);
+    const PredictedError pe = PredictPoseError(ev);
+    r->predicted_translation_m = pe.translation_m;
+    r->predicted_rotation_deg = pe.rotation_deg;
+    r->confidence = ConfidenceFromPredictedError(pe);
+    r->solve_ms = Ms(t0);
+  }
+
+ private:
+  EssentialSolver essential_;
+  geometry::HybridPoseOptions options_;
+};
+
 // PnP on the reference depth (threshold_px: reprojection inlier threshold) or Procrustes on both depths.
 class AbsoluteSolver : public PoseSolver {
  public:
@@ -368,6 +442,7 @@ class AbsoluteSolver : public PoseSolver {
              const DepthMap& d_query, QueryResult* r) const override {
     const auto t0 = std::chrono::steady_clock::now();
     r->matches = static_cast<int>(c.size());
+    r->route = pnp_ ? "pnp" : "procrustes";
     CheckDepthCovers(c.ref, d_ref, "reference");
     if (!pnp_) CheckDepthCovers(c.query, d_query, "query");
     const auto m = pnp_ ? geometry::EstimatePnP(c.ref, c.query, d_ref, k_ref, k_query, pnp_options_)
@@ -377,10 +452,50 @@ class AbsoluteSolver : public PoseSolver {
     r->status = StatusOf(m.status.reason);
     r->query_from_ref = m.query_from_ref;
     r->confidence = m.confidence;
+    if (r->ok()) Confidence(c, k_ref, k_query, d_ref, d_query, r);
     r->solve_ms = Ms(t0);
   }
 
  private:
+  // The confidence model of every solver (confidence.h) from the inliers' residuals: PnP's reprojection error in
+  // the query, Procrustes' 3D distance seen from the query (as an angle); the depth's common scale error as prior.
+  void Confidence(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query,
+                  const DepthMap& d_ref, const DepthMap& d_query, QueryResult* r) const {
+    const Rigid3d& T = r->query_from_ref;
+    double sq = 0, depth = 0;
+    int n = 0;
+    for (size_t i = 0; i < c.size(); ++i) {
+      if (!r->inlier_mask[i]) continue;
+      const double zr = geometry::BilinearDepth(d_ref, c.ref[i].x(), c.ref[i].y());
+      if (!(zr > 0)) continue;
+      const Eigen::Vector3d Y = T * (zr * k_ref.Unproject(c.ref[i].x(), c.ref[i].y()));
+      if (!(Y.z() > 0)) continue;
+      if (pnp_) {
+        sq += (k_query.Project(Y) - c.query[i]).squaredNorm();
+      } else {
+        const double zq = geometry::BilinearDepth(d_query, c.query[i].x(), c.query[i].y());
+        if (!(zq > 0)) continue;
+        const Eigen::Vector3d Q = zq * k_query.Unproject(c.query[i].x(), c.query[i].y());
+        sq += (Q - Y).squaredNorm() / (Y.z() * Y.z()) * k_query.fx * k_query.fy;  // metres → pixels at that depth
+      }
+      depth += zr;
+      ++n;
+    }
+    if (n == 0) return;
+    PoseEvidence ev;
+    ev.matches = static_cast<int>(c.size());
+    ev.inliers = r->inliers;
+    ev.residual_px = std::sqrt(sq / n);
+    ev.focal_px = 0.5 * (k_query.fx + k_query.fy);
+    ev.mean_depth_m = depth / n;
+    constexpr double kCommonScaleError = 0.05;  // the depth map's scale error, as for the anchored scale
+    ev.scale_std_error_m = kCommonScaleError * T.translation.norm();
+    const PredictedError pe = PredictPoseError(ev);
+    r->predicted_translation_m = pe.translation_m;
+    r->predicted_rotation_deg = pe.rotation_deg;
+    r->confidence = ConfidenceFromPredictedError(pe);
+  }
+
   bool pnp_;
   geometry::PnPOptions pnp_options_;
 };
@@ -418,6 +533,7 @@ std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
 std::unique_ptr<PoseSolver> MakePoseSolver(const PipelineOptions& o) {
   o.Validate();
   if (o.solver == SolverKind::kEssential) return std::make_unique<EssentialSolver>(o);
+  if (o.solver == SolverKind::kHybrid) return std::make_unique<HybridSolver>(o);
   return std::make_unique<AbsoluteSolver>(o.solver == SolverKind::kPnp, o.threshold_px);
 }
 
