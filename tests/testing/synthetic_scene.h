@@ -172,28 +172,24 @@ inline DepthMap DegradeDepthMonocular(const DepthMap& in, uint32_t seed, const M
   const double fx1 = 0.4 + 0.8 * u01(rng), fy1 = 0.4 + 0.8 * u01(rng), ph1 = 6.28 * u01(rng), ph2 = 6.28 * u01(rng);
   const int bleed = o.bleed_min_px + static_cast<int>(u01(rng) * (o.bleed_max_px - o.bleed_min_px + 1));
   const int w = in.width, h = in.height;
-  // Edge bleeding on the true depth: separable min / max filters of radius `bleed`.
-  auto filter = [&](const std::vector<float>& src, bool take_min) {
-    std::vector<float> tmp(src.size()), out(src.size());
+  // Edge bleeding on the true depth: separable min / max filters of radius `bleed` (invalid pixels ignored).
+  auto at = [w](int x, int y) { return static_cast<size_t>(y) * w + x; };
+  auto pass = [&](const std::vector<float>& src, bool along_x, bool take_min) {
+    std::vector<float> out(src.size());
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
-        float v = src[static_cast<size_t>(y) * w + x];
-        for (int k = std::max(0, x - bleed); k <= std::min(w - 1, x + bleed); ++k) {
-          const float c = src[static_cast<size_t>(y) * w + k];
+        const int pos = along_x ? x : y, len = along_x ? w : h;
+        float v = src[at(x, y)];
+        for (int k = std::max(0, pos - bleed); k <= std::min(len - 1, pos + bleed); ++k) {
+          const float c = src[along_x ? at(k, y) : at(x, k)];
           if (c > 0) v = take_min ? (v > 0 ? std::min(v, c) : c) : std::max(v, c);
         }
-        tmp[static_cast<size_t>(y) * w + x] = v;
-      }
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        float v = tmp[static_cast<size_t>(y) * w + x];
-        for (int k = std::max(0, y - bleed); k <= std::min(h - 1, y + bleed); ++k) {
-          const float c = tmp[static_cast<size_t>(k) * w + x];
-          if (c > 0) v = take_min ? (v > 0 ? std::min(v, c) : c) : std::max(v, c);
-        }
-        out[static_cast<size_t>(y) * w + x] = v;
+        out[at(x, y)] = v;
       }
     return out;
+  };
+  auto filter = [&](const std::vector<float>& src, bool take_min) {
+    return pass(pass(src, true, take_min), false, take_min);
   };
   const std::vector<float> lo = filter(in.data, true), hi = filter(in.data, false);
   DepthMap d = in;

@@ -237,4 +237,15 @@ int FivePointRelativePose(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[
   return n;
 }
 
+int FivePointRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                          const int* sample, std::vector<PoseRt>* poses) {
+  Eigen::Vector3d a[5], b[5];
+  for (int i = 0; i < 5; ++i) {
+    a[i] = x1[sample[i]];
+    b[i] = x2[sample[i]];
+  }
+  poses->clear();
+  return FivePointRelativePose(a, b, poses);
+}
+
 }  // namespace freeloc::geometry

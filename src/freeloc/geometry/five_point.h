@@ -19,5 +19,8 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
 
 // Pose candidates (t unit norm) that pass the cheirality test on all 5 points. Returns their number.
 int FivePointRelativePose(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5], std::vector<PoseRt>* poses);
+// The same on the correspondences `sample[0..4]` of two ray lists (RANSAC's minimal samples); `poses` is cleared.
+int FivePointRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                          const int* sample, std::vector<PoseRt>* poses);
 
 }  // namespace freeloc::geometry

@@ -64,13 +64,7 @@ class RelPoseEstimator {
       : x1_(x1), x2_(x2), loss_scale_(th) {}
   size_t num_data() const { return x1_.size(); }
   void MinimalSolve(const int* s, std::vector<Model>* models) const {
-    Eigen::Vector3d a[5], b[5];
-    for (int i = 0; i < 5; ++i) {
-      a[i] = x1_[s[i]];
-      b[i] = x2_[s[i]];
-    }
-    poses_.clear();
-    FivePointRelativePose(a, b, &poses_);
+    FivePointRelativePose(x1_, x2_, s, &poses_);
     for (const auto& p : poses_) models->push_back({p, EssentialFromPose(p)});
   }
   double SquaredError(const Model& m, size_t i) const { return SampsonSquared(m.E, x1_[i], x2_[i]); }
