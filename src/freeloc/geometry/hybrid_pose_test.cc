@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
 #include <random>
 
 namespace freeloc::geometry {
@@ -161,6 +163,30 @@ TEST(HybridPose, WithoutDepthThereIsNoMetricModel) {
   EXPECT_EQ(r.depth_candidates, 0);
   EXPECT_EQ(r.depth_inliers, 0);
   EXPECT_EQ(r.samples_3pt, 0);
+}
+
+// Hostile depth values (NaN, ±inf, negative, absurdly large) and duplicated matches: no crash, no non-finite pose,
+// never an ok status without support.
+TEST(HybridPose, HostileDepthsAndDuplicatesStayFiniteAndSafe) {
+  DepthView v = MakeDepthView(40, 200, 0.1, 0.5);
+  const double bad[] = {std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                        -3.0, 0.0, 1e300, 1e-300};
+  for (size_t i = 0; i < v.d1.size(); i += 3) v.d1[i] = bad[i % 7];
+  for (size_t i = 1; i < v.d2.size(); i += 3) v.d2[i] = bad[(i + 2) % 7];
+  HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
+  ASSERT_TRUE(r.status.success) << r.status.reason;  // a third of each map broken: still a metric pose
+  EXPECT_TRUE(r.model.R.allFinite() && r.model.t.allFinite() && std::isfinite(r.model.scale));
+  EXPECT_LT((r.model.t - v.truth.translation).norm(), 0.05);
+  // One match repeated 50 times: no geometry.
+  std::vector<Eigen::Vector2d> a(50, v.p1[0]), b(50, v.p2[0]);
+  std::vector<double> da(50, 3.0), db(50, 3.0);
+  r = EstimateHybridPose(a, b, da, db, v.ref, v.query);
+  EXPECT_FALSE(r.status.success);
+  // Every depth broken.
+  std::vector<double> nan(v.p1.size(), std::nan(""));
+  r = EstimateHybridPose(v.p1, v.p2, nan, nan, v.ref, v.query);
+  EXPECT_FALSE(r.status.success);
+  EXPECT_EQ(r.depth_candidates, 0);
 }
 
 TEST(HybridPose, TooFewMatchesAndBadInputs) {
