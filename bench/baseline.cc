@@ -108,6 +108,7 @@ int main(int argc, char** argv) {
   const std::string tmp = (fs::temp_directory_path() / ("freeloc_baseline_" + std::to_string(getpid()))).string();
   std::string split = data;
   std::printf("## bench/baseline — sift-essential vs the benchmark code's SIFT + Ess.Mat + D.Scale\n\n");
+  std::printf("%s\n\n", bench::MachineLine().c_str());
   if (split.empty()) {
     split = keep.empty() ? tmp + "/val" : keep;
     std::vector<Image> photos;

@@ -101,4 +101,14 @@ inline std::string Fmt(const char* f, double v) {
   return buf;
 }
 
+// A deterministic pair of normalised (−1…1) 3×H×W network inputs, the same pixels in every network bench.
+inline void SyntheticImagePair(int H, int W, std::vector<float>* img1, std::vector<float>* img2) {
+  img1->resize(3 * static_cast<size_t>(H) * W);
+  img2->resize(img1->size());
+  for (size_t i = 0; i < img1->size(); ++i) {
+    (*img1)[i] = static_cast<float>((i * 7919 % 255) / 127.5 - 1.0);
+    (*img2)[i] = static_cast<float>((i * 104729 % 255) / 127.5 - 1.0);
+  }
+}
+
 }  // namespace freeloc::bench

@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--size") && i + 1 < argc) std::sscanf(argv[++i], "%dx%d", &width, &height);
   }
   std::printf("## bench/confidence — ranking estimates for the map-free AUCs\n\n");
+  std::printf("%s\n\n", bench::MachineLine().c_str());
   std::printf("Synthetic population: seed %u%s, %d queries at %dx%d; baseline 0.1–1.5 m, 30–1500 matches "
               "(log-uniform), 0.3–2.5 px noise, 0–60 %% outliers; depth by query index mod 3: exact, degraded "
               "(global ≤ 15 %%, smooth ≤ 10 %%, outlier blobs ≤ 30 %%, 5 %% holes), monocular-like (log-normal "

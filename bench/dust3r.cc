@@ -66,11 +66,8 @@ int main(int argc, char** argv) {
   const auto model = freeloc::nn::Dust3rModel::Create(
       sd, {{"enc_num_heads", "16"}, {"dec_num_heads", "12"}, {"pos_embed", "RoPE100"}}, "random full-size weights", rt);
   const int H = 384, W = 512;
-  std::vector<float> img1(3 * H * W), img2(3 * H * W);
-  for (size_t i = 0; i < img1.size(); ++i) {
-    img1[i] = static_cast<float>((i * 7919 % 255) / 127.5 - 1.0);
-    img2[i] = static_cast<float>((i * 104729 % 255) / 127.5 - 1.0);
-  }
+  std::vector<float> img1, img2;
+  freeloc::bench::SyntheticImagePair(H, W, &img1, &img2);
   const freeloc::nn::Dust3rView v1{img1.data(), H, W}, v2{img2.data(), H, W};
   model->Run(v1, v2);  // warm-up
   std::vector<double> total, enc, dec, heads, cached;

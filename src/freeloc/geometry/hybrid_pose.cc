@@ -10,6 +10,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/geometry/essential.h"
 #include "freeloc/geometry/five_point.h"
+#include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/ransac.h"
 #include "freeloc/geometry/relpose_depth_shift_3pt.h"
 
@@ -275,12 +276,12 @@ class Problem {
       tri.emplace_back(l2, dq_[i] + m->p.shift_query);
     }
     if (lr.size() < 3) return;
-    const double log_len = TrimmedMean(lr);
+    const double log_len = TrimmedMean(lr, 1e-3).mean;
     for (const auto& [l2, d] : tri) lq.push_back(log_len + std::log(l2 / d));
     DepthRelPose p = m->p;
     p.R = rt.R;
     p.t = std::exp(log_len) * rt.t;
-    p.scale = std::exp(TrimmedMean(lq));
+    p.scale = std::exp(TrimmedMean(lq, 1e-3).mean);
     *m = Complete(p);
   }
 
@@ -325,21 +326,6 @@ class Problem {
   double the2() const { return the2_; }
 
  private:
-  // Mean of the values within 3 robust standard deviations (MAD) of the median.
-  static double TrimmedMean(std::vector<double> v) {
-    std::vector<double> w = v;
-    const double med = Median(&w);
-    for (size_t i = 0; i < v.size(); ++i) w[i] = std::abs(v[i] - med);
-    const double window = std::max(1e-3, 3 * 1.4826 * Median(&w));
-    double sum = 0;
-    int n = 0;
-    for (double x : v)
-      if (std::abs(x - med) <= window) {
-        sum += x;
-        ++n;
-      }
-    return n > 0 ? sum / n : med;
-  }
   static double Median(std::vector<double>* v) {
     auto mid = v->begin() + static_cast<long>(v->size() / 2);
     std::nth_element(v->begin(), mid, v->end());

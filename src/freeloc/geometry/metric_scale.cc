@@ -150,29 +150,6 @@ void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) 
   res->confidence = inlier_ratio / (res->relative_std_error + 1e-3);
 }
 
-// Median/MAD-trimmed mean of `v` (log ratios): the location, its standard error, and the number kept.
-void TrimmedLogMean(std::vector<double> v, double* mean, double* se, int* kept) {
-  std::vector<double> w = v;
-  std::nth_element(w.begin(), w.begin() + static_cast<long>(w.size() / 2), w.end());
-  const double med = w[w.size() / 2];
-  for (size_t i = 0; i < v.size(); ++i) w[i] = std::abs(v[i] - med);
-  std::nth_element(w.begin(), w.begin() + static_cast<long>(w.size() / 2), w.end());
-  const double window = std::max(0.01, 3 * 1.4826 * w[w.size() / 2]);
-  double s = 0, s2 = 0;
-  int n = 0;
-  for (double x : v)
-    if (std::abs(x - med) <= window) {
-      s += x;
-      s2 += x * x;
-      ++n;
-    }
-  *kept = n;
-  *mean = n > 0 ? s / n : med;
-  const double var = n > 1 ? std::max(0.0, (s2 - s * s / n) / (n - 1)) : 1.0;
-  *se = std::sqrt(var / std::max(1, n));
-}
-
-constexpr double kCommonScaleError = 0.05;
 
 void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
                    const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
@@ -204,19 +181,19 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
     res->reason = "no-valid-depth";
     return;
   }
-  double mr = 0, ser = 0;
-  int kr = 0;
-  TrimmedLogMean(lr, &mr, &ser, &kr);
+  const TrimmedMeanResult tr = TrimmedMean(lr, 0.01);
+  const double mr = tr.mean;
+  double ser = tr.std_error;
+  const int kr = tr.kept;
   if (kr < std::max(1, opt.min_inliers)) {
     res->reason = "no-consensus";
     return;
   }
   double log_scale = mr, anchor = 0;
   if (lq.size() >= static_cast<size_t>(std::max(1, opt.min_inliers))) {
-    double mq = 0, seq = 0;
-    int kq = 0;
-    TrimmedLogMean(lq, &mq, &seq, &kq);
-    if (kq >= opt.min_inliers && std::abs(mr - mq) <= std::log(2.0)) {
+    const TrimmedMeanResult tq = TrimmedMean(lq, 0.01);
+    const double mq = tq.mean, seq = tq.std_error;
+    if (tq.kept >= opt.min_inliers && std::abs(mr - mq) <= std::log(2.0)) {
       log_scale = 0.5 * (mr + mq);
       ser = 0.5 * std::sqrt(ser * ser + seq * seq);
       anchor = 0.5 * std::abs(mr - mq);
@@ -230,14 +207,38 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
   int agree = 0;
   for (size_t i = 0; i < lr.size(); ++i) agree += std::abs(lr[i] - mr) < window[i];
   res->num_inliers = std::max(agree, std::min(kr, opt.min_inliers));
-  // The depth maps' common scale error cannot show in their disagreement: a prior of kCommonScaleError of |t|.
-  res->relative_std_error = std::sqrt(ser * ser + anchor * anchor + kCommonScaleError * kCommonScaleError);
+  // The depth maps' common scale error cannot show in their disagreement: a prior of kCommonDepthScaleError of |t|.
+  res->relative_std_error =
+      std::sqrt(ser * ser + anchor * anchor + kCommonDepthScaleError * kCommonDepthScaleError);
   res->std_error_m = res->scale * res->relative_std_error;
   res->mean_distance_m = depth_sum / static_cast<double>(lr.size());
   res->confidence = (static_cast<double>(kr) / lr.size()) / (res->relative_std_error + 1e-3);
 }
 
 }  // namespace
+
+TrimmedMeanResult TrimmedMean(const std::vector<double>& v, double min_window) {
+  std::vector<double> w = v;
+  std::nth_element(w.begin(), w.begin() + static_cast<long>(w.size() / 2), w.end());
+  const double med = w[w.size() / 2];
+  for (size_t i = 0; i < v.size(); ++i) w[i] = std::abs(v[i] - med);
+  std::nth_element(w.begin(), w.begin() + static_cast<long>(w.size() / 2), w.end());
+  const double window = std::max(min_window, 3 * 1.4826 * w[w.size() / 2]);
+  double s = 0, s2 = 0;
+  int n = 0;
+  for (double x : v)
+    if (std::abs(x - med) <= window) {
+      s += x;
+      s2 += x * x;
+      ++n;
+    }
+  TrimmedMeanResult r;
+  r.kept = n;
+  r.mean = n > 0 ? s / n : med;
+  const double var = n > 1 ? std::max(0.0, (s2 - s * s / n) / (n - 1)) : 1.0;
+  r.std_error = std::sqrt(var / std::max(1, n));
+  return r;
+}
 
 ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
                                 const std::vector<Eigen::Vector2d>& px_query, const Rigid3d& query_from_ref,

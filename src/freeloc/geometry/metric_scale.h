@@ -51,6 +51,18 @@ struct ScaleResult {
   double mean_distance_m = 0;     // kRobust: mean distance to the camera of the consensus points, metres
 };
 
+// The depth maps' common scale error, which no disagreement between two maps can show: a prior of 5 % of |t| in
+// every metric scale's predicted error (the anchored scale, the hybrid solver, PnP, Procrustes).
+constexpr double kCommonDepthScaleError = 0.05;
+
+// Median/MAD-trimmed mean: the mean of the values within max(min_window, 3 robust standard deviations) of the
+// median, its standard error (1 with fewer than 2 kept) and the number kept. `v` must not be empty.
+struct TrimmedMeanResult {
+  double mean = 0, std_error = 0;
+  int kept = 0;
+};
+TrimmedMeanResult TrimmedMean(const std::vector<double>& v, double min_window);
+
 // `px_ref`/`px_query`: the inlier correspondences in original pixels; `query_from_ref` with unit translation.
 ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
                                 const std::vector<Eigen::Vector2d>& px_query, const Rigid3d& query_from_ref,

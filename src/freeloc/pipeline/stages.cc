@@ -417,9 +417,8 @@ class HybridSolver : public PoseSolver {
     ev.scale_candidates = h.depth_candidates;
     ev.scale_inliers = h.depth_inliers;
     const double anchor = both ? 0.5 * std::abs(log_s) : std::abs(log_s);
-    constexpr double kCommonScaleError = 0.05;  // as the anchored scale (metric_scale.cc): what no disagreement shows
     ev.scale_std_error_m = t.norm() * std::sqrt(h.scale_std_error * h.scale_std_error + anchor * anchor +
-                                                kCommonScaleError * kCommonScaleError);
+                                                geometry::kCommonDepthScaleError * geometry::kCommonDepthScaleError);
     const PredictedError pe = PredictPoseError(ev);
     r->predicted_translation_m = pe.translation_m;
     r->predicted_rotation_deg = pe.rotation_deg;
@@ -488,8 +487,7 @@ class AbsoluteSolver : public PoseSolver {
     ev.residual_px = std::sqrt(sq / n);
     ev.focal_px = 0.5 * (k_query.fx + k_query.fy);
     ev.mean_depth_m = depth / n;
-    constexpr double kCommonScaleError = 0.05;  // the depth map's scale error, as for the anchored scale
-    ev.scale_std_error_m = kCommonScaleError * T.translation.norm();
+    ev.scale_std_error_m = geometry::kCommonDepthScaleError * T.translation.norm();
     const PredictedError pe = PredictPoseError(ev);
     r->predicted_translation_m = pe.translation_m;
     r->predicted_rotation_deg = pe.rotation_deg;
