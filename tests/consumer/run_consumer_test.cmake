@@ -28,3 +28,15 @@ endif()
 if(NOT out MATCHES "centre z = 2.0")
   message(FATAL_ERROR "unexpected consumer output: ${out}")
 endif()
+# A program that links no network: LibTorch and the codecs load from the prefix on first use only.
+execute_process(COMMAND ${WORK_DIR}/build/consumer_lazy ${WORK_DIR}/x.png RESULT_VARIABLE rc OUTPUT_VARIABLE out
+  ERROR_VARIABLE err)
+message(STATUS "consumer_lazy printed: ${out}${err}")
+if(rc)
+  message(FATAL_ERROR "consumer_lazy exited with ${rc}: ${out}${err}")
+endif()
+# The installed command line starts without LibTorch.
+execute_process(COMMAND ${WORK_DIR}/prefix/bin/freeloc --version RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+if(rc OR NOT out MATCHES "freeloc ")
+  message(FATAL_ERROR "installed freeloc --version failed (${rc}): ${out}")
+endif()

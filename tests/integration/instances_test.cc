@@ -9,7 +9,7 @@
 #include "freeloc/matching/proposals.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/instance_segmenter.h"
-#include "freeloc/pipeline/dust3r_stage.h"
+#include "freeloc/networks/dust3r_stage.h"
 #include "testing/testing.h"
 
 namespace freeloc {

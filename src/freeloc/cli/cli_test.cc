@@ -934,3 +934,46 @@ TEST(Cli, UnknownCpuGetsFastBlasKernels) {
                  "-u FREELOC_MODELS -u OPENBLAS_CORETYPE FREELOC_BLAS_ASSUME_REPORTED=Prescott");
   EXPECT_FALSE(Contains(r.out, "selected by freeloc")) << r.out;
 }
+
+// Instant start (issue 17): commands that run no network never load LibTorch, and those that decode no photo never
+// load OpenCV's image codecs (~140 libraries); the dynamic loader's own trace (LD_DEBUG=files) says what each process
+// loaded. A network command loads both, on demand.
+TEST(Cli, CommandsWithoutNetworksNeverLoadLibTorch) {
+  const std::string s = freeloc::testing::DemoPath("val/s00003");
+  const std::string k = "535.4,539.2,320.1,247.6";
+  const std::string matches = freeloc::testing::SourceDir() + "/tests/data/tum_sift/s00003_sift_matches.txt";
+  const std::string env = "-u FREELOC_MODELS LD_DEBUG=files";
+  const auto loads = [](const Result& r, const std::string& lib) {
+    return Contains(r.out, "file=" + lib) || Contains(r.out, "/" + lib);
+  };
+  freeloc::testing::TempDir tmp;
+  struct Case {
+    std::string args;
+    bool decodes_photos;
+  };
+  const std::vector<Case> cases = {
+      {"--version", false},
+      {"--help", false},
+      {"pose --matches " + matches + " --ref-intrinsics " + k + " --query-intrinsics " + k + " --ref-depth " + s +
+           "/seq0/frame_00000.sensor.png --query-depth " + s + "/seq1/frame_00000.sensor.png",
+       false},
+      {"run --preset sift-essential --data " + freeloc::testing::DemoPath("") + " --split val --scenes s00003 --out " +
+           tmp.File("sub.zip"),
+       true},
+  };
+  for (const auto& c : cases) {
+    const Result r = RunFreeloc(c.args, env);
+    EXPECT_EQ(r.code, 0) << c.args << "\n" << r.out.substr(r.out.size() > 3000 ? r.out.size() - 3000 : 0);
+    EXPECT_FALSE(loads(r, "libtorch_cpu.so")) << c.args;
+    EXPECT_FALSE(loads(r, "libfreeloc_networks.so")) << c.args;
+    EXPECT_EQ(loads(r, "libfreeloc_codecs.so"), c.decodes_photos) << c.args;
+  }
+  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
+  const Result r = RunFreeloc("pointmap --model " + freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth") +
+                                  " --size 224 " + s + "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png --out " +
+                                  tmp.File("pm.safetensors"),
+                              env);
+  EXPECT_EQ(r.code, 0);
+  EXPECT_TRUE(loads(r, "libfreeloc_networks.so"));
+  EXPECT_TRUE(loads(r, "libtorch_cpu.so"));
+}

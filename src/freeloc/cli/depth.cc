@@ -1,14 +1,10 @@
 // `freeloc depth`: Metric3D v2 metric depth of one image with its intrinsics — a uint16 millimetre PNG (map-free
 // convention, 0 invalid) and optionally the raw float outputs.
 #include <CLI/CLI.hpp>
-#include <cstdio>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
-#include "freeloc/io/image_io.h"
-#include "freeloc/io/mapfree.h"
-#include "freeloc/io/safetensors.h"
-#include "freeloc/nn/metric3d.h"
+#include "freeloc/pipeline/networks.h"
 
 namespace freeloc::cli {
 
@@ -19,33 +15,15 @@ struct DepthOptions {
 };
 
 int RunDepth(const DepthOptions& o, const GlobalOptions& g) {
-  const Camera cam = Camera::FromString(o.intrinsics, "--intrinsics");
-  const nn::RuntimeOptions rt = g.Runtime();
-  const auto model = nn::Metric3dModel::Load(o.model, o.config, rt);
-  const Image img = ReadImage(o.image);
-  const nn::Metric3dOutput out = model->Estimate(img, cam);
-  if (!o.raw.empty()) {
-    const int h = img.height, w = img.width;
-    std::map<std::string, std::string> meta = out.metadata;
-    meta["image"] = o.image;
-    meta["intrinsics"] = o.intrinsics;
-    WriteSafetensors(o.raw,
-                     {{"depth", MakeTensor(DType::kF32, {h, w}, out.depth.data.data(), out.depth.data.size() * 4)},
-                      {"confidence", MakeTensor(DType::kF32, {h, w}, out.confidence.data(), out.confidence.size() * 4)},
-                      {"normal", MakeTensor(DType::kF32, {3, h, w}, out.normal.data(), out.normal.size() * 4)},
-                      {"canonical_depth", out.canonical_depth}},
-                     meta);
-  }
-  WriteDepthPng(o.out, out.depth);
-  float lo = 1e30f, hi = 0;
-  for (float v : out.depth.data)
-    if (v > 0) {
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
-  std::printf("depth %dx%d written to %s (%.3f–%.3f m, %s, network %.0f ms)\n", img.width, img.height, o.out.c_str(),
-              lo, hi, model->config().variant.c_str(), out.network_ms);
-  return 0;
+  pipeline::DepthCommand c;
+  c.model = o.model;
+  c.config = o.config;
+  c.image = o.image;
+  c.intrinsics = o.intrinsics;
+  c.out = o.out;
+  c.raw = o.raw;
+  c.runtime = g.Runtime();
+  return pipeline::Networks().depth(c);
 }
 
 }  // namespace

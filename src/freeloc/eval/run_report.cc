@@ -7,12 +7,12 @@
 #include <limits>
 #include <map>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "freeloc/core/error.h"
 #include "freeloc/io/file_util.h"
+#include "freeloc/io/image_io.h"
 
 namespace freeloc::eval {
 
@@ -226,10 +226,9 @@ void WriteQueryVisual(const std::string& path, const Image& ref, const Image& qu
     DepthColours(depth_query, dw, depth_h).copyTo(canvas(cv::Rect(pw, h, dw, depth_h)));
   }
   // JPEG (quality 85): a 640 px detail view is ~60 KB, so even 200 of them stay small.
-  cv::Mat bgr;
-  cv::cvtColor(canvas, bgr, cv::COLOR_RGB2BGR);
-  std::vector<uint8_t> jpg;
-  FREELOC_CHECK(cv::imencode(".jpg", bgr, jpg, {cv::IMWRITE_JPEG_QUALITY, 85}), path << ": cannot encode the JPEG");
+  Image rgb(canvas.cols, canvas.rows);
+  canvas.copyTo(cv::Mat(rgb.height, rgb.width, CV_8UC3, rgb.data.data()));
+  const std::vector<uint8_t> jpg = EncodeJpeg(rgb, 85, path);
   WriteFileAtomic(path, jpg.data(), jpg.size());
 }
 

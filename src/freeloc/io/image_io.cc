@@ -4,14 +4,14 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/limits.h"
 #include "freeloc/core/logging.h"
+#include "freeloc/core/module_loader.h"
 #include "freeloc/io/file_util.h"
+#include "freeloc/io/internal/codecs_api.h"
+#include "freeloc/io/internal/png.h"
 
 namespace freeloc {
 
@@ -160,13 +160,6 @@ void CheckPixelLimit(ImageFormat f, const std::vector<uint8_t>& b, const std::st
                      << LimitHint("max_image_pixels"));
 }
 
-Image FromMat(const cv::Mat& bgr) {
-  Image img(bgr.cols, bgr.rows);
-  cv::Mat rgb(bgr.rows, bgr.cols, CV_8UC3, img.data.data());
-  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
-  return img;
-}
-
 }  // namespace
 
 Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
@@ -176,18 +169,13 @@ Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
                 what << ": not a supported image (expected JPEG, PNG, BMP, TIFF or WebP content); check the file");
   CheckComplete(f, bytes, what);
   CheckPixelLimit(f, bytes, what);
-  cv::Mat m;
-  try {
-    // IMREAD_COLOR applies the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
-    m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<uint8_t*>(bytes.data())),
-                     cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
-    FREELOC_THROW(what << ": cannot decode " << ImageFormatName(f) << " (" << e.what() << ")");
+  Image img;
+  std::string error;
+  if (!internal::Codecs().decode_rgb(bytes.data(), bytes.size(), &img, &error)) {
+    FREELOC_THROW(what << ": cannot decode the " << ImageFormatName(f) << " data"
+                       << (error.empty() ? "" : " (" + SafeText(error, 300) + ")") << "; the file is damaged");
   }
-  FREELOC_CHECK(!m.empty() && m.cols > 0 && m.rows > 0,
-                what << ": cannot decode the " << ImageFormatName(f) << " data; the file is damaged");
-  FREELOC_CHECK(m.type() == CV_8UC3, what << ": unexpected decoded pixel type");
-  return FromMat(m);
+  return img;
 }
 
 Image ReadImage(const std::string& path) {
@@ -205,29 +193,21 @@ Image ReadImage(const std::string& path) {
 
 void WriteImagePng(const std::string& path, const Image& image) {
   FREELOC_CHECK(!image.empty(), path << ": refusing to write an empty image");
-  cv::Mat rgb(image.height, image.width, CV_8UC3, const_cast<uint8_t*>(image.data.data()));
-  cv::Mat bgr;
-  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
-  std::vector<uint8_t> buf;
-  FREELOC_CHECK(cv::imencode(".png", bgr, buf), path << ": PNG encoding failed");
+  const auto buf = internal::EncodePng(image.data.data(), image.width, image.height, 3, 8, path);
   WriteFileAtomic(path, buf.data(), buf.size());
 }
 
 void WritePng8(const std::string& path, int width, int height, const std::vector<uint8_t>& values) {
   FREELOC_CHECK(width > 0 && height > 0 && values.size() == static_cast<size_t>(width) * height,
                 path << ": 8-bit PNG size does not match its data");
-  cv::Mat m(height, width, CV_8UC1, const_cast<uint8_t*>(values.data()));
-  std::vector<uint8_t> buf;
-  FREELOC_CHECK(cv::imencode(".png", m, buf), path << ": PNG encoding failed");
+  const auto buf = internal::EncodePng(values.data(), width, height, 1, 8, path);
   WriteFileAtomic(path, buf.data(), buf.size());
 }
 
 void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values) {
   FREELOC_CHECK(width > 0 && height > 0 && values.size() == static_cast<size_t>(width) * height,
                 path << ": 16-bit PNG size does not match its data");
-  cv::Mat m(height, width, CV_16UC1, const_cast<uint16_t*>(values.data()));
-  std::vector<uint8_t> buf;
-  FREELOC_CHECK(cv::imencode(".png", m, buf), path << ": PNG encoding failed");
+  const auto buf = internal::EncodePng(values.data(), width, height, 1, 16, path);
   WriteFileAtomic(path, buf.data(), buf.size());
 }
 
@@ -237,18 +217,31 @@ std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height
                 path << ": not a PNG file; depth maps must be 16-bit PNGs");
   CheckComplete(ImageFormat::kPng, bytes, path);
   CheckPixelLimit(ImageFormat::kPng, bytes, path);
-  cv::Mat m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<uint8_t*>(bytes.data())),
-                           cv::IMREAD_UNCHANGED);
-  FREELOC_CHECK(!m.empty(), path << ": cannot decode the PNG; the file is damaged");
-  FREELOC_CHECK(m.channels() == 1, path << ": expected a single-channel PNG, got " << m.channels() << " channels");
-  if (bits) *bits = m.depth() == CV_8U ? 8 : 16;
-  if (m.depth() == CV_8U) m.convertTo(m, CV_16U);
-  FREELOC_CHECK(m.depth() == CV_16U, path << ": expected an 8- or 16-bit PNG");
-  *width = m.cols;
-  *height = m.rows;
-  std::vector<uint16_t> out(static_cast<size_t>(m.cols) * m.rows);
-  for (int y = 0; y < m.rows; ++y) std::memcpy(&out[static_cast<size_t>(y) * m.cols], m.ptr<uint16_t>(y), m.cols * 2);
+  return internal::DecodeGreyPng(bytes, path, width, height, bits);
+}
+
+std::vector<uint8_t> EncodeJpeg(const Image& rgb, int quality, const std::string& what) {
+  FREELOC_CHECK(!rgb.empty(), what << ": refusing to encode an empty image");
+  std::vector<uint8_t> out;
+  std::string error;
+  FREELOC_CHECK(internal::Codecs().encode_jpeg(rgb, quality, &out, &error),
+                what << ": cannot encode the JPEG (" << SafeText(error, 300) << ")");
   return out;
 }
+
+namespace internal {
+
+const CodecsApi& Codecs() {
+  static const CodecsApi* api = [] {
+    using Entry = const CodecsApi* (*)();
+    const auto entry = reinterpret_cast<Entry>(LoadModuleEntry(kCodecsLibrary, kCodecsEntry, "image decoding"));
+    const CodecsApi* a = entry();
+    FREELOC_CHECK(a && a->abi == kCodecsAbi, kCodecsLibrary << " belongs to another freeloc version; reinstall");
+    return a;
+  }();
+  return *api;
+}
+
+}  // namespace internal
 
 }  // namespace freeloc

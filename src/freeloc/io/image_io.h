@@ -1,4 +1,4 @@
-// Image decoding (OpenCV) honouring the EXIF orientation, as Pillow's ImageOps.exif_transpose does.
+// Image decoding (OpenCV's imgcodecs, loaded on first use: io/internal/codecs_api.h) honouring the EXIF orientation, as Pillow's ImageOps.exif_transpose does.
 // The format is detected from the content, not the extension; truncated files are refused.
 #pragma once
 
@@ -29,5 +29,8 @@ void WritePng8(const std::string& path, int width, int height, const std::vector
 void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values);
 // Reads a single-channel 8- or 16-bit PNG without any conversion; `bits` (optional) receives 8 or 16.
 std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height, int* bits = nullptr);
+
+// Baseline JPEG of an RGB8 image at `quality` (0-100); `what` names it in errors.
+std::vector<uint8_t> EncodeJpeg(const Image& rgb, int quality, const std::string& what);
 
 }  // namespace freeloc

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "freeloc/core/enum_table.h"
+#include "freeloc/core/error.h"
 
 namespace freeloc::nn {
 
@@ -16,11 +17,12 @@ struct RuntimeOptions {
   Device device = Device::kCpu;
   Precision precision = Precision::kFp32;
   int threads = 0;        // 0 = LibTorch default
-  void Validate() const;  // throws freeloc::Error naming the field (e.g. cuda without a CUDA build of LibTorch)
+  // Throws freeloc::Error naming the field. Light (no LibTorch): whether CUDA exists is checked when a model loads.
+  void Validate() const;
   std::string Key() const;  // "cpu|fp32|0": what makes two runtimes different (model caches key on it)
 };
 
-// Whether this LibTorch build can run on CUDA here.
+// Whether this LibTorch build can run on CUDA here (loads LibTorch).
 bool CudaAvailable();
 
 }  // namespace freeloc::nn
@@ -37,4 +39,13 @@ struct EnumTable<nn::Precision> {
   static constexpr EnumEntry<nn::Precision> kEntries[] = {{nn::Precision::kFp32, "fp32"},
                                                           {nn::Precision::kBf16, "bf16"}};
 };
+
+namespace nn {
+inline void RuntimeOptions::Validate() const {
+  FREELOC_CHECK(threads >= 0, "threads: " << threads << " is negative; use 0 (library default) or a count");
+}
+inline std::string RuntimeOptions::Key() const {
+  return ToString(device) + "|" + ToString(precision) + "|" + std::to_string(threads);
+}
+}  // namespace nn
 }  // namespace freeloc

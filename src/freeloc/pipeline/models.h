@@ -1,18 +1,11 @@
 // Where the networks' weights come from (docs/models.md): an explicit file per stage, or the published file names
-// looked up in `--models DIR` and then in each folder of $FREELOC_MODELS (colon-separated). Per-process caches
-// load each network once. Light header: the LibTorch models stay behind forward declarations.
+// looked up in `--models DIR` and then in each folder of $FREELOC_MODELS (colon-separated). The per-process model
+// caches are in networks/model_cache.h. Light header.
 #pragma once
 
 #include <memory>
 #include <string>
 #include <vector>
-
-namespace freeloc::nn {
-class Dust3rModel;
-class SegGptModel;
-class Metric3dModel;
-struct RuntimeOptions;
-}  // namespace freeloc::nn
 
 namespace freeloc::pipeline {
 
@@ -32,12 +25,5 @@ std::string FindModel(Network n, const std::vector<std::string>& dirs);
 // One line for a model that is needed and was not found: what was looked for where, where to get it, and which
 // presets run without it.
 std::string MissingModelMessage(Network n, const std::string& preset, const std::vector<std::string>& dirs);
-
-// Loaded on first use and kept for the process (keyed by path, config and runtime), so a run loads each network
-// once. `config`: an explicit config.json (optional). Throw freeloc::Error naming the file.
-std::shared_ptr<nn::Dust3rModel> CachedDust3r(const std::string& path, const std::string& config,
-                                              const nn::RuntimeOptions& runtime);
-std::shared_ptr<nn::SegGptModel> CachedSegGpt(const std::string& path, const nn::RuntimeOptions& runtime);
-std::shared_ptr<nn::Metric3dModel> CachedMetric3d(const std::string& path, const nn::RuntimeOptions& runtime);
 
 }  // namespace freeloc::pipeline

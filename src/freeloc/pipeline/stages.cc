@@ -11,13 +11,8 @@
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/relative_pose.h"
 #include "freeloc/matching/instance.h"
-#include "freeloc/nn/dust3r.h"
-#include "freeloc/nn/metric3d.h"
-#include "freeloc/nn/runtime.h"
-#include "freeloc/nn/seggpt.h"
 #include "freeloc/pipeline/confidence.h"
-#include "freeloc/pipeline/dust3r_stage.h"
-#include "freeloc/pipeline/models.h"
+#include "freeloc/pipeline/networks.h"
 
 namespace freeloc::pipeline {
 
@@ -59,160 +54,6 @@ class PrecomputedMatcher : public Matcher {
   std::string name_;
 };
 
-// DUSt3R global matches; with instances, the paper's instance knowledge on top (Eq. 1–3): reference instances
-// (given labels, or proposals from the reference's own pointmap) matched into the query (SegGPT propagation, or the
-// query's given labels), DUSt3R re-run per masked pair, instance matches replacing the global ones inside them.
-class Dust3rMatcher : public Matcher {
- public:
-  Dust3rMatcher(const PipelineOptions& o, std::shared_ptr<nn::Dust3rModel> dust3r,
-                std::shared_ptr<nn::SegGptModel> seggpt)
-      : o_(o), fn_(dust3r, o.UsesMast3r()), seggpt_(std::move(seggpt)) {
-    FREELOC_CHECK(!o.UsesMast3r() || dust3r->config().is_mast3r(),
-                  "mast3r_model " << o.mast3r_model
-                                  << ": a DUSt3R checkpoint (no local-feature head); give the MASt3R weights "
-                                     "(MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth)");
-    instance_.mode = o.instance_mode;
-    instance_.preprocess.size = o.dust3r_size;
-    instance_.match.conf_threshold = o.match_conf_threshold;
-    instance_.match.subsample = o.match_subsample;
-    instance_.match.threads = o.runtime.threads;
-    instance_.descriptors = o.UsesMast3r();
-    instance_.fast_nn.subsample = o.mast3r_subsample;
-    instance_.fast_nn.threads = o.runtime.threads;
-    instance_.descriptor_filter.border = o.mast3r_border;
-    instance_.descriptor_filter.min_conf = o.mast3r_conf_threshold;
-    instance_.min_matches = o.min_instance_matches;
-    instance_.Validate();
-  }
-
-  void SetReference(const Image& image, const Camera&, const std::vector<uint16_t>* labels) override {
-    ref_ = image;
-    fn_.Clear();
-    have_last_ = false;
-    ref_in_ = PreprocessForDust3r(image, instance_.preprocess);
-    ref_masks_.clear();
-    if (!o_.UsesInstances()) return;
-    if (labels) {
-      CheckLabels(*labels, image, "reference");
-      ref_masks_ = matching::SplitLabels(*labels);
-    } else if (o_.UsesSegGpt()) {
-      // Reference instances from the reference's own pointmap: DUSt3R on (reference, reference), its monocular
-      // convention; the encoder pass is the one every query reuses.
-      const matching::PairPointmaps pm = fn_.Run(ref_in_, ref_in_);
-      const auto proposals = matching::ProposeInstances(pm.pts1.data(), pm.conf1.data(), pm.h1, pm.w1, o_.proposals);
-      ref_masks_ = matching::SplitLabels(matching::ProposalsToImage(proposals, ref_in_));
-    }
-  }
-
-  matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs& in, QueryResult* r) override {
-    auto t0 = std::chrono::steady_clock::now();
-    q_in_ = PreprocessForDust3r(query, instance_.preprocess);
-    const Dust3rInput& q_in = q_in_;
-    last_ = fn_.Fn()(ref_in_, q_in);
-    have_last_ = true;
-    std::vector<matching::Correspondence> merged = matching::GlobalCorrespondences(last_, ref_in_, q_in, instance_);
-    r->global_matches = static_cast<int>(merged.size());
-    r->match_ms = Ms(t0);
-    if (o_.UsesInstances() && !ref_masks_.empty()) {
-      t0 = std::chrono::steady_clock::now();
-      merged = MatchInstances(query, in, merged, r);
-      r->instance_ms = Ms(t0);
-    }
-    matching::Correspondences c;
-    for (const auto& m : merged) {
-      c.ref.push_back(m.ref);
-      c.query.push_back(m.query);
-      c.source.push_back(m.source);
-    }
-    return c;
-  }
-
-  bool PairDepth(bool with_query, DepthMap* ref, DepthMap* query) override {
-    if (!o_.UsesMast3r() || !have_last_) return false;
-    *ref = NetworkDepthToImage(last_.pts1, last_.h1, last_.w1, ref_in_);
-    *query = DepthMap();
-    if (with_query) {
-      const matching::PairPointmaps sw = fn_.RunSwappedLast();
-      *query = NetworkDepthToImage(sw.pts1, sw.h1, sw.w1, q_in_);
-    }
-    return true;
-  }
-
-  void AddStats(CacheStats* s) const override {
-    s->reference_encodings = fn_.encoded();
-    s->reference_reuses = fn_.reused();
-    s->reference_instances = static_cast<int>(ref_masks_.size());
-  }
-
- private:
-  // z of a network-resolution pointmap (view 1's own camera frame) at every pixel of the original image: the network
-  // pixel nearest to each original pixel (DESIGN §2's pixel-centre mapping); 0 outside the crop or behind the camera.
-  static DepthMap NetworkDepthToImage(const std::vector<float>& pts, int h, int w, const Dust3rInput& in) {
-    DepthMap d(in.orig_width, in.orig_height);
-    for (int y = 0; y < d.height; ++y)
-      for (int x = 0; x < d.width; ++x) {
-        double xn, yn;
-        in.ToNetwork(x, y, &xn, &yn);
-        const long xi = std::lround(xn), yi = std::lround(yn);
-        if (xi < 0 || yi < 0 || xi >= w || yi >= h) continue;
-        const float z = pts[(static_cast<size_t>(yi) * w + static_cast<size_t>(xi)) * 3 + 2];
-        if (z > 0 && std::isfinite(z)) d.at(x, y) = z;
-      }
-    return d;
-  }
-
-  static void CheckLabels(const std::vector<uint16_t>& labels, const Image& image, const char* frame) {
-    FREELOC_CHECK(labels.size() == static_cast<size_t>(image.width) * image.height,
-                  "instance labels of the " << frame << ": " << labels.size() << " values for a " << image.width
-                                            << "x" << image.height
-                                            << " image; give a label image at the photo's resolution");
-  }
-
-  // The (reference, query) mask pairs: the query's given labels with the same ids, or SegGPT's propagations.
-  std::vector<matching::InstanceMasks> InstancePairs(const Image& query, const FrameInputs& in) const {
-    std::vector<matching::InstanceMasks> pairs;
-    if (o_.instance_source == InstanceSource::kGiven) {
-      FREELOC_CHECK(in.instance_labels != nullptr,
-                    "instance_source given: the query has no instance labels; give a label image for each frame");
-      CheckLabels(*in.instance_labels, query, "query");
-      for (const auto& [id, mq] : matching::SplitLabels(*in.instance_labels))
-        for (const auto& [idr, mr] : ref_masks_)
-          if (id == idr) pairs.push_back({id, mr, mq});
-      return pairs;
-    }
-    const auto props = nn::InstanceSegmenter(seggpt_, o_.segmenter).Propagate(ref_, ref_masks_, query);
-    for (size_t i = 0; i < props.size(); ++i)
-      if (props[i].kept) pairs.push_back({props[i].id, ref_masks_[i].second, props[i].query_mask});
-    return pairs;
-  }
-
-  // Re-runs DUSt3R on each masked pair; the instances with enough matches replace the global ones inside them.
-  std::vector<matching::Correspondence> MatchInstances(const Image& query, const FrameInputs& in,
-                                                       const std::vector<matching::Correspondence>& global,
-                                                       QueryResult* r) {
-    const std::vector<matching::InstanceMasks> pairs = InstancePairs(query, in);
-    std::vector<matching::InstanceResult> results;
-    for (const auto& p : pairs) {
-      results.push_back(matching::MatchInstance(ref_, query, p, fn_.Fn(), instance_));
-      r->instances_used += results.back().used;
-      if (!results.back().used)
-        FREELOC_LOG(DEBUG) << "instance " << p.id << " not used: " << results.back().reason;
-    }
-    r->instances = o_.instance_source == InstanceSource::kGiven ? static_cast<int>(pairs.size())
-                                                                : static_cast<int>(ref_masks_.size());
-    return matching::MergeMatches(global, results, pairs, ref_.width, ref_.height);
-  }
-
-  PipelineOptions o_;
-  CachingDust3r fn_;
-  std::shared_ptr<nn::SegGptModel> seggpt_;
-  matching::InstanceOptions instance_;
-  Image ref_;
-  Dust3rInput ref_in_, q_in_;
-  matching::PairPointmaps last_;  // the last query's global pass (MASt3R depth comes from it)
-  bool have_last_ = false;
-  std::vector<std::pair<int, std::vector<uint8_t>>> ref_masks_;  // 0/1 at the reference's resolution
-};
 // ----------------------------------------------------------------------------------------------------------------
 // Depth
 
@@ -225,20 +66,6 @@ class ProvidedDepth : public DepthEstimator {
  public:
   DepthMap Depth(const Image&, const Camera&, DepthMap provided) override { return provided; }
   bool needs_provided() const override { return true; }
-};
-
-class Metric3dDepth : public DepthEstimator {
- public:
-  explicit Metric3dDepth(std::shared_ptr<nn::Metric3dModel> m) : model_(std::move(m)) {}
-  DepthMap Depth(const Image& image, const Camera& camera, DepthMap) override {
-    ++passes_;
-    return model_->Estimate(image, camera).depth;
-  }
-  void AddStats(CacheStats* s) const override { s->depth_estimates = passes_; }
-
- private:
-  std::shared_ptr<nn::Metric3dModel> model_;
-  int passes_ = 0;
 };
 
 // ----------------------------------------------------------------------------------------------------------------
@@ -507,12 +334,9 @@ std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& o) {
     case MatcherKind::kPrecomputed: return std::make_unique<PrecomputedMatcher>(o.matcher.correspondences);
     case MatcherKind::kDust3r:
     case MatcherKind::kDust3rInstances:
-      return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.dust3r_model, o.dust3r_config, o.runtime),
-                                             o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
     case MatcherKind::kMast3r:
     case MatcherKind::kMast3rInstances:
-      return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.mast3r_model, "", o.runtime),
-                                             o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
+      return Networks().make_matcher(o);  // loads the networks module (LibTorch) on first use
   }
   FREELOC_THROW("matcher: " << o.matcher.ToString() << " has no implementation");
 }
@@ -520,7 +344,7 @@ std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& o) {
 std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
   o.Validate();
   switch (o.depth.kind) {
-    case DepthKind::kMetric3d: return std::make_unique<Metric3dDepth>(CachedMetric3d(o.metric3d_model, o.runtime));
+    case DepthKind::kMetric3d: return Networks().make_depth_estimator(o);
     case DepthKind::kProvided: return std::make_unique<ProvidedDepth>();
     case DepthKind::kNone: return std::make_unique<NoDepth>();
     case DepthKind::kMast3r: return std::make_unique<NoDepth>();  // the matcher's pair pass gives it (PairDepth)

@@ -9,16 +9,6 @@
 
 namespace freeloc::nn {
 
-void RuntimeOptions::Validate() const {
-  FREELOC_CHECK(device != Device::kCuda || CudaAvailable(),
-                "device: cuda is not available in this LibTorch build; run on cpu or install a CUDA build of LibTorch");
-  FREELOC_CHECK(threads >= 0, "threads: " << threads << " is negative; use 0 (library default) or a count");
-}
-
-std::string RuntimeOptions::Key() const {
-  return ToString(device) + "|" + ToString(precision) + "|" + std::to_string(threads);
-}
-
 bool CudaAvailable() { return torch::cuda::is_available(); }
 
 namespace internal {
@@ -57,6 +47,8 @@ TensorView ToView(const torch::Tensor& t_in) {
 
 void ApplyRuntime(const RuntimeOptions& runtime) {
   runtime.Validate();
+  FREELOC_CHECK(runtime.device != Device::kCuda || CudaAvailable(),
+                "device: cuda is not available in this LibTorch build; run on cpu or install a CUDA build of LibTorch");
   if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
 }
 

@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/dust3r_stage.h"
+#include "freeloc/networks/dust3r_stage.h"
 
 #include <cstring>
 

@@ -1,0 +1,23 @@
+// freeloc's heavy parts — the networks (LibTorch) and OpenCV's image codecs — are shared libraries loaded on first
+// use, so commands that need neither start in milliseconds (issue 17: `freeloc --version`, `pose`, `eval`, …).
+// A module exports one C entry point returning a table of functions; the caller declares the table (light header)
+// and looks it up here. The library is found: already loaded (a program that links it) → beside the freeloc library
+// that holds this loader (build tree and install prefix alike) → the dynamic linker's search path.
+#pragma once
+
+#include <string>
+
+namespace freeloc {
+
+// The address of `entry` in the freeloc module `library` (e.g. "libfreeloc_networks.so"), loading it on first call.
+// `purpose` names what needs it, for the error. Throws freeloc::Error with the loader's message when the module is
+// missing or broken (an incomplete installation). Thread-safe.
+void* LoadModuleEntry(const std::string& library, const char* entry, const std::string& purpose);
+
+// Whether `library` is loaded in this process (linked, or loaded by LoadModuleEntry).
+bool ModuleLoaded(const std::string& library);
+
+// The folder holding the freeloc libraries (where modules are looked for first).
+std::string ModuleDirectory();
+
+}  // namespace freeloc

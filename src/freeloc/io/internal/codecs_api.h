@@ -1,0 +1,29 @@
+// The image codecs module (libfreeloc_codecs.so): OpenCV's imgcodecs behind a table of functions, loaded on first use
+// (core/module_loader.h) because imgcodecs pulls in ~140 shared libraries (GDAL, …) — 50 MB and 60 ms at start-up
+// for every command, images or not. Internal to io.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "freeloc/core/image.h"
+
+namespace freeloc::internal {
+
+struct CodecsApi {
+  int abi;  // kCodecsAbi of the build that made the module
+  // Any format OpenCV decodes, to RGB8 with the EXIF orientation applied (IMREAD_COLOR). False + message on failure.
+  bool (*decode_rgb)(const uint8_t* bytes, size_t size, Image* out, std::string* error);
+  // Baseline JPEG of an RGB8 image at `quality` (0–100).
+  bool (*encode_jpeg)(const Image& rgb, int quality, std::vector<uint8_t>* out, std::string* error);
+};
+constexpr int kCodecsAbi = 1;
+constexpr const char* kCodecsLibrary = "libfreeloc_codecs.so";
+constexpr const char* kCodecsEntry = "freeloc_codecs_v1";
+
+// The module's table (loaded on first call; throws freeloc::Error when it cannot be).
+const CodecsApi& Codecs();
+
+}  // namespace freeloc::internal

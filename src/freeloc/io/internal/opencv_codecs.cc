@@ -1,0 +1,48 @@
+// libfreeloc_codecs.so: OpenCV's imgcodecs as the table io/internal/codecs_api.h declares. Depends on OpenCV only.
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "freeloc/io/internal/codecs_api.h"
+
+namespace {
+
+bool DecodeRgb(const uint8_t* bytes, size_t size, freeloc::Image* out, std::string* error) {
+  try {
+    // IMREAD_COLOR applies the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
+    const cv::Mat m = cv::imdecode(cv::Mat(1, static_cast<int>(size), CV_8UC1, const_cast<uint8_t*>(bytes)),
+                                   cv::IMREAD_COLOR);
+    if (m.empty() || m.cols <= 0 || m.rows <= 0 || m.type() != CV_8UC3) {
+      *error = m.empty() ? "" : "unexpected decoded pixel type";
+      return false;
+    }
+    *out = freeloc::Image(m.cols, m.rows);
+    cv::Mat rgb(m.rows, m.cols, CV_8UC3, out->data.data());
+    cv::cvtColor(m, rgb, cv::COLOR_BGR2RGB);
+    return true;
+  } catch (const cv::Exception& e) {
+    *error = e.what();
+    return false;
+  }
+}
+
+bool EncodeJpeg(const freeloc::Image& rgb, int quality, std::vector<uint8_t>* out, std::string* error) {
+  try {
+    const cv::Mat in(rgb.height, rgb.width, CV_8UC3, const_cast<uint8_t*>(rgb.data.data()));
+    cv::Mat bgr;
+    cv::cvtColor(in, bgr, cv::COLOR_RGB2BGR);
+    if (cv::imencode(".jpg", bgr, *out, {cv::IMWRITE_JPEG_QUALITY, quality})) return true;
+    *error = "the encoder refused the image";
+  } catch (const cv::Exception& e) {
+    *error = e.what();
+  }
+  return false;
+}
+
+const freeloc::internal::CodecsApi kApi = {freeloc::internal::kCodecsAbi, DecodeRgb, EncodeJpeg};
+
+}  // namespace
+
+extern "C" __attribute__((visibility("default"))) const freeloc::internal::CodecsApi* freeloc_codecs_v1() {
+  return &kApi;
+}
