@@ -23,40 +23,11 @@ using freeloc::bench::NowSeconds;
 
 namespace {
 
-std::map<std::string, freeloc::TensorView> RandomModel(const std::string& variant) {
-  std::ifstream f(std::string(FREELOC_SHARED_DIR) + "/fixtures/metric3d/released_state_dict_shapes.json");
-  if (!f.good()) {
-    std::fprintf(stderr, "bench/metric3d: released_state_dict_shapes.json not found under ../shared\n");
-    std::exit(1);
-  }
-  const nlohmann::json j = nlohmann::json::parse(f);
-  torch::manual_seed(0);
-  std::map<std::string, freeloc::TensorView> sd;
-  for (const auto& e : j[variant]) {
-    const std::string name = e[0];
-    const std::vector<int64_t> shape = e[1];
-    torch::Tensor t;
-    if (name.find("gamma") != std::string::npos)
-      t = torch::full(shape, 1e-5);
-    else if (name.find("norm") != std::string::npos && name.find(".weight") != std::string::npos && shape.size() == 1)
-      t = torch::ones(shape);
-    else if (name.find(".bias") != std::string::npos)
-      t = torch::zeros(shape);
-    else {
-      int64_t fan_in = 1;
-      for (size_t k = 1; k < shape.size(); ++k) fan_in *= shape[k];
-      t = torch::randn(shape) * (1.0 / std::sqrt(static_cast<double>(std::max<int64_t>(fan_in, 1))));
-    }
-    sd[name] = freeloc::nn::internal::ToView(t);
-  }
-  return sd;
-}
-
 // Runs one variant; writes "seconds rss_mb gemm" to fd.
 void RunOne(const std::string& variant, int threads, int reps, int fd) {
   torch::set_num_threads(threads);
   const double gemm = freeloc::bench::GemmRate(3349, 1024, 4096, torch::kFloat32);
-  const auto sd = RandomModel(variant);
+  const auto sd = freeloc::bench::RandomMetric3d(variant);
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
   const auto m = freeloc::nn::Metric3dModel::Create(sd, "{}", variant, rt);

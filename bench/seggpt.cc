@@ -18,49 +18,6 @@ using freeloc::bench::NowSeconds;
 
 namespace {
 
-freeloc::TensorView Random(const std::vector<int64_t>& shape, double std, double mean = 0) {
-  return freeloc::nn::internal::ToView(torch::randn(shape) * std + mean);
-}
-
-std::map<std::string, freeloc::TensorView> FullModel() {
-  torch::manual_seed(0);
-  const int64_t C = 1024, M = 4096, D = 64;
-  std::map<std::string, freeloc::TensorView> sd;
-  sd["patch_embed.proj.weight"] = Random({C, 3, 16, 16}, 0.02);
-  sd["patch_embed.proj.bias"] = Random({C}, 0.0);
-  for (const char* t : {"mask_token", "segment_token_x", "segment_token_y", "type_token_cls", "type_token_ins"})
-    sd[t] = Random({1, 1, 1, C}, 0.02);
-  sd["pos_embed"] = Random({1, 197, C}, 0.02);
-  for (int i = 0; i < 24; ++i) {
-    const std::string b = "blocks." + std::to_string(i) + ".";
-    sd[b + "norm1.weight"] = Random({C}, 0, 1);
-    sd[b + "norm1.bias"] = Random({C}, 0);
-    sd[b + "attn.qkv.weight"] = Random({3 * C, C}, 0.02);
-    sd[b + "attn.qkv.bias"] = Random({3 * C}, 0);
-    sd[b + "attn.proj.weight"] = Random({C, C}, 0.02);
-    sd[b + "attn.proj.bias"] = Random({C}, 0);
-    sd[b + "attn.rel_pos_h"] = Random({111, 64}, 0.02);
-    sd[b + "attn.rel_pos_w"] = Random({55, 64}, 0.02);
-    sd[b + "norm2.weight"] = Random({C}, 0, 1);
-    sd[b + "norm2.bias"] = Random({C}, 0);
-    sd[b + "mlp.fc1.weight"] = Random({M, C}, 0.02);
-    sd[b + "mlp.fc1.bias"] = Random({M}, 0);
-    sd[b + "mlp.fc2.weight"] = Random({C, M}, 0.02);
-    sd[b + "mlp.fc2.bias"] = Random({C}, 0);
-  }
-  sd["norm.weight"] = Random({C}, 0, 1);
-  sd["norm.bias"] = Random({C}, 0);
-  sd["decoder_embed.weight"] = Random({16 * 16 * D, 4 * C}, 0.02);
-  sd["decoder_embed.bias"] = Random({16 * 16 * D}, 0);
-  sd["decoder_pred.0.weight"] = Random({D, D, 3, 3}, 0.02);
-  sd["decoder_pred.0.bias"] = Random({D}, 0);
-  sd["decoder_pred.1.weight"] = Random({D}, 0, 1);
-  sd["decoder_pred.1.bias"] = Random({D}, 0);
-  sd["decoder_pred.3.weight"] = Random({3, D, 1, 1}, 0.02);
-  sd["decoder_pred.3.bias"] = Random({3}, 0);
-  return sd;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -81,7 +38,7 @@ int main(int argc, char** argv) {
   torch::set_num_threads(threads);
   const double gemm = freeloc::bench::GemmRate(1568, 1024, 4096, torch::kFloat32),
                gemm16 = freeloc::bench::GemmRate(1568, 1024, 4096, torch::kBFloat16);
-  const auto sd = FullModel();
+  const auto sd = freeloc::bench::RandomSegGpt();
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
   const auto model = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rt);

@@ -6,7 +6,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake make pkg-config ccache git
-  libtorch-dev libopenblas0-openmp libopenblas-dev
+  libtorch-dev libopenblas0-openmp libopenblas-dev libdnnl-dev
   libeigen3-dev
   libopencv-dev libpng-dev
   libnanoflann-dev

@@ -129,6 +129,23 @@ std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const
                            Eigen::Vector2d::Zero());
 }
 
+namespace {
+Box ReferenceBox(const Image& ref, const std::vector<uint8_t>& mask, const InstanceOptions& o) {
+  return o.mode == InstanceMode::kCrop ? MaskBox(mask, ref.width, ref.height, o.crop_margin)
+                                       : Box{0, 0, ref.width, ref.height};
+}
+}  // namespace
+
+Dust3rInput InstanceReferenceInput(const Image& ref, const std::vector<uint8_t>& ref_mask, const InstanceOptions& o) {
+  FREELOC_CHECK(ref_mask.size() == ref.num_pixels(), "instance reference mask: " << ref_mask.size()
+                                                                                  << " pixels for a " << ref.width
+                                                                                  << "x" << ref.height << " image");
+  Image ir;
+  std::vector<uint8_t> mr;
+  Masked(ref, ref_mask, ReferenceBox(ref, ref_mask, o), &ir, &mr);
+  return PreprocessForDust3r(ir, o.preprocess);
+}
+
 InstanceResult MatchInstance(const Image& ref, const Image& query, const InstanceMasks& masks, const PointmapFn& model,
                              const InstanceOptions& o) {
   o.Validate();
@@ -147,8 +164,8 @@ InstanceResult MatchInstance(const Image& ref, const Image& query, const Instanc
     FREELOC_LOG(DEBUG) << "instance " << masks.id << " skipped: " << r.reason;
     return r;
   }
-  const Box full_r{0, 0, ref.width, ref.height}, full_q{0, 0, query.width, query.height};
-  const Box br = o.mode == InstanceMode::kCrop ? MaskBox(masks.ref, ref.width, ref.height, o.crop_margin) : full_r;
+  const Box full_q{0, 0, query.width, query.height};
+  const Box br = ReferenceBox(ref, masks.ref, o);
   const Box bq =
       o.mode == InstanceMode::kCrop ? MaskBox(masks.query, query.width, query.height, o.crop_margin) : full_q;
   Image ir, iq;

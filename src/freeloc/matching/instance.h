@@ -84,6 +84,11 @@ std::vector<PixelMatch> MatchPair(const PairPointmaps& pm, const uint8_t* mask1,
 InstanceResult MatchInstance(const Image& ref, const Image& query, const InstanceMasks& masks, const PointmapFn& model,
                              const InstanceOptions& options);
 
+// The network input MatchInstance builds for the reference side of an instance (the masked image, or its box in
+// kCrop mode, preprocessed): it depends on the reference alone, so a cache can encode it once per scene.
+Dust3rInput InstanceReferenceInput(const Image& ref, const std::vector<uint8_t>& ref_mask,
+                                   const InstanceOptions& options);
+
 // Eq. 3: instance matches replace the global ones inside the reference masks of the instances that were used.
 std::vector<Correspondence> MergeMatches(const std::vector<Correspondence>& global,
                                          const std::vector<InstanceResult>& instances,

@@ -85,7 +85,9 @@ matching::PairPointmaps CachingDust3r::RunSwappedLast() {
   return pm;
 }
 
-matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInput& b) {
+void CachingDust3r::Prime(const Dust3rInput& ref) { Cached(ref); }
+
+const CachingDust3r::Entry* CachingDust3r::Cached(const Dust3rInput& a) {
   const size_t bytes = a.normalized.size() * sizeof(float);
   const uint64_t hash = Fnv1a(a.normalized.data(), bytes);
   const Entry* hit = nullptr;
@@ -108,6 +110,11 @@ matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInp
     entries_.push_back(std::move(e));
     ++encoded_;
   }
+  return hit;
+}
+
+matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInput& b) {
+  const Entry* hit = Cached(a);
   // (reference, reference), as for the instance proposals: the query side is that same encoding.
   const auto query = &a == &b ? hit->encoding : model_->Encode(ViewOf(b));
   last_ref_ = hit->encoding;

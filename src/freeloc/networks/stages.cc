@@ -1,5 +1,6 @@
 // The network stages behind pipeline::MakeMatcher / MakeDepthEstimator (pipeline/stages.h), built into the networks
 // module (pipeline/networks.h) so that only presets that run a network load LibTorch.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -55,6 +56,7 @@ class Dust3rMatcher : public Matcher {
     have_last_ = false;
     ref_in_ = PreprocessForDust3r(image, instance_.preprocess);
     ref_masks_.clear();
+    fn_.Prime(ref_in_);  // the reference's encoder pass, once per scene
     if (!o_.UsesInstances()) return;
     if (labels) {
       CheckLabels(*labels, image, "reference");
@@ -66,13 +68,19 @@ class Dust3rMatcher : public Matcher {
       const auto proposals = matching::ProposeInstances(pm.pts1.data(), pm.conf1.data(), pm.h1, pm.w1, o_.proposals);
       ref_masks_ = matching::SplitLabels(matching::ProposalsToImage(proposals, ref_in_));
     }
+    // The reference side of every instance's masked pair, encoded once here (queries reuse them).
+    for (const auto& [id, mask] : ref_masks_)
+      if (std::count(mask.begin(), mask.end(), 1) >= instance_.min_mask_pixels)
+        fn_.Prime(matching::InstanceReferenceInput(image, mask, instance_));
   }
 
   matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs& in, QueryResult* r) override {
     auto t0 = std::chrono::steady_clock::now();
     q_in_ = PreprocessForDust3r(query, instance_.preprocess);
     const Dust3rInput& q_in = q_in_;
+    const auto tp = std::chrono::steady_clock::now();
     last_ = fn_.Fn()(ref_in_, q_in);
+    r->pair_ms = Ms(tp);
     have_last_ = true;
     std::vector<matching::Correspondence> merged = matching::GlobalCorrespondences(last_, ref_in_, q_in, instance_);
     r->global_matches = static_cast<int>(merged.size());
@@ -154,10 +162,21 @@ class Dust3rMatcher : public Matcher {
   std::vector<matching::Correspondence> MatchInstances(const Image& query, const FrameInputs& in,
                                                        const std::vector<matching::Correspondence>& global,
                                                        QueryResult* r) {
+    const auto ts = std::chrono::steady_clock::now();
     const std::vector<matching::InstanceMasks> pairs = InstancePairs(query, in);
+    r->segment_ms = o_.instance_source == InstanceSource::kGiven ? 0.0 : Ms(ts);
+    // The masked pairs' network passes, timed and counted.
+    const matching::PointmapFn model = fn_.Fn();
+    const matching::PointmapFn timed = [&](const Dust3rInput& a, const Dust3rInput& b) {
+      const auto t0 = std::chrono::steady_clock::now();
+      matching::PairPointmaps pm = model(a, b);
+      r->instance_pass_ms += Ms(t0);
+      ++r->instance_pairs;
+      return pm;
+    };
     std::vector<matching::InstanceResult> results;
     for (const auto& p : pairs) {
-      results.push_back(matching::MatchInstance(ref_, query, p, fn_.Fn(), instance_));
+      results.push_back(matching::MatchInstance(ref_, query, p, timed, instance_));
       r->instances_used += results.back().used;
       if (!results.back().used)
         FREELOC_LOG(DEBUG) << "instance " << p.id << " not used: " << results.back().reason;
@@ -213,6 +232,18 @@ std::unique_ptr<DepthEstimator> MakeNetworkDepthEstimator(const PipelineOptions&
   o.Validate();
   FREELOC_CHECK(o.depth.kind == DepthKind::kMetric3d, "depth: " << o.depth.ToString() << " runs no network");
   return std::make_unique<Metric3dDepth>(CachedMetric3d(o.metric3d_model, o.runtime));
+}
+
+std::unique_ptr<Matcher> MakeNetworkMatcher(const PipelineOptions& o, std::shared_ptr<nn::Dust3rModel> model,
+                                            std::shared_ptr<nn::SegGptModel> seggpt) {
+  FREELOC_CHECK(model != nullptr, "MakeNetworkMatcher: no pointmap model given");
+  FREELOC_CHECK(!o.UsesSegGpt() || seggpt != nullptr, "MakeNetworkMatcher: the matcher needs SegGPT; none given");
+  return std::make_unique<Dust3rMatcher>(o, std::move(model), std::move(seggpt));
+}
+
+std::unique_ptr<DepthEstimator> MakeNetworkDepthEstimator(std::shared_ptr<nn::Metric3dModel> model) {
+  FREELOC_CHECK(model != nullptr, "MakeNetworkDepthEstimator: no Metric3D model given");
+  return std::make_unique<Metric3dDepth>(std::move(model));
 }
 
 }  // namespace freeloc::pipeline

@@ -376,7 +376,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, Ten
   impl->cfg = MakeDust3rConfig(sd, kw, source);
   impl->rt = runtime;
   impl->device = DeviceOf(runtime);
-  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
+  impl->prec.bf16 = internal::RunBf16(runtime);  // asked for, and pays here (bf16_linear.h)
   impl->rope = Rope2D(impl->cfg.rope_base);
   const Dust3rConfig& c = impl->cfg;
   std::map<std::string, torch::Tensor> tensors;

@@ -519,7 +519,7 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string,
   impl->rt = runtime;
   impl->source = source;
   impl->device = DeviceOf(runtime);
-  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
+  impl->prec.bf16 = internal::RunBf16(runtime);  // asked for, and pays here (bf16_linear.h)
   WeightStore ws(std::move(tensors), source, impl->device);
   impl->LoadEncoder(ws);
   impl->LoadDecoder(ws);

@@ -293,7 +293,7 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, Ten
   const int64_t dec_in = static_cast<int64_t>(c.out_indices.size()) * c.embed_dim;
   impl->rt = runtime;
   impl->device = DeviceOf(runtime);
-  impl->prec.bf16 = runtime.precision == nn::Precision::kBf16;
+  impl->prec.bf16 = internal::RunBf16(runtime);  // asked for, and pays here (bf16_linear.h)
   WeightStore ws(std::move(tensors), source, impl->device);
   const PrecisionPolicy& p = impl->prec;
   const int64_t C = c.embed_dim;

@@ -143,6 +143,10 @@ struct QueryResult {
   double predicted_translation_m = 0;     // essential + robust scale: the predicted error (confidence.h)
   double predicted_rotation_deg = 0;
   double depth_ms = 0, match_ms = 0, instance_ms = 0, solve_ms = 0;
+  // Inside match_ms / instance_ms (network matchers): the global pair's network pass, SegGPT's propagation, the
+  // masked pairs' network passes and how many masked pairs ran.
+  double pair_ms = 0, segment_ms = 0, instance_pass_ms = 0;
+  int instance_pairs = 0;
 };
 
 // What the per-scene caches did (for logs and tests).

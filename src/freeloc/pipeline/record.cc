@@ -93,6 +93,10 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["match_ms"] = r.match_ms;
   j["instance_ms"] = r.instance_ms;
   j["solve_ms"] = r.solve_ms;
+  j["pair_ms"] = r.pair_ms;
+  j["segment_ms"] = r.segment_ms;
+  j["instance_pass_ms"] = r.instance_pass_ms;
+  j["instance_pairs"] = r.instance_pairs;
   if (options) j["options"] = OptionsObject(*options);
   return j.dump(indent);
 }
@@ -120,6 +124,10 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.match_ms = j.value("match_ms", 0.0);
     r.instance_ms = j.value("instance_ms", 0.0);
     r.solve_ms = j.value("solve_ms", 0.0);
+    r.pair_ms = j.value("pair_ms", 0.0);
+    r.segment_ms = j.value("segment_ms", 0.0);
+    r.instance_pass_ms = j.value("instance_pass_ms", 0.0);
+    r.instance_pairs = j.value("instance_pairs", 0);
     const auto q = j.at("qvec").get<std::array<double, 4>>();
     const auto t = j.at("tvec").get<std::array<double, 3>>();
     r.query_from_ref = Rigid3d::FromWxyz(q, Eigen::Vector3d(t[0], t[1], t[2]));  // validated, normalised

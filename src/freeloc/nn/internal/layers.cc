@@ -9,12 +9,17 @@ void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64
   w = ws.Take(prefix + ".weight", {out, in});
   if (bias) b = ws.Take(prefix + ".bias", {out});
   if (p.bf16 && w.defined()) {
-    w_lp = w.to(torch::kBFloat16);
-    if (b.defined()) b_lp = b.to(torch::kBFloat16);
+    if (w.device().is_cpu()) {
+      packed = std::make_shared<PackedLinearBf16>(w, b);
+    } else {
+      w_lp = w.to(torch::kBFloat16);
+      if (b.defined()) b_lp = b.to(torch::kBFloat16);
+    }
   }
 }
 
 torch::Tensor Linear::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
+  if (p.bf16 && packed) return (*packed)(x);
   if (p.bf16) return torch::linear(x.to(torch::kBFloat16), w_lp, b_lp).to(torch::kFloat32);
   return torch::linear(x, w, b);
 }
@@ -35,6 +40,7 @@ void Mlp::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t 
 }
 
 torch::Tensor Mlp::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
+  if (p.bf16 && fc1.packed && fc2.packed) return (*fc2.packed)(fc1.packed->Forward(x, /*gelu=*/true));
   return fc2(torch::gelu(fc1(x, p)), p);
 }
 
@@ -166,7 +172,9 @@ void Conv::Load(WeightStore& ws, const std::string& prefix, const std::vector<in
 }
 
 torch::Tensor Conv::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
-  const bool lp = p.bf16;
+  // LibTorch 1.13's CPU conv_transpose2d in bf16 sends the transposed weight down the plain convolution path and
+  // fails on its channel check; transposed convolutions (a small share of the FLOPs) stay fp32.
+  const bool lp = p.bf16 && (!transpose || !x.device().is_cpu());
   const torch::Tensor in = lp ? x.to(torch::kBFloat16) : x;
   const torch::Tensor& ww = lp ? w_lp : w;
   const torch::Tensor& bb = lp ? b_lp : b;

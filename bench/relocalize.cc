@@ -1,0 +1,285 @@
+// bench/relocalize — what a query costs a user, per preset, at the released architectures (random full-size weights:
+// DUSt3R / MASt3R ViT-L + base decoder at 512, SegGPT ViT-L, Metric3D v2 vit_large unless --metric3d says otherwise)
+// on map-free-sized 540×720 portrait images, through the same Relocalizer `freeloc run` uses (the network stages
+// are the networks module's, built on the in-memory models). For each preset: the reference side once (its depth,
+// encodings, instance encodings), then per query a stage table — depth, the pair's network pass, global matching,
+// SegGPT propagation, the masked pairs' network passes, instance matching + merge, solve — the total, the FLOP the
+// networks executed (counted at the LibTorch dispatcher: mm/addmm/bmm/convolution) and the achieved GFLOP/s against
+// the GEMM rate (of the run's precision) measured in this process. The reference gives K rectangular instances;
+// SegGPT propagates them (its output bias is set so that every instance is painted over the whole query and its
+// filters are off: with random weights the masks are noise, and the point is the work every instance costs).
+//
+//   relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] [--metric3d vit_small|vit_large|vit_giant2]
+//              [--precision fp32|bf16]
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <sstream>
+
+#include "bench_torch.h"
+#include "freeloc/networks/stages.h"
+#include "freeloc/nn/dust3r.h"
+#include "freeloc/nn/metric3d.h"
+#include "freeloc/nn/seggpt.h"
+#include "freeloc/pipeline/relocalizer.h"
+
+using freeloc::bench::Fmt;
+using freeloc::bench::NowSeconds;
+namespace pl = freeloc::pipeline;
+
+namespace {
+
+constexpr int kW = 540, kH = 720;
+
+// A textured 540×720 photo: smooth shading, seeded random rectangles and discs (SIFT finds corners, SegGPT and the
+// instance masks have regions), seen from a shifted viewpoint for the query (`shift` px, `zoom`).
+freeloc::Image Photo(double shift, double zoom) {
+  std::mt19937 rng(1234);  // the same scene for every view
+  std::uniform_real_distribution<double> u(0, 1);
+  struct Shape {
+    double x, y, r, g, b, size;
+    bool disc;
+  };
+  std::vector<Shape> shapes(180);
+  for (auto& s : shapes) s = {u(rng) * kW, u(rng) * kH, u(rng) * 255, u(rng) * 255, u(rng) * 255, 8 + u(rng) * 40, u(rng) < 0.5};
+  freeloc::Image img(kW, kH);
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x) {
+      const double sx = (x - kW / 2.0) / zoom + kW / 2.0 + shift, sy = (y - kH / 2.0) / zoom + kH / 2.0;
+      double c[3] = {90 + 60 * std::sin(sx * 0.013) + 20 * std::cos(sy * 0.021), 110 + 50 * std::cos(sy * 0.011),
+                     120 + 40 * std::sin((sx + sy) * 0.009)};
+      for (const auto& s : shapes) {
+        const double dx = sx - s.x, dy = sy - s.y;
+        if (s.disc ? dx * dx + dy * dy < s.size * s.size : std::abs(dx) < s.size && std::abs(dy) < s.size * 0.6) {
+          c[0] = s.r;
+          c[1] = s.g;
+          c[2] = s.b;
+        }
+      }
+      for (int k = 0; k < 3; ++k)
+        img.data[(static_cast<size_t>(y) * kW + x) * 3 + k] = static_cast<uint8_t>(std::clamp(c[k], 0.0, 255.0));
+    }
+  return img;
+}
+
+// K rectangles on a grid as an instance label image (1..K).
+std::vector<uint16_t> Instances(int k) {
+  std::vector<uint16_t> l(static_cast<size_t>(kW) * kH, 0);
+  const int cols = 2;
+  for (int i = 0; i < k; ++i) {
+    const int cx = (i % cols) * kW / cols + kW / (2 * cols), cy = (i / cols) * 160 + 140;
+    for (int y = std::max(0, cy - 60); y < std::min(kH, cy + 60); ++y)
+      for (int x = std::max(0, cx - 90); x < std::min(kW, cx + 90); ++x) l[static_cast<size_t>(y) * kW + x] = i + 1;
+  }
+  return l;
+}
+
+std::vector<std::string> Split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string t; std::getline(ss, t, ',');)
+    if (!t.empty()) out.push_back(t);
+  return out;
+}
+
+struct Row {
+  std::string preset;
+  double ref_s = 0, total_s = 0, gflop = 0, gflops = 0;
+  double depth = 0, pair = 0, match = 0, seg = 0, inst_pass = 0, inst_match = 0, solve = 0, other = 0;
+  int instances = 0, pairs = 0, matches = 0;
+  std::string status;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int threads = 2, queries = 1, instances = 4;
+  std::string presets = "seed,seed-no-instance,dust3r,mast3r,mast3r-metric3d,seed-mast3r,sift-essential";
+  std::string m3d_variant = "vit_large", precision = "fp32";
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
+      threads = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--queries") && i + 1 < argc)
+      queries = std::max(1, std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--presets") && i + 1 < argc)
+      presets = argv[++i];
+    else if (!std::strcmp(argv[i], "--instances") && i + 1 < argc)
+      instances = std::max(1, std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--metric3d") && i + 1 < argc)
+      m3d_variant = argv[++i];
+    else if (!std::strcmp(argv[i], "--precision") && i + 1 < argc)
+      precision = argv[++i];
+    else {
+      std::fprintf(stderr,
+                   "usage: relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] "
+                   "[--metric3d vit_small|vit_large|vit_giant2] [--precision fp32|bf16]\n");
+      return 2;
+    }
+  }
+  torch::set_num_threads(threads);
+  const bool bf16 = precision == "bf16";
+  const double gemm = freeloc::bench::GemmRate(768, 1024, 4096, bf16 ? torch::kBFloat16 : torch::kFloat32);
+  freeloc::nn::RuntimeOptions rt;
+  rt.threads = threads;
+  rt.precision = freeloc::ParseEnum<freeloc::nn::Precision>(precision, "--precision");
+  const std::string shared = FREELOC_SHARED_DIR;
+
+  // Models, built once (only those the presets need).
+  const auto want = Split(presets);
+  auto needs = [&](const char* what) {
+    for (const auto& p : want) {
+      const auto o = pl::ResolvePreset(p);
+      if (!std::strcmp(what, "dust3r") && o.UsesDust3r()) return true;
+      if (!std::strcmp(what, "mast3r") && o.UsesMast3r()) return true;
+      if (!std::strcmp(what, "seggpt") && o.UsesSegGpt()) return true;
+      if (!std::strcmp(what, "metric3d") && o.UsesMetric3d()) return true;
+    }
+    return false;
+  };
+  const double t_load = NowSeconds();
+  std::shared_ptr<freeloc::nn::Dust3rModel> dust3r, mast3r;
+  std::shared_ptr<freeloc::nn::SegGptModel> seggpt;
+  std::shared_ptr<freeloc::nn::Metric3dModel> metric3d;
+  if (needs("dust3r"))
+    dust3r = freeloc::nn::Dust3rModel::Create(
+        freeloc::bench::RandomFullModel(shared + "/fixtures/dust3r/full_model_state_dict_shapes.json"),
+        {{"enc_num_heads", "16"}, {"dec_num_heads", "12"}, {"pos_embed", "RoPE100"}}, "random", rt);
+  if (needs("mast3r"))
+    mast3r = freeloc::nn::Dust3rModel::Create(
+        freeloc::bench::RandomFullModel(shared + "/fixtures/mast3r/full_model_state_dict_shapes.json"),
+        {{"enc_num_heads", "16"},
+         {"dec_num_heads", "12"},
+         {"pos_embed", "RoPE100"},
+         {"head_type", "catmlp+dpt"},
+         {"output_mode", "pts3d+desc24"},
+         {"two_confs", "True"},
+         {"desc_conf_mode", "('exp', 0, inf)"}},
+        "random", rt);
+  if (needs("seggpt")) {
+    auto sd = freeloc::bench::RandomSegGpt();
+    // Random weights paint noise, so a propagated mask could be empty and its masked pair would be skipped: a large
+    // output bias paints every pixel white, i.e. each instance propagates to the whole query and every masked pair
+    // runs (the same network work as with trained weights; the masks' content does not change the cost).
+    sd["decoder_pred.3.bias"] = freeloc::nn::internal::ToView(torch::full({3}, 5.0));
+    seggpt = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rt);
+  }
+  if (needs("metric3d"))
+    metric3d = freeloc::nn::Metric3dModel::Create(freeloc::bench::RandomMetric3d(m3d_variant), "{}", m3d_variant, rt);
+  const double load_s = NowSeconds() - t_load;
+
+  // One scene: the reference, Q queries (shifted and zoomed views), K reference instances, 2 m provided depth.
+  freeloc::Camera cam;
+  cam.fx = cam.fy = 590;
+  cam.cx = kW / 2.0;
+  cam.cy = kH / 2.0;
+  cam.width = kW;
+  cam.height = kH;
+  const freeloc::Image ref = Photo(0, 1.0);
+  std::vector<freeloc::Image> qs;
+  for (int q = 0; q < queries; ++q) qs.push_back(Photo(14.0 + 6 * q, 1.04 + 0.02 * q));
+  const std::vector<uint16_t> labels = Instances(instances);
+  freeloc::DepthMap depth(kW, kH);
+  std::fill(depth.data.begin(), depth.data.end(), 2.0f);
+
+  freeloc::bench::FlopCounter counter;
+  std::vector<Row> rows;
+  for (const auto& name : want) {
+    pl::PipelineOptions o = pl::ResolvePreset(name);
+    o.runtime = rt;
+    o.dust3r_size = 512;
+    o.segmenter.min_score = 0;
+    o.segmenter.min_area_ratio = 0;
+    o.segmenter.max_area_ratio = 1e9;
+    for (std::string* p : {&o.dust3r_model, &o.mast3r_model, &o.seggpt_model, &o.metric3d_model}) *p = "random";
+    std::unique_ptr<pl::Matcher> matcher =
+        o.UsesPointmapModel() ? pl::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt) : pl::MakeMatcher(o);
+    std::unique_ptr<pl::DepthEstimator> dest =
+        o.UsesMetric3d() ? pl::MakeNetworkDepthEstimator(metric3d) : pl::MakeDepthEstimator(o);
+    pl::Relocalizer reloc(o, std::move(matcher), std::move(dest), pl::MakePoseSolver(o));
+    Row row;
+    row.preset = name;
+    pl::FrameInputs rin;
+    rin.depth = depth;
+    if (o.UsesInstances()) rin.instance_labels = &labels;
+    double t0 = NowSeconds();
+    reloc.SetReference(ref, cam, rin);
+    row.ref_s = NowSeconds() - t0;
+    std::vector<Row> per;
+    for (const auto& q : qs) {
+      pl::FrameInputs qin;
+      qin.depth = depth;
+      const double f0 = freeloc::bench::FlopCounter::Total();
+      t0 = NowSeconds();
+      const pl::QueryResult r = reloc.Relocalize(q, cam, qin);
+      Row x;
+      x.total_s = NowSeconds() - t0;
+      x.gflop = (freeloc::bench::FlopCounter::Total() - f0) / 1e9;
+      x.depth = r.depth_ms / 1e3;
+      x.pair = r.pair_ms / 1e3;
+      x.match = (r.match_ms - r.pair_ms) / 1e3;
+      x.seg = r.segment_ms / 1e3;
+      x.inst_pass = r.instance_pass_ms / 1e3;
+      x.inst_match = std::max(0.0, r.instance_ms - r.segment_ms - r.instance_pass_ms) / 1e3;
+      x.solve = r.solve_ms / 1e3;
+      x.other = std::max(0.0, x.total_s - x.depth - x.pair - x.match - x.seg - x.inst_pass - x.inst_match - x.solve);
+      x.instances = r.instances;
+      x.pairs = r.instance_pairs;
+      x.matches = r.matches;
+      x.status = r.StatusText().substr(0, 24);
+      per.push_back(x);
+    }
+    auto med = [&](double Row::*f) {
+      std::vector<double> v;
+      for (const auto& x : per) v.push_back(x.*f);
+      return freeloc::bench::Median(v);
+    };
+    row.total_s = med(&Row::total_s);
+    row.gflop = med(&Row::gflop);
+    row.gflops = row.gflop / row.total_s;
+    row.depth = med(&Row::depth);
+    row.pair = med(&Row::pair);
+    row.match = med(&Row::match);
+    row.seg = med(&Row::seg);
+    row.inst_pass = med(&Row::inst_pass);
+    row.inst_match = med(&Row::inst_match);
+    row.solve = med(&Row::solve);
+    row.other = med(&Row::other);
+    row.instances = per.back().instances;
+    row.pairs = per.back().pairs;
+    row.matches = per.back().matches;
+    row.status = per.back().status;
+    rows.push_back(row);
+    std::fprintf(stderr, "%s: reference %.1f s, query %.1f s\n", name.c_str(), row.ref_s, row.total_s);
+  }
+
+  std::printf("%s\n\n", freeloc::bench::MachineLine().c_str());
+  std::printf(
+      "## bench/relocalize — per-query cost of each preset, released architectures (random weights), 540×720 "
+      "images, %d threads, %s, Metric3D %s, %d reference instances, median of %d quer%s\n\n",
+      threads, precision.c_str(), m3d_variant.c_str(), instances, queries, queries == 1 ? "y" : "ies");
+  std::printf("Models built in %.1f s. %s GEMM rate in this process (768×1024×4096, torch::matmul): %.1f GFLOP/s.\n\n",
+              load_s, precision.c_str(), gemm);
+  freeloc::bench::MarkdownTable t({"preset", "reference (once)", "query total", "network GFLOP / query",
+                                   "achieved GFLOP/s (whole query)", "% of GEMM rate", "networks alone: GFLOP/s (%)",
+                                   "status"});
+  for (const auto& r : rows) {
+    // The networks' own rate: their FLOP over the time of the stages that run them (depth, passes, SegGPT).
+    const double net_s = r.depth + r.pair + r.seg + r.inst_pass;
+    const double net = net_s > 0 ? r.gflop / net_s : 0;
+    t.Row({r.preset, Fmt("%.2f s", r.ref_s), Fmt("%.2f s", r.total_s), Fmt("%.0f", r.gflop), Fmt("%.1f", r.gflops),
+           Fmt("%.0f %%", 100 * r.gflops / gemm), net > 0 ? Fmt("%.1f", net) + Fmt(" (%.0f %%)", 100 * net / gemm) : "–",
+           r.status});
+  }
+  t.Print();
+  std::printf("\nWhere a query's time goes (seconds; SegGPT and the masked pairs: K instances propagated / pairs run):\n\n");
+  freeloc::bench::MarkdownTable s({"preset", "depth", "pair network pass", "global matching", "SegGPT",
+                                   "masked pairs' passes", "instance matching + merge", "solve (matches)", "other"});
+  for (const auto& r : rows)
+    s.Row({r.preset, Fmt("%.2f", r.depth), Fmt("%.2f", r.pair), Fmt("%.2f", r.match),
+           r.instances ? Fmt("%.2f", r.seg) + " (" + std::to_string(r.instances) + ")" : "–",
+           r.instances ? Fmt("%.2f", r.inst_pass) + " (" + std::to_string(r.pairs) + ")" : "–",
+           r.instances ? Fmt("%.2f", r.inst_match) : "–", Fmt("%.3f", r.solve) + " (" + std::to_string(r.matches) + ")", Fmt("%.2f", r.other)});
+  s.Print();
+  return 0;
+}

@@ -1,0 +1,117 @@
+// bf16 that pays (issue 17): the rule that decides it, the prepacked oneDNN layer against fp32, and the accuracy
+// cost of `--precision bf16` on the parity fixtures (bf16 forced with FREELOC_BF16=force so every CPU measures it).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+
+#include "freeloc/io/safetensors.h"
+#include "freeloc/nn/dust3r.h"
+#include "freeloc/nn/internal/bf16_linear.h"
+#include "freeloc/nn/metric3d.h"
+#include "freeloc/nn/seggpt.h"
+#include "testing/testing.h"
+
+namespace freeloc::nn {
+namespace {
+
+using testing::SharedPath;
+
+// ‖a − b‖ / ‖b‖ over every element.
+double RelRms(const float* a, const float* b, int64_t n) {
+  double num = 0, den = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    num += (static_cast<double>(a[i]) - b[i]) * (static_cast<double>(a[i]) - b[i]);
+    den += static_cast<double>(b[i]) * b[i];
+  }
+  return std::sqrt(num / std::max(den, 1e-30));
+}
+double RelRms(const TensorView& a, const TensorView& b) {
+  EXPECT_EQ(a.numel(), b.numel());
+  return RelRms(a.as<float>(), b.as<float>(), std::min(a.numel(), b.numel()));
+}
+
+RuntimeOptions Bf16() {
+  setenv("FREELOC_BF16", "force", 1);  // the decision is per process; every test here forces bf16
+  RuntimeOptions rt;
+  rt.precision = Precision::kBf16;
+  return rt;
+}
+
+TEST(Bf16, RuleRunsBf16OnlyWhereItPays) {
+  using internal::ChooseBf16;
+  EXPECT_TRUE(ChooseBf16(true, 1.0, 0.5, false));    // native and twice as fast
+  EXPECT_FALSE(ChooseBf16(true, 1.0, 0.95, false));  // native but not 10 % faster (the issue's Xeon)
+  EXPECT_FALSE(ChooseBf16(false, 1.0, 0.5, false));  // emulated: never, even if a measurement says so
+  EXPECT_FALSE(ChooseBf16(true, 1.0, 0.0, false));   // no measurement
+  EXPECT_TRUE(ChooseBf16(false, 1.0, 2.0, true));    // forced
+}
+
+TEST(Bf16, PackedLayerMatchesFp32WithinBf16Rounding) {
+  torch::manual_seed(3);
+  struct Case {
+    int64_t rows, in, out;
+    bool bias;
+  };
+  for (const Case& c : {Case{1, 16, 8, true}, Case{37, 96, 40, false}, Case{300, 256, 1024, true}}) {
+    const torch::Tensor x = torch::randn({c.rows, c.in}), w = torch::randn({c.out, c.in}) / std::sqrt(c.in);
+    const torch::Tensor b = c.bias ? torch::randn({c.out}) : torch::Tensor();
+    const internal::PackedLinearBf16 lin(w, b);
+    const torch::Tensor ref = torch::linear(x, w, b);
+    const torch::Tensor got = lin(x);
+    ASSERT_EQ(got.sizes(), ref.sizes());
+    const double err = ((got - ref).norm() / ref.norm()).item<double>();
+    EXPECT_LT(err, 8e-3) << c.rows << "x" << c.in << "->" << c.out;  // bf16 inputs: ≈ 2^-9 relative
+    EXPECT_GT(err, 0.0);                                             // it did run in bf16
+    // Batched input keeps its leading shape; the fused GELU variant equals GELU of the plain output (bf16 out).
+    const torch::Tensor x3 = x.reshape({1, c.rows, c.in});
+    EXPECT_EQ(lin(x3).sizes(), (std::vector<int64_t>{1, c.rows, c.out}));
+    const torch::Tensor g = lin.Forward(x, /*gelu=*/true);
+    EXPECT_EQ(g.scalar_type(), torch::kBFloat16);
+    const torch::Tensor gr = torch::gelu(ref);
+    EXPECT_LT(((g.to(torch::kFloat32) - gr).norm() / gr.norm()).item<double>(), 1.2e-2);
+  }
+}
+
+// The accuracy cost of bf16 on the fixtures' tiny models, against the reference implementation's fp32 outputs.
+TEST(Bf16, AccuracyCostOnTheParityFixtures) {
+  FREELOC_REQUIRE_SHARED("fixtures/dust3r/cases/png_s80.safetensors");
+  const RuntimeOptions rt = Bf16();
+  const auto dust3r = Dust3rModel::Load(SharedPath("fixtures/dust3r/weights.safetensors"),
+                                        SharedPath("fixtures/dust3r/config.json"), rt);
+  for (const char* name : {"land_64x48", "png_s80", "png_s128"}) {
+    const SafetensorsFile f = SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
+    const auto view = [&](const char* k) {
+      const TensorView& t = f.Get(k);
+      return Dust3rView{t.as<float>(), static_cast<int>(t.shape[2]), static_cast<int>(t.shape[3])};
+    };
+    const Dust3rPrediction p = dust3r->Run(view("view1.img"), view("view2.img"));
+    const double e1 = RelRms(p.pts3d_1, f.Get("pred1.pts3d")), e2 = RelRms(p.pts3d_2, f.Get("pred2.pts3d_in_other_view"));
+    std::printf("bf16 DUSt3R %s: pts3d_1 %.2e, pts3d_2 %.2e relative RMS from the fp32 reference\n", name, e1, e2);
+    EXPECT_LT(std::max(e1, e2), 3e-2) << name;
+    EXPECT_GT(std::max(e1, e2), 1e-6) << name;  // bf16 did run
+  }
+  const auto seggpt = SegGptModel::Load(SharedPath("fixtures/seggpt/weights.safetensors"),
+                                        SharedPath("fixtures/seggpt/config.json"), rt);
+  const SafetensorsFile s = SafetensorsFile::Open(SharedPath("fixtures/seggpt/cases/a_instance.safetensors"));
+  const TensorView& imgs = s.Get("imgs");
+  const TensorView pred = seggpt->Forward(std::vector<float>(imgs.as<float>(), imgs.as<float>() + imgs.numel()),
+                                          std::vector<float>(s.Get("tgts").as<float>(),
+                                                             s.Get("tgts").as<float>() + s.Get("tgts").numel()),
+                                          static_cast<int>(imgs.shape[0]), SegType::kInstance, false);
+  const double es = RelRms(pred, s.Get("pred"));
+  std::printf("bf16 SegGPT a_instance: pred %.2e relative RMS from the fp32 reference\n", es);
+  EXPECT_LT(es, 3e-2);
+  const std::string dir = SharedPath("fixtures/metric3d/final_norm/");
+  const auto m3d = Metric3dModel::Load(dir + "weights.safetensors", dir + "config.json", rt);
+  const SafetensorsFile m = SafetensorsFile::Open(dir + "cases/nyu.safetensors");
+  const TensorView& x = m.Get("input");
+  TensorView d, c, n;
+  m3d->Forward(std::vector<float>(x.as<float>(), x.as<float>() + x.numel()), &d, &c, &n);
+  const double ed = RelRms(d, m.Get("pred_depth"));
+  std::printf("bf16 Metric3D nyu: depth %.2e relative RMS from the fp32 reference\n", ed);
+  EXPECT_LT(ed, 3e-2);
+}
+
+}  // namespace
+}  // namespace freeloc::nn
