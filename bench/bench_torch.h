@@ -140,8 +140,9 @@ inline std::map<std::string, TensorView> RandomMetric3d(const std::string& varia
 }
 
 
-// Counts the floating-point operations LibTorch executes (all threads): matrix products (aten::mm, addmm, bmm) and
-// convolutions (aten::convolution, transposed too) from their input shapes at the dispatcher, 1 multiply-add = 2
+// Counts the floating-point operations LibTorch executes (all threads): matrix products (aten::mm, addmm, bmm, and
+// nn's oneDNN bf16 matmul, which records itself as freeloc::bf16_linear) and convolutions (aten::convolution,
+// transposed too) from their input shapes at the dispatcher, 1 multiply-add = 2
 // FLOP — the counter the specs' FLOP figures were checked with. Elementwise work (softmax, norms, GELU) is not
 // counted: it is memory traffic, not arithmetic the GEMM rate could bound.
 class FlopCounter {
@@ -173,6 +174,9 @@ class FlopCounter {
     } else if (name == "aten::addmm" && in.size() >= 3) {
       const auto a = Shape(in[1]), b = Shape(in[2]);
       if (a.size() == 2 && b.size() == 2) f = 2.0 * a[0] * a[1] * b[1];
+    } else if (name == "freeloc::bf16_linear" && in.size() >= 2) {  // nn's oneDNN bf16 matmul: x [rows, in], w [out, in]
+      const auto a = Shape(in[0]), w = Shape(in[1]);
+      if (a.size() == 2 && w.size() == 2) f = 2.0 * a[0] * a[1] * w[0];
     } else if (name == "aten::bmm" && in.size() >= 2) {
       const auto a = Shape(in[0]), b = Shape(in[1]);
       if (a.size() == 3 && b.size() == 3) f = 2.0 * a[0] * a[1] * a[2] * b[2];

@@ -160,3 +160,56 @@ TEST(ImageIo, FixturePngsDecodeExactly) {
 
 }  // namespace
 }  // namespace freeloc
+
+namespace freeloc {
+namespace {
+
+// Depth and mask PNGs go through libpng directly (no OpenCV codecs at start-up): every grey variant must decode to
+// the values OpenCV's IMREAD_UNCHANGED gives, PNGs freeloc writes must read back in OpenCV unchanged, and damaged or
+// non-grey files must be one-line errors.
+TEST(ImageIo, GreyPngsDecodeAsOpenCvDoes) {
+  testing::TempDir tmp;
+  cv::Mat g16(37, 53, CV_16UC1), g8(37, 53, CV_8UC1);
+  cv::randu(g16, 0, 65535);
+  cv::randu(g8, 0, 255);
+  for (const cv::Mat* m : {&g16, &g8}) {
+    for (int level : {0, 9}) {
+      std::vector<uint8_t> buf;
+      ASSERT_TRUE(cv::imencode(".png", *m, buf, {cv::IMWRITE_PNG_COMPRESSION, level}));
+      WriteFileAtomic(tmp.File("g.png"), buf.data(), buf.size());
+      int w = 0, h = 0, bits = 0;
+      const std::vector<uint16_t> v = ReadPng16(tmp.File("g.png"), &w, &h, &bits);
+      ASSERT_EQ(w, 53);
+      ASSERT_EQ(h, 37);
+      EXPECT_EQ(bits, m->depth() == CV_16U ? 16 : 8);
+      cv::Mat ref;
+      m->convertTo(ref, CV_16U);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) ASSERT_EQ(v[static_cast<size_t>(y) * w + x], ref.at<uint16_t>(y, x)) << x << "," << y;
+    }
+  }
+  // freeloc's writers → OpenCV's reader, exactly.
+  std::vector<uint16_t> d(53 * 37);
+  for (size_t i = 0; i < d.size(); ++i) d[i] = static_cast<uint16_t>(i * 977 % 65536);
+  WritePng16(tmp.File("w16.png"), 53, 37, d);
+  const cv::Mat back = cv::imread(tmp.File("w16.png"), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(back.type(), CV_16UC1);
+  for (size_t i = 0; i < d.size(); ++i) ASSERT_EQ(back.at<uint16_t>(static_cast<int>(i / 53), static_cast<int>(i % 53)), d[i]);
+  Image rgb(5, 4);
+  for (size_t i = 0; i < rgb.data.size(); ++i) rgb.data[i] = static_cast<uint8_t>(i * 37);
+  WriteImagePng(tmp.File("rgb.png"), rgb);
+  EXPECT_EQ(ReadImage(tmp.File("rgb.png")).data, rgb.data);
+  // A colour PNG is not a depth map; a damaged image stream is an error naming the file.
+  int w, h;
+  EXPECT_NE(testing::ErrorOf([&] { ReadPng16(tmp.File("rgb.png"), &w, &h); }).find("expected a single-channel PNG, got 3"),
+            std::string::npos);
+  std::vector<uint8_t> buf;
+  cv::imencode(".png", g16, buf, {cv::IMWRITE_PNG_COMPRESSION, 0});
+  for (size_t i = 100; i < 400; ++i) buf[i] ^= 0x5A;  // inside IDAT: CRC and zlib errors
+  WriteFileAtomic(tmp.File("bad.png"), buf.data(), buf.size());
+  const std::string e = testing::ErrorOf([&] { ReadPng16(tmp.File("bad.png"), &w, &h); });
+  EXPECT_NE(e.find("bad.png: cannot decode the PNG"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace freeloc

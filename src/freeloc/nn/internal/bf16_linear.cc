@@ -1,5 +1,6 @@
 #include "freeloc/nn/internal/bf16_linear.h"
 
+#include <ATen/record_function.h>
 #include <oneapi/dnnl/dnnl.hpp>
 
 #include <algorithm>
@@ -93,6 +94,8 @@ torch::Tensor PackedLinearBf16::Forward(const torch::Tensor& x, bool gelu) const
   const torch::Tensor xb = x.to(torch::kBFloat16).reshape({rows, m.in}).contiguous();
   torch::Tensor y = torch::empty({rows, m.out}, gelu ? torch::kBFloat16 : torch::kFloat32);
   if (rows > 0) {
+    // Visible to LibTorch's profiler and FLOP counters (bench/bench_torch.h), like the aten matmuls it replaces.
+    RECORD_FUNCTION("freeloc::bf16_linear", std::vector<c10::IValue>({xb, m.w}));
     const auto k = m.For(rows, gelu);
     dnnl::stream s(Engine());
     dnnl::memory src({{rows, m.in}, dt::bf16, tag::ab}, Engine(), xb.data_ptr());
