@@ -10,18 +10,8 @@ namespace freeloc::cli {
 
 namespace {
 
-struct DepthOptions {
-  std::string model, config, image, intrinsics, out, raw;
-};
 
-int RunDepth(const DepthOptions& o, const GlobalOptions& g) {
-  pipeline::DepthCommand c;
-  c.model = o.model;
-  c.config = o.config;
-  c.image = o.image;
-  c.intrinsics = o.intrinsics;
-  c.out = o.out;
-  c.raw = o.raw;
+int RunDepth(pipeline::DepthCommand c, const GlobalOptions& g) {
   c.runtime = g.Runtime();
   return pipeline::Networks().depth(c);
 }
@@ -29,7 +19,7 @@ int RunDepth(const DepthOptions& o, const GlobalOptions& g) {
 }  // namespace
 
 void RegisterDepth(CLI::App& app, const GlobalOptions& global, RunFn* run) {
-  auto o = std::make_shared<DepthOptions>();
+  auto o = std::make_shared<pipeline::DepthCommand>();
   auto* sub = app.add_subcommand("depth", "Metric3D v2: metric depth of one image from its intrinsics");
   sub->add_option("--model", o->model, "metric_depth_vit_{small,large,giant2}_800k.pth or safetensors")->required();
   sub->add_option("--config", o->config, "config.json (optional; released defaults otherwise)");

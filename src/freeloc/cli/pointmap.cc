@@ -15,13 +15,10 @@ namespace freeloc::cli {
 
 namespace {
 
+// The command's fields, bound to the flags directly; --size is text until the run parses it.
 struct PointmapOptions {
-  std::string model, config, size = "512", out;
-  std::vector<std::string> images;
-  bool matches = false;
-  double conf_thr = 0;
-  int subsample = 0;  // 0: the model's default (DUSt3R 1, MASt3R 8)
-  int border = 3;
+  pipeline::PointmapCommand command;
+  std::string size = "512";
 };
 
 std::pair<int, int> ParseSizes(const std::string& s) {
@@ -39,16 +36,8 @@ std::pair<int, int> ParseSizes(const std::string& s) {
 }
 
 int RunPointmap(const PointmapOptions& o, const GlobalOptions& g) {
-  pipeline::PointmapCommand c;
-  c.model = o.model;
-  c.config = o.config;
-  c.out = o.out;
+  pipeline::PointmapCommand c = o.command;
   std::tie(c.size1, c.size2) = ParseSizes(o.size);
-  c.images = o.images;
-  c.matches = o.matches;
-  c.conf_thr = o.conf_thr;
-  c.subsample = o.subsample;
-  c.border = o.border;
   c.runtime = g.Runtime();
   return pipeline::Networks().pointmap(c);
 }
@@ -59,25 +48,25 @@ void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto o = std::make_shared<PointmapOptions>();
   auto* sub = app.add_subcommand(
       "pointmap", "DUSt3R / MASt3R pointmaps (and MASt3R descriptors) of an image pair, written as safetensors");
-  sub->add_option("--model", o->model,
+  sub->add_option("--model", o->command.model,
                   "DUSt3R or MASt3R weights: official .pth (constructor string inside) or model.safetensors "
                   "(config.json beside it)")
       ->required();
-  sub->add_option("--config", o->config, "config.json with the constructor arguments (optional)");
+  sub->add_option("--config", o->command.config, "config.json with the constructor arguments (optional)");
   sub->add_option("--size", o->size, "load_images size: 224 or a multiple of 16, one value or two (SIZE1,SIZE2)");
-  sub->add_option("--out", o->out, "output .safetensors")->required();
-  sub->add_option("IMAGES", o->images, "IMG1 IMG2")->expected(2);
-  sub->add_flag("--matches", o->matches,
+  sub->add_option("--out", o->command.out, "output .safetensors")->required();
+  sub->add_option("IMAGES", o->command.images, "IMG1 IMG2")->expected(2);
+  sub->add_flag("--matches", o->command.matches,
                 "also store matches: 'matches' (network pixels; MASt3R: the raw fast reciprocal NN, upstream order) "
                 "and 'matches_orig' (original pixels; MASt3R: after the border / desc_conf filter)");
-  sub->add_option("--conf-thr", o->conf_thr,
+  sub->add_option("--conf-thr", o->command.conf_thr,
                   "with --matches: DUSt3R: a pixel is valid if conf >= this; MASt3R: keep matches with min "
                   "desc_conf >= this (default 0: all)");
-  sub->add_option("--subsample", o->subsample,
+  sub->add_option("--subsample", o->command.subsample,
                   "with --matches: DUSt3R: keep every k-th query pixel (default 1); MASt3R: the seed grid step of "
                   "the fast reciprocal NN (upstream subsample_or_initxy1, default 8)")
       ->check(CLI::PositiveNumber);
-  sub->add_option("--border", o->border, "with --matches, MASt3R: drop matches this close to an edge (default 3)")
+  sub->add_option("--border", o->command.border, "with --matches, MASt3R: drop matches this close to an edge (default 3)")
       ->check(CLI::NonNegativeNumber);
   sub->callback([o, run, &global] { *run = [o, &global] { return RunPointmap(*o, global); }; });
 }

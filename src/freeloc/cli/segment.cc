@@ -10,21 +10,8 @@ namespace freeloc::cli {
 
 namespace {
 
-struct SegmentOptions {
-  std::string model, config, target, out, raw, type = "instance";
-  std::vector<std::string> prompt_images, prompt_masks;
-};
 
-int RunSegment(const SegmentOptions& o, const GlobalOptions& g) {
-  pipeline::SegmentCommand c;
-  c.model = o.model;
-  c.config = o.config;
-  c.target = o.target;
-  c.out = o.out;
-  c.raw = o.raw;
-  c.type = o.type;
-  c.prompt_images = o.prompt_images;
-  c.prompt_masks = o.prompt_masks;
+int RunSegment(pipeline::SegmentCommand c, const GlobalOptions& g) {
   c.runtime = g.Runtime();
   return pipeline::Networks().segment(c);
 }
@@ -32,7 +19,7 @@ int RunSegment(const SegmentOptions& o, const GlobalOptions& g) {
 }  // namespace
 
 void RegisterSegment(CLI::App& app, const GlobalOptions& global, RunFn* run) {
-  auto o = std::make_shared<SegmentOptions>();
+  auto o = std::make_shared<pipeline::SegmentCommand>();
   auto* sub =
       app.add_subcommand("segment", "SegGPT: segment the target like the prompt mask(s) segment the prompt image(s)");
   sub->add_option("--model", o->model, "SegGPT weights: seggpt_vit_large.pth or HF model.safetensors")->required();

@@ -84,6 +84,9 @@ PackedLinearBf16::PackedLinearBf16(const torch::Tensor& w, const torch::Tensor& 
   impl_->in = w.size(1);
   impl_->w = w.to(torch::kFloat32).contiguous();
   if (b.defined()) impl_->bias = b.to(torch::kFloat32).reshape({1, impl_->out}).contiguous();
+  // Pack now, at model load: the kernels for other row counts mostly share this layout, so a query never pays the
+  // reorder of a layer's weights.
+  impl_->For(256, false);
 }
 
 PackedLinearBf16::~PackedLinearBf16() = default;
