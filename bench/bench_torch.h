@@ -183,11 +183,10 @@ class FlopCounter {
     } else if (name == "aten::convolution" && in.size() >= 9) {
       const auto x = Shape(in[0]), w = Shape(in[1]);
       const bool transposed = in[6].isBool() && in[6].toBool();
-      const int64_t groups = in[8].isInt() ? in[8].toInt() : 1;
       if (x.size() == 4 && w.size() == 4) {
         if (transposed) {  // weight [Cin, Cout/groups, kh, kw]: every input pixel scatters a kernel
           f = 2.0 * x[0] * x[1] * x[2] * x[3] * w[1] * w[2] * w[3];
-        } else {  // weight [Cout, Cin/groups, kh, kw]
+        } else {  // weight [Cout, Cin/groups, kh, kw]: w[1] is already per group
           // stride / padding / dilation: one value for both axes or one per axis.
           const auto at = [](const c10::IValue& v, int i, int64_t dflt) {
             if (!v.isIntList()) return dflt;
@@ -199,7 +198,6 @@ class FlopCounter {
           const int64_t wo = (x[3] + 2 * at(in[4], 1, 0) - at(in[5], 1, 1) * (w[3] - 1) - 1) / s1 + 1;
           f = 2.0 * x[0] * w[0] * ho * wo * w[1] * w[2] * w[3];
         }
-        (void)groups;
       }
     }
     if (f > 0) Flops().fetch_add(static_cast<uint64_t>(f));

@@ -232,14 +232,8 @@ std::vector<uint8_t> EncodeJpeg(const Image& rgb, int quality, const std::string
 namespace internal {
 
 const CodecsApi& Codecs() {
-  static const CodecsApi* api = [] {
-    using Entry = const CodecsApi* (*)();
-    const auto entry = reinterpret_cast<Entry>(LoadModuleEntry(kCodecsLibrary, kCodecsEntry, "image decoding"));
-    const CodecsApi* a = entry();
-    FREELOC_CHECK(a && a->abi == kCodecsAbi, kCodecsLibrary << " belongs to another freeloc version; reinstall");
-    return a;
-  }();
-  return *api;
+  static const CodecsApi& api = LoadModuleTable<CodecsApi>(kCodecsLibrary, kCodecsEntry, kCodecsAbi, "image decoding");
+  return api;
 }
 
 }  // namespace internal

@@ -6,6 +6,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
+#include "freeloc/core/timing.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/matching/proposals.h"
 #include "freeloc/networks/dust3r_stage.h"
@@ -19,10 +20,6 @@
 namespace freeloc::pipeline {
 
 namespace {
-
-double Ms(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // DUSt3R global matches; with instances, the paper's instance knowledge on top (Eq. 1–3): reference instances
 // (given labels, or proposals from the reference's own pointmap) matched into the query (SegGPT propagation, or the
@@ -80,15 +77,15 @@ class Dust3rMatcher : public Matcher {
     const Dust3rInput& q_in = q_in_;
     const auto tp = std::chrono::steady_clock::now();
     last_ = fn_.Fn()(ref_in_, q_in);
-    r->pair_ms = Ms(tp);
+    r->pair_ms = MsSince(tp);
     have_last_ = true;
     std::vector<matching::Correspondence> merged = matching::GlobalCorrespondences(last_, ref_in_, q_in, instance_);
     r->global_matches = static_cast<int>(merged.size());
-    r->match_ms = Ms(t0);
+    r->match_ms = MsSince(t0);
     if (o_.UsesInstances() && !ref_masks_.empty()) {
       t0 = std::chrono::steady_clock::now();
       merged = MatchInstances(query, in, merged, r);
-      r->instance_ms = Ms(t0);
+      r->instance_ms = MsSince(t0);
     }
     matching::Correspondences c;
     for (const auto& m : merged) {
@@ -164,13 +161,13 @@ class Dust3rMatcher : public Matcher {
                                                        QueryResult* r) {
     const auto ts = std::chrono::steady_clock::now();
     const std::vector<matching::InstanceMasks> pairs = InstancePairs(query, in);
-    r->segment_ms = o_.instance_source == InstanceSource::kGiven ? 0.0 : Ms(ts);
+    r->segment_ms = o_.instance_source == InstanceSource::kGiven ? 0.0 : MsSince(ts);
     // The masked pairs' network passes, timed and counted.
     const matching::PointmapFn model = fn_.Fn();
     const matching::PointmapFn timed = [&](const Dust3rInput& a, const Dust3rInput& b) {
       const auto t0 = std::chrono::steady_clock::now();
       matching::PairPointmaps pm = model(a, b);
-      r->instance_pass_ms += Ms(t0);
+      r->instance_pass_ms += MsSince(t0);
       ++r->instance_pairs;
       return pm;
     };
@@ -214,24 +211,17 @@ class Metric3dDepth : public DepthEstimator {
 
 std::unique_ptr<Matcher> MakeNetworkMatcher(const PipelineOptions& o) {
   o.Validate();
-  switch (o.matcher.kind) {
-    case MatcherKind::kDust3r:
-    case MatcherKind::kDust3rInstances:
-      return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.dust3r_model, o.dust3r_config, o.runtime),
-                                             o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
-    case MatcherKind::kMast3r:
-    case MatcherKind::kMast3rInstances:
-      return std::make_unique<Dust3rMatcher>(o, CachedDust3r(o.mast3r_model, "", o.runtime),
-                                             o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
-    default: break;
-  }
-  FREELOC_THROW("matcher: " << o.matcher.ToString() << " runs no network");
+  FREELOC_CHECK(o.UsesPointmapModel(), "matcher: " << o.matcher.ToString() << " runs no network");
+  return MakeNetworkMatcher(o,
+                            o.UsesMast3r() ? CachedDust3r(o.mast3r_model, "", o.runtime)
+                                           : CachedDust3r(o.dust3r_model, o.dust3r_config, o.runtime),
+                            o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
 }
 
 std::unique_ptr<DepthEstimator> MakeNetworkDepthEstimator(const PipelineOptions& o) {
   o.Validate();
   FREELOC_CHECK(o.depth.kind == DepthKind::kMetric3d, "depth: " << o.depth.ToString() << " runs no network");
-  return std::make_unique<Metric3dDepth>(CachedMetric3d(o.metric3d_model, o.runtime));
+  return MakeNetworkDepthEstimator(CachedMetric3d(o.metric3d_model, o.runtime));
 }
 
 std::unique_ptr<Matcher> MakeNetworkMatcher(const PipelineOptions& o, std::shared_ptr<nn::Dust3rModel> model,

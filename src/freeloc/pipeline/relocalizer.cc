@@ -5,15 +5,12 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
+#include "freeloc/core/timing.h"
 #include "freeloc/pipeline/models.h"
 
 namespace freeloc::pipeline {
 
 namespace {
-double Ms(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // The first line of an exception's text (LibTorch's messages carry a backtrace after it), prefixed with `file`
 // unless it already names it.
 std::string ErrorMessage(const std::exception& e, const std::string& file) {
@@ -83,7 +80,7 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameIn
   m.k_ref = camera;
   m.d_ref = m.depth->Depth(image, camera, std::move(in.depth));
   m.matcher->SetReference(image, camera, in.instance_labels);
-  m.stats.reference_ms = Ms(t0);
+  m.stats.reference_ms = MsSince(t0);
   m.UpdateStats();
   m.have_ref = true;
 }
@@ -123,14 +120,14 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   }
   const auto t0 = std::chrono::steady_clock::now();
   m.d_query = m.depth->Depth(image, camera, std::move(in.depth));
-  r.depth_ms = m.depth->needs_provided() ? 0.0 : Ms(t0);
+  r.depth_ms = m.depth->needs_provided() ? 0.0 : MsSince(t0);
   const matching::Correspondences c = m.matcher->Match(image, camera, in, &r);
   if (m.o.UsesMast3rDepth()) {
     // MASt3R's own metric depth of this pair (the reference's changes with the query: pointmaps are per pair).
     const auto t1 = std::chrono::steady_clock::now();
     FREELOC_CHECK(m.matcher->PairDepth(m.o.solver != SolverKind::kPnp, &m.d_ref, &m.d_query),
                   "depth mast3r: the matcher " << m.o.matcher.ToString() << " gives no depth");
-    r.depth_ms = Ms(t1);
+    r.depth_ms = MsSince(t1);
   }
   m.solver->Solve(c, m.k_ref, camera, m.d_ref, m.d_query, &r);
   if (matches) *matches = c;

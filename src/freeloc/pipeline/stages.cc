@@ -5,6 +5,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
+#include "freeloc/core/timing.h"
 #include "freeloc/geometry/absolute_pose.h"
 #include "freeloc/geometry/essential.h"
 #include "freeloc/geometry/hybrid_pose.h"
@@ -18,10 +19,6 @@ namespace freeloc::pipeline {
 
 namespace {
 
-double Ms(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // ----------------------------------------------------------------------------------------------------------------
 // Matchers
 
@@ -33,7 +30,7 @@ class SiftMatcher : public Matcher {
   matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs&, QueryResult* r) override {
     const auto t0 = std::chrono::steady_clock::now();
     auto c = matching::MatchSiftFeatures(ref_, matching::ExtractSift(query));
-    r->match_ms = Ms(t0);
+    r->match_ms = MsSince(t0);
     return c;
   }
 
@@ -144,7 +141,7 @@ class EssentialSolver : public PoseSolver {
     const auto rel = geometry::EstimateRelativePose(c.ref, c.query, k_ref, k_query, ro);
     r->inliers = rel.status.num_inliers;
     r->inlier_mask = rel.inliers;
-    r->solve_ms = Ms(t0);
+    r->solve_ms = MsSince(t0);
     r->status = StatusOf(rel.status.reason);
     if (!rel.status.success) return;
     r->query_from_ref = rel.query_from_ref;
@@ -154,7 +151,7 @@ class EssentialSolver : public PoseSolver {
       return;
     }
     Scale(c, rel, k_ref, k_query, d_ref, d_query, r);
-    r->solve_ms = Ms(t0);
+    r->solve_ms = MsSince(t0);
   }
 
  private:
@@ -220,7 +217,7 @@ class HybridSolver : public PoseSolver {
     if (!fits) {
       *r = ess;
       r->route = "hybrid>essential";
-      r->solve_ms = Ms(t0);
+      r->solve_ms = MsSince(t0);
       return;
     }
     r->matches = static_cast<int>(c.size());
@@ -250,7 +247,7 @@ class HybridSolver : public PoseSolver {
     r->predicted_translation_m = pe.translation_m;
     r->predicted_rotation_deg = pe.rotation_deg;
     r->confidence = ConfidenceFromPredictedError(pe);
-    r->solve_ms = Ms(t0);
+    r->solve_ms = MsSince(t0);
   }
 
  private:
@@ -279,7 +276,7 @@ class AbsoluteSolver : public PoseSolver {
     r->query_from_ref = m.query_from_ref;
     r->confidence = m.confidence;
     if (r->ok()) Confidence(c, k_ref, k_query, d_ref, d_query, r);
-    r->solve_ms = Ms(t0);
+    r->solve_ms = MsSince(t0);
   }
 
  private:
