@@ -1,5 +1,5 @@
 // The `freeloc` command line: one file per subcommand, each registering itself on the CLI11 app. Subcommands only
-// parse arguments, call the library (pipeline/, eval/, io/) and print (DESIGN §3).
+// parse arguments, call the library (pipeline/, eval/, io/) and print (docs/architecture.md §3.2).
 // Exit codes: 0 success, 1 input/runtime error, 2 usage error.
 #pragma once
 
@@ -35,7 +35,8 @@ struct PipelineArgs {
   int dust3r_size = 0;
   std::vector<std::string> sets;  // NAME=VALUE
 };
-// `networks`: also the network flags (--models, --dust3r, …); `default_preset` is shown in the help.
+// `networks`: also the stage and network flags (--matcher, --depth, --models, --dust3r, …); without them, for a
+// command given its correspondences and depth maps (pose). The help shows `default_preset`'s values.
 void AddPipelineArgs(CLI::App* sub, PipelineArgs* args, const std::string& default_preset, bool networks = true);
 // Preset, overrides, global runtime, `adjust` (a command's own rules), models found; validated. Errors name the
 // flag ("--solver: …").
@@ -58,6 +59,7 @@ void RegisterEval(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterMatch(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterOptions(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterSegment(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDepth(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run);

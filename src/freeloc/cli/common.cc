@@ -15,32 +15,33 @@ namespace freeloc::cli {
 
 namespace {
 
-// Option fields → the flags that set them.
-const std::pair<const char*, const char*> kFlags[] = {
-    {"preset", "--preset"},           {"matcher", "--matcher"},           {"depth", "--depth"},
-    {"solver", "--solver"},           {"scale", "--scale"},               {"threshold_px", "--threshold"},
-    {"instance_mode", "--instance-mode"}, {"models_dir", "--models"},     {"dust3r_model", "--dust3r"},
-    {"dust3r_config", "--dust3r-config"}, {"seggpt_model", "--seggpt"},   {"metric3d_model", "--metric3d"},
-    {"mast3r_model", "--mast3r"},
-    {"dust3r_size", "--dust3r-size"}, {"device", "--device"},             {"precision", "--precision"},
-    {"threads", "--threads"},         {"shard", "--shard"},               {"data", "--data"},
-    {"out", "--out"}};
+// Option fields → the flags that set them: the option table's own column (pipeline/options.h), plus the run
+// controller's fields that are flags of `run` alone.
+const std::vector<std::pair<std::string, std::string>>& Flags() {
+  static const std::vector<std::pair<std::string, std::string>> flags = [] {
+    std::vector<std::pair<std::string, std::string>> f;
+    for (const pipeline::OptionField& o : pipeline::OptionFields())
+      if (o.flag) f.emplace_back(o.name, o.flag);
+    for (const char* run_field : {"shard", "data", "out"}) f.emplace_back(run_field, std::string("--") + run_field);
+    return f;
+  }();
+  return flags;
+}
 
 }  // namespace
 
 // "field: …" → "--flag: …"; other fields named in the text get "(--flag)" after them.
 std::string NameFlags(std::string m) {
-  for (const auto& [field, flag] : kFlags) {  // a leading "field:" or "field " names the flag
-    const std::string f = field;
+  for (const auto& [f, flag] : Flags()) {  // a leading "field:" or "field " names the flag
     if (m.size() > f.size() && m.compare(0, f.size(), f) == 0 && (m[f.size()] == ':' || m[f.size()] == ' ')) {
       m = flag + m.substr(f.size());
       break;
     }
   }
-  for (const auto& [field, flag] : kFlags) {
-    if (std::string(field).find('_') == std::string::npos) continue;  // only unambiguous names
-    const std::regex word("\\b" + std::string(field) + "\\b(?! \\()");
-    m = std::regex_replace(m, word, std::string(field) + " (" + flag + ")");
+  for (const auto& [field, flag] : Flags()) {
+    if (field.find('_') == std::string::npos) continue;  // only unambiguous names
+    const std::regex word("\\b" + field + "\\b(?! \\()");
+    m = std::regex_replace(m, word, field + " (" + flag + ")");
   }
   return m;
 }
@@ -69,17 +70,29 @@ pipeline::PipelineOptions WithFlagNames(const std::function<pipeline::PipelineOp
   }
 }
 
+namespace {
+
+// A pipeline flag's help: the option table's text and the default preset's value (one source for both).
+std::string FlagHelp(const char* field, const pipeline::PipelineOptions& defaults) {
+  const std::string value = pipeline::GetOption(defaults, field);
+  return std::string(pipeline::FindOptionField(field).help) +
+         (value.empty() || value == "-1" ? std::string() : " (default " + value + ")");
+}
+
+}  // namespace
+
 void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_preset, bool networks) {
-  sub->add_option("--preset", a->preset,
-                  "default " + default_preset + "; sift-essential, sift-pnp, sift-procrustes, "
-                  "precomputed:<name>-<solver>, seed, seed-no-instance, seed-provided-depth, dust3r, mast3r, "
-                  "mast3r-pnp, mast3r-metric3d, seed-mast3r");
-  sub->add_option("--matcher", a->matcher,
-                  "override: sift | dust3r | dust3r+instances | mast3r | mast3r+instances | precomputed:<name>");
-  sub->add_option("--depth", a->depth, "override: provided:<suffix> | metric3d | mast3r | none");
-  sub->add_option("--solver", a->solver, "override: essential | pnp | procrustes | hybrid");
-  sub->add_option("--scale", a->scale, "override: robust | official | anchored");
-  sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels (> 0)")
+  const pipeline::PipelineOptions d = pipeline::ResolvePreset(default_preset);
+  std::string presets;
+  for (const std::string& p : pipeline::PresetNames()) presets += (presets.empty() ? "" : ", ") + p;
+  sub->add_option("--preset", a->preset, "default " + default_preset + "; one of " + presets);
+  if (networks) {  // a command given correspondences and depth maps (pose) has no matcher or depth stage to choose
+    sub->add_option("--matcher", a->matcher, "override: " + FlagHelp("matcher", d));
+    sub->add_option("--depth", a->depth, "override: " + FlagHelp("depth", d));
+  }
+  sub->add_option("--solver", a->solver, "override: " + FlagHelp("solver", d));
+  sub->add_option("--scale", a->scale, "override: " + FlagHelp("scale", d));
+  sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels (> 0; default: the preset's, else the solver's)")
       ->check(CLI::Validator(
           [](std::string& v) {
             char* end = nullptr;
@@ -88,9 +101,10 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
                                                                   : std::string("must be a positive number of pixels");
           },
           "PX"));
-  sub->add_option("--set", a->sets, "override any option field: NAME=VALUE (docs/pipeline.md lists them)");
+  sub->add_option("--set", a->sets,
+                  "override any option field: NAME=VALUE (`freeloc options` lists them with their defaults)");
   if (!networks) return;
-  sub->add_option("--instance-mode", a->instance_mode, "override: mask (default) | crop");
+  sub->add_option("--instance-mode", a->instance_mode, "override: " + FlagHelp("instance_mode", d));
   sub->add_option("--models", a->models,
                   "folder holding the published weights files (then $FREELOC_MODELS; see docs/models.md)");
   sub->add_option("--dust3r,--dust3r-model", a->dust3r_model, "DUSt3R weights (.pth, or model.safetensors)");
@@ -99,7 +113,7 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
                   "MASt3R weights (.pth with its constructor string, or model.safetensors + config.json)");
   sub->add_option("--seggpt", a->seggpt_model, "SegGPT weights (seggpt_vit_large.pth, or model.safetensors)");
   sub->add_option("--metric3d", a->metric3d_model, "Metric3D v2 weights (metric_depth_vit_*_800k.pth, …)");
-  sub->add_option("--dust3r-size", a->dust3r_size, "DUSt3R input size (default 512)");
+  sub->add_option("--dust3r-size", a->dust3r_size, FlagHelp("dust3r_size", d));
 }
 
 pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const GlobalOptions& g,

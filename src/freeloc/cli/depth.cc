@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include "freeloc/cli/commands.h"
+#include "freeloc/core/camera.h"
 #include "freeloc/core/error.h"
 #include "freeloc/pipeline/networks.h"
 
@@ -12,6 +13,7 @@ namespace {
 
 
 int RunDepth(pipeline::DepthCommand c, const GlobalOptions& g) {
+  Camera::FromString(c.intrinsics, "--intrinsics");  // the flag named in its error, before any model loads
   c.runtime = g.Runtime();
   return pipeline::Networks().depth(c);
 }

@@ -25,6 +25,8 @@ namespace {
 void SelectBlasKernels(char** argv) {
   const char* off = std::getenv("FREELOC_BLAS_SELECT");
   if (std::getenv("OPENBLAS_CORETYPE") || (off && std::strcmp(off, "0") == 0)) return;
+  for (char** a = argv + 1; *a; ++a)
+    if (std::strcmp(*a, "--check-args") == 0) return;  // nothing will run
   bool network = false;
   for (char** a = argv + 1; *a && !network; ++a)
     for (const char* c : {"pointmap", "segment", "depth", "match", "run", "relocalize", "demo"})
@@ -62,6 +64,11 @@ int main(int argc, char** argv) {
   app.add_option("--limit", limits,
                  "raise or lower an input limit, NAME=VALUE (max_image_pixels, max_zip_member_bytes, "
                  "max_submission_bytes, max_tensors, max_pickle_objects; docs/formats.md)");
+  bool check_args = false;
+  app.add_flag("--check-args", check_args,
+               "check the command line (the command, its flags and the values the parser checks) and exit "
+               "without running anything: 0 when it is valid, 2 when not; preset, stage and --set values are "
+               "checked when the command runs");
   auto* quiet = app.add_flag("-q,--quiet", global.quiet, "only errors; no progress bars");
   app.add_flag("-v,--verbose", global.verbose, "debug logging")->excludes(quiet);
   app.require_subcommand(1);
@@ -78,6 +85,7 @@ int main(int argc, char** argv) {
   cli::RegisterRelocalize(app, global, &run);
   cli::RegisterDemo(app, global, &run);
   cli::RegisterMerge(app, global, &run);
+  cli::RegisterOptions(app, global, &run);
 
   try {
     app.parse(argc, argv);
@@ -93,6 +101,10 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  if (check_args) {
+    std::printf("freeloc: the command line is valid (--check-args: nothing was run)\n");
+    return 0;
+  }
   SetLogLevel(global.quiet ? LogLevel::kError : global.verbose ? LogLevel::kDebug : LogLevel::kInfo);
   if (global.verbose) {
     const std::string core = LoadedOpenBlasCore();

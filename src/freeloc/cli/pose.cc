@@ -78,8 +78,9 @@ void RegisterPose(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--ref-depth", a->ref_depth, "reference depth PNG (uint16 mm)");
   sub->add_option("--query-depth", a->query_depth, "query depth PNG (uint16 mm)");
   sub->add_flag("--json", a->json, "one JSON record (docs/formats.md) with the resolved options");
-  AddPipelineArgs(sub, &a->pipeline, "precomputed:SIFT-essential (essential, 3 px, robust scale; or a run's preset)",
-                  /*networks=*/false);
+  // Without --preset the benchmark's correspondence baseline; with a run's --preset (and its saved matches) the
+  // answer that run gave.
+  AddPipelineArgs(sub, &a->pipeline, pipeline::CorrespondenceDefaults().preset, /*networks=*/false);
   sub->callback([a, run, &global] { *run = [a, &global] { return RunPose(*a, global); }; });
 }
 

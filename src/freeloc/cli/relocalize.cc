@@ -54,7 +54,7 @@ pipeline::PipelineOptions Options(const RelocArgs& a, const GlobalOptions& g) {
     // No depth files and no --depth: the provided-depth presets answer with a unit translation.
     if (a.ref_depth.empty() && a.query_depth.empty() && a.pipeline.depth.empty() && o->UsesProvidedDepth())
       o->depth.kind = pipeline::DepthKind::kNone;
-    FREELOC_CHECK(!o->UsesPrecomputed(), "matcher: relocalize works on images: use sift, dust3r or dust3r+instances "
+    FREELOC_CHECK(!o->UsesPrecomputed(), "matcher: relocalize works on images: use sift, dust3r, dust3r+instances, mast3r or mast3r+instances "
                                          "(precomputed correspondences go to freeloc pose)");
     ApplyMaskArgs(o, !a.ref_masks.empty(), !a.query_masks.empty());
   });
@@ -113,7 +113,7 @@ void RegisterRelocalize(CLI::App& app, const GlobalOptions& global, RunFn* run) 
   rs->add_option("--ref-depth", a->ref_depth, "reference depth PNG (uint16 mm)");
   rs->add_option("--query-depth", a->query_depth, "query depth PNG (uint16 mm)");
   rs->add_option("--ref-masks", a->ref_masks,
-                 "reference instance label PNG (0 = background, k = instance k) for dust3r+instances");
+                 "reference instance label PNG (0 = background, k = instance k) for dust3r+instances or mast3r+instances");
   rs->add_option("--query-masks", a->query_masks, "query instance label PNG (same labels; else SegGPT propagates)");
   rs->add_flag("--json", a->json, "one JSON record (docs/formats.md) with the resolved options");
   AddPipelineArgs(rs, &a->pipeline, "sift-essential");

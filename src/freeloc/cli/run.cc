@@ -123,8 +123,25 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
   std::error_code ec;
   std::filesystem::remove(spec.out, ec);
   std::filesystem::remove(spec.out + ".json", ec);
-  if (o.UsesProvidedDepth())
-    std::printf("\n(s00001 has no depth maps, so its queries cannot get a metric pose: they count as failures.)\n");
+  // What happened to the queries of a scene without depth maps (s00001 in the bundled demo), as it happened.
+  for (const auto& name : r.scenes) {
+    int no_depth = 0, submitted = 0;
+    for (const auto& q : r.results.at(name))
+      if (q.status == pipeline::QueryStatus::kNoDepth) {
+        ++no_depth;
+        submitted += q.submitted() ? 1 : 0;
+      }
+    if (no_depth == 0) continue;
+    if (submitted == no_depth)
+      std::printf("\n(%s has no depth maps: its %d queries got no metric pose (status no-depth) and were submitted "
+                  "with the prior pose, the reference camera's, at confidence 0: the metrics score the evaluated ones "
+                  "(every 5th frame) as estimates with the prior's error, not as failures.)\n",
+                  name.c_str(), no_depth);
+    else
+      std::printf("\n(%s has no depth maps: %d of its queries got no metric pose (status no-depth) and were left out "
+                  "of the submission; the metrics count them as failures.)\n",
+                  name.c_str(), no_depth - submitted);
+  }
   return 0;
 }
 
@@ -140,7 +157,7 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
       ->required();
   sub->add_option("--log", a->log, "JSON-lines log: a header record, then one record per query");
   sub->add_option("--save-matches", a->save_matches,
-                  "folder: each query's correspondences as <scene>/<frame>.matches.txt (the input of freeloc pose)");
+                  "folder: each query's correspondences as <scene>/seq1/frame_XXXXX.matches.txt (the input of freeloc pose)");
   sub->add_option("--report", a->report,
                   "folder: an HTML report of the run (index.html: metrics, every query, failures, match overlays of "
                   "the worst queries; docs/report.md)");

@@ -1,5 +1,5 @@
-// Overflow-checked size arithmetic for sizes read from files (DESIGN §2: "size arithmetic on anything read from a
-// file is overflow-checked"). Each throws freeloc::Error naming `what` instead of wrapping around.
+// Overflow-checked size arithmetic for sizes read from files (docs/architecture.md §2: "size arithmetic on anything
+// read from a file is overflow-checked"). Each throws freeloc::Error naming `what` instead of wrapping around.
 #pragma once
 
 #include <cstdint>

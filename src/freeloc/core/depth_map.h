@@ -1,4 +1,4 @@
-// Dense depth in float metres; 0 marks an invalid pixel (DESIGN §2).
+// Dense depth in float metres; 0 marks an invalid pixel (docs/architecture.md §2).
 #pragma once
 
 #include <cmath>

@@ -1,5 +1,5 @@
-// freeloc's one error policy (DESIGN §2): the library throws freeloc::Error whose message says which input,
-// what is wrong and what to do; expected estimator failures are results, not exceptions.
+// freeloc's one error policy (docs/architecture.md §2): the library throws freeloc::Error whose message says which
+// input, what is wrong and what to do; expected estimator failures are results, not exceptions.
 #pragma once
 
 #include <sstream>

@@ -1,4 +1,4 @@
-// RGB8 image, row-major H×W×3 (DESIGN §2).
+// RGB8 image, row-major H×W×3 (docs/architecture.md §2).
 #pragma once
 
 #include <cstddef>

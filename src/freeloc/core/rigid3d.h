@@ -1,4 +1,4 @@
-// Rigid transform x_b = R·x_a + t, named b_from_a (DESIGN §2). freeloc's pose is `query_from_ref`:
+// Rigid transform x_b = R·x_a + t, named b_from_a (docs/architecture.md §2). freeloc's pose is `query_from_ref`:
 // x_query = R·x_ref + t, metres (the map-free convention: world = reference camera, world-to-camera).
 #pragma once
 

@@ -82,7 +82,7 @@ EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::strin
   }
   if (dropped)
     FREELOC_LOG(WARNING) << submission_path << ": " << dropped
-                         << " lines dropped by the official parsing rules (--verbose lists them)";
+                         << " lines dropped by the official parsing rules (debug logging lists them)";
   if (missing) FREELOC_LOG(WARNING) << submission_path << ": missing pose estimates for " << missing << " frames";
   run.overall = Aggregate(run.scenes);
   for (const auto& s : run.scenes) {

@@ -197,7 +197,7 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
   FREELOC_CHECK(px_ref.size() == px_query.size(), "PnP: point lists differ in length");
   CheckFinite(px_ref, "PnP (reference points)");
   CheckFinite(px_query, "PnP (query points)");
-  FREELOC_CHECK(!depth_ref.empty(), "PnP: the reference depth map is needed (--ref-depth)");
+  FREELOC_CHECK(!depth_ref.empty(), "PnP needs the reference depth map; give the reference frame's depth");
   MetricPoseResult res;
   res.status.num_matches = static_cast<int>(px_ref.size());
   res.inliers.assign(px_ref.size(), 0);
@@ -259,7 +259,7 @@ MetricPoseResult EstimateProcrustes(const std::vector<Eigen::Vector2d>& px_ref,
   CheckFinite(px_ref, "Procrustes (reference points)");
   CheckFinite(px_query, "Procrustes (query points)");
   FREELOC_CHECK(!depth_ref.empty() && !depth_query.empty(),
-                "Procrustes: both depth maps are needed (--ref-depth and --query-depth)");
+                "Procrustes needs both depth maps; give the reference and query frames' depth");
   MetricPoseResult res;
   res.status.num_matches = static_cast<int>(px_ref.size());
   res.inliers.assign(px_ref.size(), 0);

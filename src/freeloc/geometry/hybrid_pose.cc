@@ -17,7 +17,7 @@
 namespace freeloc::geometry {
 
 void HybridPoseOptions::Validate() const {
-  FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px), "hybrid pose: --threshold must be positive pixels");
+  FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px), "hybrid pose: threshold_px must be a positive number of pixels");
   FREELOC_CHECK(reprojection_px > 0 && std::isfinite(reprojection_px),
                 "hybrid pose: the reprojection threshold must be positive pixels");
   FREELOC_CHECK(success_prob > 0 && success_prob < 1, "hybrid pose: success probability must be in (0, 1)");

@@ -11,7 +11,7 @@ namespace freeloc::geometry {
 
 void RelativePoseOptions::Validate() const {
   FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px),
-                "relative pose: --threshold must be a positive number of pixels");
+                "relative pose: threshold_px must be a positive number of pixels");
   FREELOC_CHECK(success_prob > 0 && success_prob < 1, "relative pose: success probability must be in (0, 1)");
   FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && min_iterations <= max_iterations,
                 "relative pose: need 0 <= min_iterations <= max_iterations");

@@ -48,7 +48,7 @@ DepthMap MapfreeScene::LoadDepth(const MapfreeFrame& f, const std::string& suffi
   const std::string path = DepthPath(f, suffix);
   std::error_code ec;
   FREELOC_CHECK(fs::exists(path, ec), path << ": provided depth '" << suffix << "' not found for " << f.name
-                                           << " in scene " << name << "; check the --depth suffix");
+                                           << " in scene " << name << "; check the depth suffix");
   DepthMap d = ReadDepthPng(path);
   if (f.camera.width > 0) {
     FREELOC_CHECK(d.width == f.camera.width && d.height == f.camera.height,
@@ -177,7 +177,7 @@ MapfreeScene MapfreeScene::Load(const std::string& dir) {
 
 std::string ResolveSplitDir(const std::string& root, const std::string& split) {
   std::error_code ec;
-  FREELOC_CHECK(fs::is_directory(root, ec), root << ": dataset folder not found; give --data the map-free root "
+  FREELOC_CHECK(fs::is_directory(root, ec), root << ": dataset folder not found; give the map-free root "
                                                  << "(holding train/ val/ test/) or a split folder");
   const fs::path with_split = fs::path(root) / split;
   if (fs::is_directory(with_split, ec)) return with_split.string();
@@ -185,7 +185,7 @@ std::string ResolveSplitDir(const std::string& root, const std::string& split) {
   for (const auto& e : fs::directory_iterator(root, ec)) {
     if (e.is_directory() && fs::exists(e.path() / "intrinsics.txt")) return root;
   }
-  FREELOC_THROW(root << ": has no '" << split << "' folder and no scene folders; give --data the dataset root or "
+  FREELOC_THROW(root << ": has no '" << split << "' folder and no scene folders; give the dataset root or "
                      << "the split folder");
 }
 
@@ -198,7 +198,7 @@ std::vector<std::string> ListScenes(const std::string& split_dir, const std::vec
   if (only.empty()) return names;
   for (const auto& n : only) {
     FREELOC_CHECK(std::binary_search(names.begin(), names.end(), n),
-                  split_dir << ": scene '" << n << "' from --scenes is not in this split");
+                  split_dir << ": scene '" << n << "' is not in this split");
   }
   std::vector<std::string> out = only;
   std::sort(out.begin(), out.end());

@@ -1,7 +1,7 @@
-// Instance knowledge (the paper's Eq. 1–3, DESIGN §1): for each pair of instance masks (reference, query), the
-// pointmap model runs again on the masked pair and matches are taken within the masks (Map_o); the final set takes
-// Map_o for correspondences whose reference pixel lies inside instance o's reference mask and the global matches
-// Map_g elsewhere — global matches inside a used instance mask are replaced, not added.
+// Instance knowledge (the paper's Eq. 1–3, docs/architecture.md §1): for each pair of instance masks (reference,
+// query), the pointmap model runs again on the masked pair and matches are taken within the masks (Map_o); the final
+// set takes Map_o for correspondences whose reference pixel lies inside instance o's reference mask and the global
+// matches Map_g elsewhere — global matches inside a used instance mask are replaced, not added.
 //   * kMask: pixels outside the mask are set to zero before the network (I ⊙ Mask, as in the paper).
 //   * kCrop: each image is cropped to its mask's bounding box (plus a margin) first, so the object gets more
 //     network pixels; pixels outside the mask inside the box are zeroed too.

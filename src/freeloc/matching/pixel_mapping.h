@@ -1,5 +1,5 @@
-// Network pixels → original-image pixels (DESIGN §2): undo DUSt3R's preprocessing (resize + centre crop) for each
-// frame, pixel-centre convention, so correspondences leave `matching` ready for the geometry engine with each
+// Network pixels → original-image pixels (docs/architecture.md §2): undo DUSt3R's preprocessing (resize + centre crop)
+// for each frame, pixel-centre convention, so correspondences leave `matching` ready for the geometry engine with each
 // frame's own K.
 #pragma once
 

@@ -10,7 +10,7 @@
 namespace freeloc::matching {
 
 void ReciprocalOptions::Validate() const {
-  FREELOC_CHECK(subsample >= 1, "matching: --subsample must be >= 1");
+  FREELOC_CHECK(subsample >= 1, "matching: subsample must be >= 1");
   FREELOC_CHECK(threads >= 0, "matching: threads must be >= 0");
 }
 

@@ -134,7 +134,7 @@ int Pointmap(const PointmapCommand& o) {
 
 int Segment(const SegmentCommand& o) {
   FREELOC_CHECK(!o.prompt_images.empty() && o.prompt_images.size() == o.prompt_masks.size(),
-                "give one --prompt-mask per --prompt-image (got " << o.prompt_images.size() << " images and "
+                "give one prompt mask per prompt image (got " << o.prompt_images.size() << " images and "
                                                                   << o.prompt_masks.size() << " masks)");
   const nn::RuntimeOptions& rt = o.runtime;
   const auto model = nn::SegGptModel::Load(o.model, o.config, rt);
@@ -175,7 +175,7 @@ int Segment(const SegmentCommand& o) {
 }
 
 int Depth(const DepthCommand& o) {
-  const Camera cam = Camera::FromString(o.intrinsics, "--intrinsics");
+  const Camera cam = Camera::FromString(o.intrinsics, "intrinsics");
   const nn::RuntimeOptions& rt = o.runtime;
   const auto model = nn::Metric3dModel::Load(o.model, o.config, rt);
   const Image img = ReadImage(o.image);

@@ -115,7 +115,8 @@ class Dust3rMatcher : public Matcher {
 
  private:
   // z of a network-resolution pointmap (view 1's own camera frame) at every pixel of the original image: the network
-  // pixel nearest to each original pixel (DESIGN §2's pixel-centre mapping); 0 outside the crop or behind the camera.
+  // pixel nearest to each original pixel (the pixel-centre mapping of docs/architecture.md §2); 0 outside the crop or
+  // behind the camera.
   static DepthMap NetworkDepthToImage(const std::vector<float>& pts, int h, int w, const Dust3rInput& in) {
     DepthMap d(in.orig_width, in.orig_height);
     for (int y = 0; y < d.height; ++y)

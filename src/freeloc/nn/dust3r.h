@@ -4,7 +4,7 @@
 // trunk plus the 'catmlp+dpt' local-feature head (per-token MLP on [encoder ‖ decoder] tokens, pixel-shuffled to
 // dense unit descriptors and their confidence), chosen from the checkpoint. Native portrait and mixed shapes; different token counts per view. The encoder output of
 // a view can be cached and reused against many others (`Encode` once, `Decode` per query). Torch-free interface:
-// inputs are normalised CHW floats (io/dust3r_preprocess.h), outputs float32 TensorViews.
+// inputs are normalised CHW floats (vision/dust3r_preprocess.h), outputs float32 TensorViews.
 #pragma once
 
 #include <map>

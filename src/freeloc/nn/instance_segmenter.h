@@ -1,6 +1,6 @@
-// Instance propagation with SegGPT (the paper's instance knowledge, DESIGN §1 stage 3): each reference instance
-// mask is a prompt (reference image + white-on-black mask, instance type token) and the query is the target; all
-// instances go through the network as one batch with the feature ensemble off, i.e. one independent pass per
+// Instance propagation with SegGPT (the paper's instance knowledge, docs/architecture.md §1 stage 3): each reference
+// instance mask is a prompt (reference image + white-on-black mask, instance type token) and the query is the target;
+// all instances go through the network as one batch with the feature ensemble off, i.e. one independent pass per
 // instance. Each propagated mask gets a score so weak propagations can be dropped.
 #pragma once
 

@@ -1,5 +1,5 @@
-// Where and how the networks run (DESIGN §2): typed options with one string table per enum; applied by each model
-// at load time.
+// Where and how the networks run (docs/architecture.md §2): typed options with one string table per enum; applied by
+// each model at load time.
 #pragma once
 
 #include <string>

@@ -29,7 +29,7 @@ std::string SegGptConfig::Summary() const {
 SegType ParseSegType(const std::string& s) {
   if (s == "instance") return SegType::kInstance;
   if (s == "semantic") return SegType::kSemantic;
-  FREELOC_THROW("--type '" << s << "' is unknown; use instance or semantic");
+  FREELOC_THROW("segmentation type '" << s << "' is unknown; use instance or semantic");
 }
 
 namespace {

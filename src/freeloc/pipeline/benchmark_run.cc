@@ -133,11 +133,11 @@ class Journal {
     std::vector<std::string> lines;
     for (std::string line; std::getline(in, line);)
       if (!line.empty()) lines.push_back(line);
-    FREELOC_CHECK(!lines.empty(), path_ << ": empty progress file; delete it or run without --resume");
+    FREELOC_CHECK(!lines.empty(), path_ << ": empty progress file; delete it or run without resuming");
     std::string why;
     FREELOC_CHECK(SameResultOptions(lines[0], o, &why),
                   path_ << ": written with different options (" << why
-                        << "); rerun with the same options, or without --resume");
+                        << "); rerun with the same options, or without resuming");
     for (size_t i = 1; i < lines.size(); ++i) {
       if (!ParseScene(lines[i], i + 1, i + 1 == lines.size(), &done)) break;  // the interrupted last write
     }
@@ -162,8 +162,8 @@ class Journal {
       ::close(fd);
       FREELOC_THROW(path_ << ": another freeloc run"
                           << (known ? " (process " + std::to_string(holder.l_pid) + ")" : std::string())
-                          << " is writing this submission (its progress file is locked); wait for it, or choose "
-                             "another --out");
+                          << " is writing this submission (its progress file is locked); wait for it, or write "
+                             "the submission elsewhere");
     }
     ::fcntl(fd, F_SETLK, &record);  // best effort: only used to name this process to a refused run
     struct stat st {};
@@ -201,10 +201,10 @@ class Journal {
     try {
       json = ParseSceneRecord(line, &scene, &qs);
     } catch (const Error& e) {
-      FREELOC_THROW(path_ << ": line " << number << " is " << e.what() << "; delete the file or run without --resume");
+      FREELOC_THROW(path_ << ": line " << number << " is " << e.what() << "; delete the file or run without resuming");
     }
     if (!json) {
-      FREELOC_CHECK(last, path_ << ": line " << number << " is not JSON; delete the file or run without --resume");
+      FREELOC_CHECK(last, path_ << ": line " << number << " is not JSON; delete the file or run without resuming");
       return false;
     }
     (*done)[scene] = std::move(qs);
@@ -418,7 +418,7 @@ RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, cons
   if (root && spec.resume) {
     Resume(journal, options, &res);
   } else if (root && fs::exists(journal.path())) {
-    FREELOC_LOG(WARNING) << journal.path() << " exists from an earlier run; starting over (use --resume to continue it)";
+    FREELOC_LOG(WARNING) << journal.path() << " exists from an earlier run; starting over (resume the run to continue it)";
   }
   if (root) journal.Open(spec.resume);
   std::vector<std::string> mine;

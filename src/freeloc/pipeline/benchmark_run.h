@@ -1,5 +1,5 @@
-// The run controller (DESIGN §3): every query of every scene of a map-free split into one submission. It owns the
-// long-running work — scenes read and checked before any work, networks loaded before the first scene, the
+// The run controller (docs/architecture.md §3.3): every query of every scene of a map-free split into one submission.
+// It owns the long-running work — scenes read and checked before any work, networks loaded before the first scene, the
 // journal (`<out>.progress.jsonl`: a header, then one line per finished scene, fsync'ed) and --resume, shards,
 // per-query and per-scene error isolation, the submission (atomic), the JSON-lines log and the provenance sidecar
 // `<out>.json`. `freeloc run` and `freeloc demo` only parse arguments, call RunBenchmark and print.

@@ -1,11 +1,11 @@
-// The confidence of an essential + metric-scale estimate (issue 9, DESIGN §3): the map-free AUCs rank estimates by
-// it, so it should order them by their actual error. freeloc predicts the pose error from what the stages measured
-// and ranks by it:
+// The confidence of a metric pose estimate — essential + scale, hybrid, PnP, Procrustes (docs/architecture.md §1): the map-free AUCs rank
+// estimates by it, so it should order them by their actual error. freeloc predicts the pose error from what the stages
+// measured and ranks by it:
 //   angular noise of one correspondence   σ = RMS Sampson residual of the essential inliers / focal  (radians)
 //   rotation error                        σ_R ≈ σ / √n                                    (n essential inliers)
 //   translation error from the direction  σ_dir ≈ σ · Z̄ / √n   (metres; Z̄ = mean depth of the scale inliers:
 //                                          the metric error of a direction error is independent of the baseline)
-//   translation error from the scale      σ_s = the robust scale refit's standard error (metres)
+//   translation error from the scale      σ_s = the standard error of the scale (or anchoring) that made t (metres)
 //   gross-failure risk                    the fraction of correspondences that agreed, for the essential fit and
 //                                          for the scale vote: predicted errors are divided by their geometric mean
 // Confidence = 1 / max(σ_t / 0.25 m, σ_R / 5°) with σ_t = √(σ_dir² + σ_s²) — the inverse of the predicted error in

@@ -71,7 +71,7 @@ std::string MissingModelMessage(Network n, const std::string& preset, const std:
          (dirs.empty() ? " but neither models_dir nor $FREELOC_MODELS is set" : " in " + where) +
          "; download them as docs/models.md says and set models_dir to their folder (or " + NetworkOption(n) +
          " to the file); presets that need no weights: sift-essential, sift-pnp, sift-procrustes, "
-         "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>";
+         "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes|hybrid>";
 }
 
 }  // namespace freeloc::pipeline

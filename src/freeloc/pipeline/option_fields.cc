@@ -44,69 +44,69 @@ struct Row {
   std::function<void(PipelineOptions*, const std::string&)> set;
 };
 
-#define FREELOC_TEXT(NAME, MEMBER, HELP)                                                          \
+#define FREELOC_TEXT(NAME, FLAG, MEMBER, HELP)                                                          \
   Row {                                                                                           \
-    {NAME, OptionType::kText, HELP}, [](const PipelineOptions& o) { return o.MEMBER; },          \
+    {NAME, FLAG, OptionType::kText, HELP}, [](const PipelineOptions& o) { return o.MEMBER; },          \
         [](PipelineOptions* o, const std::string& v) { o->MEMBER = v; }                            \
   }
-#define FREELOC_INT(NAME, MEMBER, HELP)                                                           \
+#define FREELOC_INT(NAME, FLAG, MEMBER, HELP)                                                           \
   Row {                                                                                           \
-    {NAME, OptionType::kInt, HELP}, [](const PipelineOptions& o) { return std::to_string(o.MEMBER); }, \
+    {NAME, FLAG, OptionType::kInt, HELP}, [](const PipelineOptions& o) { return std::to_string(o.MEMBER); }, \
         [](PipelineOptions* o, const std::string& v) { o->MEMBER = ParseInt(NAME, v); }            \
   }
-#define FREELOC_REAL(NAME, MEMBER, HELP)                                                          \
+#define FREELOC_REAL(NAME, FLAG, MEMBER, HELP)                                                          \
   Row {                                                                                           \
-    {NAME, OptionType::kReal, HELP}, [](const PipelineOptions& o) { return Real(o.MEMBER); },    \
+    {NAME, FLAG, OptionType::kReal, HELP}, [](const PipelineOptions& o) { return Real(o.MEMBER); },    \
         [](PipelineOptions* o, const std::string& v) { o->MEMBER = ParseReal(NAME, v); }           \
   }
-#define FREELOC_ENUM(NAME, MEMBER, HELP)                                                          \
+#define FREELOC_ENUM(NAME, FLAG, MEMBER, HELP)                                                          \
   Row {                                                                                           \
-    {NAME, OptionType::kText, HELP}, [](const PipelineOptions& o) { return ToString(o.MEMBER); }, \
+    {NAME, FLAG, OptionType::kText, HELP}, [](const PipelineOptions& o) { return ToString(o.MEMBER); }, \
         [](PipelineOptions* o, const std::string& v) { o->MEMBER = ParseEnum<decltype(o->MEMBER)>(v, NAME); } \
   }
 
 const std::vector<Row>& Rows() {
   static const std::vector<Row> rows = {
-      FREELOC_TEXT("preset", preset, "the preset the options started from (reported)"),
-      Row{{"matcher", OptionType::kText, "sift | dust3r | dust3r+instances | mast3r | mast3r+instances | precomputed:<name>"},
+      FREELOC_TEXT("preset", "--preset", preset, "the preset the options started from (docs/pipeline.md \"Presets\")"),
+      Row{{"matcher", "--matcher", OptionType::kText, "sift | dust3r | dust3r+instances | mast3r | mast3r+instances | precomputed:<name>"},
           [](const PipelineOptions& o) { return o.matcher.ToString(); },
           [](PipelineOptions* o, const std::string& v) { o->matcher = MatcherSpec::FromString(v); }},
-      Row{{"depth", OptionType::kText, "provided:<suffix> | metric3d | mast3r | none"},
+      Row{{"depth", "--depth", OptionType::kText, "provided:<suffix> | metric3d | mast3r | none"},
           [](const PipelineOptions& o) { return o.depth.ToString(); },
           [](PipelineOptions* o, const std::string& v) { o->depth = DepthSpec::FromString(v); }},
-      FREELOC_ENUM("solver", solver, "essential | pnp | procrustes | hybrid"),
-      FREELOC_ENUM("scale", scale, "robust | official | anchored (essential, hybrid fallback)"),
-      FREELOC_REAL("threshold_px", threshold_px, "inlier threshold in pixels; < 0: the solver's default"),
-      FREELOC_REAL("reprojection_px", reprojection_px, "hybrid: reprojection threshold through the depths, px"),
-      FREELOC_INT("depth_shifts", depth_shifts, "hybrid: 1 = also estimate each depth map's shift"),
-      FREELOC_INT("always_answer", always_answer, "1 = unsolved queries get the prior pose, confidence 0"),
-      FREELOC_TEXT("models_dir", models_dir, "folder of the published weights files"),
-      FREELOC_TEXT("dust3r_model", dust3r_model, "DUSt3R weights file"),
-      FREELOC_TEXT("dust3r_config", dust3r_config, "DUSt3R config.json (optional)"),
-      FREELOC_TEXT("mast3r_model", mast3r_model, "MASt3R weights file (.pth or model.safetensors)"),
-      FREELOC_TEXT("seggpt_model", seggpt_model, "SegGPT weights file"),
-      FREELOC_TEXT("metric3d_model", metric3d_model, "Metric3D v2 weights file"),
-      FREELOC_INT("dust3r_size", dust3r_size, "DUSt3R input size (224 or 512)"),
-      FREELOC_REAL("match_conf_threshold", match_conf_threshold, "reciprocal matching: minimum confidence"),
-      FREELOC_INT("match_subsample", match_subsample, "reciprocal matching: every k-th query pixel"),
-      FREELOC_INT("mast3r_subsample", mast3r_subsample, "MASt3R fast reciprocal NN: seed grid step"),
-      FREELOC_INT("mast3r_border", mast3r_border, "MASt3R matches: pixels dropped at each network image edge"),
-      FREELOC_REAL("mast3r_conf_threshold", mast3r_conf_threshold, "MASt3R matches: minimum desc_conf (0: none)"),
-      FREELOC_ENUM("instance_mode", instance_mode, "mask | crop"),
-      FREELOC_ENUM("instance_source", instance_source, "propagate | given"),
-      FREELOC_INT("min_instance_matches", min_instance_matches, "instances with fewer matches are not used"),
-      FREELOC_REAL("proposals.conf_quantile", proposals.conf_quantile, "drop this quantile of least confident pixels"),
-      FREELOC_REAL("proposals.depth_jump", proposals.depth_jump, "relative depth step that breaks a surface"),
-      FREELOC_REAL("proposals.normal_angle_deg", proposals.normal_angle_deg, "normal change that breaks a surface"),
-      FREELOC_REAL("proposals.min_area", proposals.min_area, "smallest instance, fraction of the image"),
-      FREELOC_INT("proposals.max_instances", proposals.max_instances, "most reference instances"),
-      FREELOC_INT("segmenter.max_batch", segmenter.max_batch, "SegGPT instances per network call"),
-      FREELOC_REAL("segmenter.min_score", segmenter.min_score, "drop propagations painted weaker than this"),
-      FREELOC_REAL("segmenter.min_area_ratio", segmenter.min_area_ratio, "query/reference area ratio, lower bound"),
-      FREELOC_REAL("segmenter.max_area_ratio", segmenter.max_area_ratio, "query/reference area ratio, upper bound"),
-      FREELOC_ENUM("device", runtime.device, "cpu | cuda"),
-      FREELOC_ENUM("precision", runtime.precision, "fp32 | bf16"),
-      FREELOC_INT("threads", runtime.threads, "CPU threads of the networks; 0: library default"),
+      FREELOC_ENUM("solver", "--solver", solver, "essential | pnp | procrustes | hybrid"),
+      FREELOC_ENUM("scale", "--scale", scale, "anchored | robust | official: metric scale of essential (and hybrid's fallback)"),
+      FREELOC_REAL("threshold_px", "--threshold", threshold_px, "inlier threshold in pixels; -1: the solver's default"),
+      FREELOC_REAL("reprojection_px", nullptr, reprojection_px, "hybrid: reprojection threshold through the depths, px"),
+      FREELOC_INT("depth_shifts", nullptr, depth_shifts, "hybrid: 1 = also estimate each depth map's shift"),
+      FREELOC_INT("always_answer", nullptr, always_answer, "1 = unsolved queries get the prior pose, confidence 0"),
+      FREELOC_TEXT("models_dir", "--models", models_dir, "folder of the published weights files"),
+      FREELOC_TEXT("dust3r_model", "--dust3r", dust3r_model, "DUSt3R weights file"),
+      FREELOC_TEXT("dust3r_config", "--dust3r-config", dust3r_config, "DUSt3R config.json (optional)"),
+      FREELOC_TEXT("mast3r_model", "--mast3r", mast3r_model, "MASt3R weights file (.pth or model.safetensors)"),
+      FREELOC_TEXT("seggpt_model", "--seggpt", seggpt_model, "SegGPT weights file"),
+      FREELOC_TEXT("metric3d_model", "--metric3d", metric3d_model, "Metric3D v2 weights file"),
+      FREELOC_INT("dust3r_size", "--dust3r-size", dust3r_size, "DUSt3R/MASt3R input size, long side (224, or a multiple of 16 ≥ 224; the released models: 512)"),
+      FREELOC_REAL("match_conf_threshold", nullptr, match_conf_threshold, "reciprocal matching: minimum confidence"),
+      FREELOC_INT("match_subsample", nullptr, match_subsample, "reciprocal matching: every k-th query pixel"),
+      FREELOC_INT("mast3r_subsample", nullptr, mast3r_subsample, "MASt3R fast reciprocal NN: seed grid step"),
+      FREELOC_INT("mast3r_border", nullptr, mast3r_border, "MASt3R matches: pixels dropped at each network image edge"),
+      FREELOC_REAL("mast3r_conf_threshold", nullptr, mast3r_conf_threshold, "MASt3R matches: minimum desc_conf (0: none)"),
+      FREELOC_ENUM("instance_mode", "--instance-mode", instance_mode, "mask | crop"),
+      FREELOC_ENUM("instance_source", nullptr, instance_source, "propagate | given"),
+      FREELOC_INT("min_instance_matches", nullptr, min_instance_matches, "instances with fewer matches are not used"),
+      FREELOC_REAL("proposals.conf_quantile", nullptr, proposals.conf_quantile, "drop this quantile of least confident pixels"),
+      FREELOC_REAL("proposals.depth_jump", nullptr, proposals.depth_jump, "relative depth step that breaks a surface"),
+      FREELOC_REAL("proposals.normal_angle_deg", nullptr, proposals.normal_angle_deg, "normal change that breaks a surface"),
+      FREELOC_REAL("proposals.min_area", nullptr, proposals.min_area, "smallest instance, fraction of the image"),
+      FREELOC_INT("proposals.max_instances", nullptr, proposals.max_instances, "most reference instances"),
+      FREELOC_INT("segmenter.max_batch", nullptr, segmenter.max_batch, "SegGPT instances per network call"),
+      FREELOC_REAL("segmenter.min_score", nullptr, segmenter.min_score, "drop propagations painted weaker than this"),
+      FREELOC_REAL("segmenter.min_area_ratio", nullptr, segmenter.min_area_ratio, "query/reference area ratio, lower bound"),
+      FREELOC_REAL("segmenter.max_area_ratio", nullptr, segmenter.max_area_ratio, "query/reference area ratio, upper bound"),
+      FREELOC_ENUM("device", "--device", runtime.device, "cpu | cuda"),
+      FREELOC_ENUM("precision", "--precision", runtime.precision, "fp32 | bf16"),
+      FREELOC_INT("threads", "--threads", runtime.threads, "CPU threads of the networks; 0: library default"),
   };
   return rows;
 }
@@ -140,5 +140,42 @@ void SetOption(PipelineOptions* options, const std::string& name, const std::str
 }
 
 std::string GetOption(const PipelineOptions& options, const std::string& name) { return Find(name).get(options); }
+
+const OptionField& FindOptionField(const std::string& name) { return Find(name).field; }
+
+namespace {
+
+std::string EscapeCell(const std::string& text) {  // a Markdown table cell: "|" would end it
+  std::string out;
+  for (char c : text) out += c == '|' ? std::string("\\|") : std::string(1, c);
+  return out;
+}
+
+// The shortest text that reads back as `v` (0.3, not 0.29999999999999999): for people, not for the records.
+std::string ShortestReal(double v) {
+  char buf[32];
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+}  // namespace
+
+std::string OptionTableMarkdown() {
+  const PipelineOptions defaults;
+  std::string md =
+      "| option (`--set NAME=…`, Python keyword, JSON key) | flag | type | default | what it sets |\n"
+      "|---|---|---|---|---|\n";
+  for (const Row& r : Rows()) {
+    std::string value = r.get(defaults);
+    if (r.field.type == OptionType::kReal) value = ShortestReal(std::strtod(value.c_str(), nullptr));
+    const char* type = r.field.type == OptionType::kInt ? "integer" : r.field.type == OptionType::kReal ? "number" : "text";
+    md += std::string("| `") + r.field.name + "` | " + (r.field.flag ? std::string("`") + r.field.flag + "`" : "–") +
+          " | " + type + " | " + (value.empty() ? "–" : "`" + value + "`") + " | " + EscapeCell(r.field.help) + " |\n";
+  }
+  return md;
+}
 
 }  // namespace freeloc::pipeline

@@ -1,5 +1,5 @@
-// The pipeline's plain types (DESIGN §2): typed options (each enum with one string table; text is parsed once,
-// where it enters — CLI, preset table, JSON, Python), a query's result with its status enum, and the per-scene
+// The pipeline's plain types (docs/architecture.md §2): typed options (each enum with one string table; text is parsed
+// once, where it enters — CLI, preset table, JSON, Python), a query's result with its status enum, and the per-scene
 // cache counters. Light header.
 #pragma once
 
@@ -26,16 +26,19 @@ enum class MatcherKind { kSift, kDust3r, kDust3rInstances, kMast3r, kMast3rInsta
 enum class DepthKind { kProvided, kMetric3d, kMast3r, kNone };
 // essential (5-point LO-RANSAC + metric scale from both depths) | pnp (reference depth) | procrustes (both) |
 // hybrid (depth-aware hybrid LO-RANSAC, geometry/hybrid_pose.h; metric scale anchored on the reference depth, on
-// both when they agree; falls back to essential + scale vote when the depth model fits worse).
+// both when they agree; falls back to the essential route, with the `scale` method, when the depth model fits worse
+// or fails).
 enum class SolverKind { kEssential, kPnp, kProcrustes, kHybrid };
-// Where dust3r+instances gets its instance masks: kPropagate — the reference's given labels or proposals from its
-// own pointmap, propagated into each query by SegGPT; kGiven — label images given for both frames (no SegGPT).
+// Where dust3r+instances / mast3r+instances get their instance masks: kPropagate — the reference's given labels or
+// proposals from its own pointmap, propagated into each query by SegGPT; kGiven — label images given for both frames
+// (no SegGPT).
 enum class InstanceSource { kPropagate, kGiven };
 
 struct MatcherSpec {
   MatcherKind kind = MatcherKind::kSift;
   std::string correspondences;  // kPrecomputed: the name in correspondences_<name>.npz (SIFT, SG, LoFTR, …)
-  // "sift" | "dust3r" | "dust3r+instances" | "precomputed:<name>"; throws naming the field "matcher".
+  // "sift" | "dust3r" | "dust3r+instances" | "mast3r" | "mast3r+instances" | "precomputed:<name>"; throws naming the
+  // field "matcher".
   static MatcherSpec FromString(const std::string& text);
   std::string ToString() const;
   bool operator==(const MatcherSpec& o) const { return kind == o.kind && correspondences == o.correspondences; }
@@ -44,7 +47,7 @@ struct MatcherSpec {
 struct DepthSpec {
   DepthKind kind = DepthKind::kProvided;
   std::string suffix = "sensor";  // kProvided: frame_xxxxx.<suffix>.png
-  // "provided:<suffix>" | "metric3d" | "none"; throws naming the field "depth".
+  // "provided:<suffix>" | "metric3d" | "mast3r" | "none"; throws naming the field "depth".
   static DepthSpec FromString(const std::string& text);
   std::string ToString() const;
   bool operator==(const DepthSpec& o) const { return kind == o.kind && suffix == o.suffix; }
@@ -109,7 +112,8 @@ struct PipelineOptions {
 };
 
 // What happened to a query: one text form each (EnumTable<QueryStatus>), used by the log, JSON records, the CLI
-// and the submission (only kOk and kOkUnitTranslation poses are submitted).
+// and the submission (solved poses are submitted; with always_answer every other query too, as the prior pose with
+// confidence 0).
 enum class QueryStatus {
   kOk,                 // metric pose
   kOkUnitTranslation,  // essential without depth: rotation + translation direction (unit norm)
@@ -134,13 +138,15 @@ struct QueryResult {
   bool answered = false;
   bool submitted() const { return ok() || answered; }
   std::string route;  // the solver's route: "essential", "hybrid", "hybrid>essential" (fell back), "pnp", …
-  double confidence = 0;  // essential + robust scale: confidence.h; official scale: its support; pnp/procrustes: inliers
+  // The confidence model (confidence.h) for every solver; official scale: its support; unit translation: the inlier
+  // count; answered: 0.
+  double confidence = 0;
   int matches = 0, inliers = 0;
   std::vector<char> inlier_mask;          // per correspondence into the solver (not in the JSON records)
   int global_matches = 0;                 // dust3r matchers: before the instance merge
   int instances = 0, instances_used = 0;  // reference instances tried / whose matches replaced global ones
   int scale_inliers = 0;                  // correspondences agreeing on the metric scale
-  double predicted_translation_m = 0;     // essential + robust scale: the predicted error (confidence.h)
+  double predicted_translation_m = 0;     // the predicted error (confidence.h)
   double predicted_rotation_deg = 0;
   double depth_ms = 0, match_ms = 0, instance_ms = 0, solve_ms = 0;
   // Inside match_ms / instance_ms (network matchers): the global pair's network pass, SegGPT's propagation, the
@@ -218,20 +224,26 @@ namespace freeloc::pipeline {
 enum class OptionType { kText, kInt, kReal };
 struct OptionField {
   const char* name;
+  const char* flag;  // the command-line flag that sets it (relocalize, run, pose …), nullptr: only `--set NAME=…`
   OptionType type;
   const char* help;
 };
 const std::vector<OptionField>& OptionFields();
 void SetOption(PipelineOptions* options, const std::string& name, const std::string& value);
 std::string GetOption(const PipelineOptions& options, const std::string& name);
+const OptionField& FindOptionField(const std::string& name);  // throws naming the options when unknown
+// The option table as Markdown (name, flag, type, default of a default-constructed PipelineOptions, help): what
+// docs/formats.md shows and `freeloc options --markdown` prints; a test keeps the two equal.
+std::string OptionTableMarkdown();
 
 // Presets (the paper's method, its ablations and the benchmark's baselines) as option sets; overridable field by
 // field. Throws freeloc::Error naming the preset and the available ones when unknown.
 PipelineOptions ResolvePreset(const std::string& name);
-std::vector<std::string> PresetNames();  // with "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes>" as one
+// With "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes|hybrid>" as one.
+std::vector<std::string> PresetNames();
 
 // A pose from correspondences handed in (`freeloc pose`, Python's estimate_relative_pose): without a preset the
-// benchmark's correspondence baseline, precomputed:SIFT-essential (essential, 3 px, robust scale) — the answer
+// benchmark's correspondence baseline, precomputed:SIFT-essential (essential, 3 px, anchored scale) — the answer
 // `freeloc run --preset precomputed:SIFT-essential` gives for the same rows and depths; ForCorrespondences then
 // points the matcher at the rows handed in and the depth stage at the maps handed in (provided) or none.
 PipelineOptions CorrespondenceDefaults();

@@ -83,7 +83,7 @@ PipelineOptions ResolvePreset(const std::string& name) {
   FREELOC_THROW("preset: '" << name << "' is unknown; available: " << AvailablePresets());
 }
 
-// The benchmark's correspondence baseline (precomputed:SIFT-essential: essential, 3 px, robust scale), so `freeloc
+// The benchmark's correspondence baseline (precomputed:SIFT-essential: essential, 3 px, anchored scale), so `freeloc
 // pose` on a run's correspondences gives that run's answer without further flags.
 const char kCorrespondencePreset[] = "precomputed:SIFT-essential";
 

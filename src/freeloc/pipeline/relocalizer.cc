@@ -185,7 +185,8 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
     ref.depth = ProvidedDepthOf(scene, scene.reference, o);
     if (o.UsesProvidedDepth() && ref.depth.empty())
       FREELOC_LOG(WARNING) << scene.name << ": no '" << o.depth.suffix << "' depth for the reference ("
-                           << scene.DepthPath(scene.reference, o.depth.suffix) << "); every query fails";
+                           << scene.DepthPath(scene.reference, o.depth.suffix) << "); no query gets a metric pose"
+                           << (o.always_answer ? " (each is submitted with the prior pose, confidence 0)" : "");
     reloc.SetReference(scene.LoadImage(scene.reference), scene.reference.camera, std::move(ref));
     if (o.UsesPrecomputed()) pre = scene.LoadCorrespondences(o.matcher.correspondences);
   } catch (const std::exception& e) {

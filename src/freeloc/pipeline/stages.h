@@ -1,6 +1,7 @@
-// The pipeline's stages as interfaces (DESIGN §1–3), so a library user can plug in their own: a Matcher gives
-// correspondences between the reference and a query, a DepthEstimator the metric depth of a frame, a PoseSolver the
-// pose from both. Each does its reference-frame share once in SetReference; the rest runs per query. The built-in
+// The pipeline's stages as interfaces (docs/architecture.md §1–3), so a library user can plug in their own: a Matcher
+// gives correspondences between the reference and a query, a DepthEstimator the metric depth of a frame, a PoseSolver
+// the pose from both. The Matcher does its reference-frame share once in SetReference (the Relocalizer runs the
+// DepthEstimator on the reference once); the rest runs per query. The built-in
 // implementations are made from PipelineOptions (MakeMatcher, MakeDepthEstimator, MakePoseSolver) — the same
 // objects behind `freeloc run`, `relocalize`, `pose`, `match` and the Python bindings. Light header.
 #pragma once
@@ -48,7 +49,8 @@ class Matcher {
   virtual bool PairDepth(bool /*with_query*/, DepthMap* /*ref*/, DepthMap* /*query*/) { return false; }
 };
 
-// metric3d (Metric3D v2 on the image) | provided (the depth handed in) | none (always empty).
+// metric3d (Metric3D v2 on the image) | provided (the depth handed in) | none (always empty). Depth `mast3r` comes
+// from the matcher's pair instead (Matcher::PairDepth).
 class DepthEstimator {
  public:
   virtual ~DepthEstimator() = default;
@@ -58,7 +60,8 @@ class DepthEstimator {
   virtual void AddStats(CacheStats* /*stats*/) const {}
 };
 
-// essential (+ metric scale when both depths exist) | pnp (reference depth) | procrustes (both depths). Fills
+// essential (+ metric scale when both depths exist) | hybrid (depth-aware, essential fallback) | pnp (reference
+// depth) | procrustes (both depths). Fills
 // r->status, query_from_ref, confidence, matches, inliers, scale_inliers, predicted errors, solve_ms.
 class PoseSolver {
  public:

@@ -20,7 +20,7 @@ int PyRound(double v) {
 void Dust3rPreprocessOptions::Validate() const {
   FREELOC_CHECK(patch_size > 0, "DUSt3R preprocessing: patch size must be positive");
   FREELOC_CHECK(size == 224 || (size >= patch_size && size % patch_size == 0),
-                "DUSt3R preprocessing: --size " << size << " is not supported; use 224 or a multiple of " << patch_size
+                "DUSt3R preprocessing: size " << size << " is not supported; use 224 or a multiple of " << patch_size
                                                 << " (512 for the released model)");
 }
 

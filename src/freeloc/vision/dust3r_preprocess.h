@@ -26,7 +26,7 @@ struct Dust3rInput {
 
   int width() const { return image.width; }
   int height() const { return image.height; }
-  // Network pixel → original pixel (pixel-centre convention, DESIGN §2).
+  // Network pixel → original pixel (pixel-centre convention, docs/architecture.md §2).
   void ToOriginal(double x_net, double y_net, double* x_orig, double* y_orig) const;
   // Original pixel → network pixel (inverse of ToOriginal).
   void ToNetwork(double x_orig, double y_orig, double* x_net, double* y_net) const;

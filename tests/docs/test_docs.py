@@ -1,0 +1,127 @@
+"""Claims of the docs that can be checked against the tree: files the docs and comments cite exist, the architecture
+document has the sections comments cite, and library errors name no command-line flag."""
+import os
+import re
+
+import pytest
+
+SOURCE = os.path.abspath(os.environ.get("FREELOC_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", "..")))
+CODE_DIRS = ["src", "python", "bench", "tests", "fuzz", "scripts", "cmake"]
+LIBRARY_MODULES = ["core", "io", "vision", "geometry", "nn", "matching", "pipeline", "networks", "eval"]
+
+
+def files(dirs, exts):
+    for d in dirs:
+        for root, _, names in os.walk(os.path.join(SOURCE, d)):
+            for n in names:
+                if n.endswith(exts):
+                    yield os.path.join(root, n)
+
+
+def test_architecture_document_has_the_cited_sections():
+    path = os.path.join(SOURCE, "docs", "architecture.md")
+    assert os.path.isfile(path), "docs/architecture.md is missing"
+    text = open(path, encoding="utf-8").read()
+    sections = set(re.findall(r"^## (\d+)\.", text, re.M))
+    assert {"1", "2", "3"} <= sections, sections
+    for name in ["core", "io", "vision", "geometry", "nn", "matching", "pipeline", "networks", "eval", "cli"]:
+        assert f"`{name}" in text, f"docs/architecture.md does not describe {name}/"
+    # Every "docs/architecture.md §N" anywhere in the tree names a section that exists.
+    for f in list(files(CODE_DIRS + ["docs"], (".cc", ".h", ".py", ".md", ".sh", ".txt"))) + [
+            os.path.join(SOURCE, "README.md")]:
+        for n in re.findall(r"architecture\.md §(\d+)", open(f, encoding="utf-8", errors="replace").read()):
+            assert n in sections, f"{os.path.relpath(f, SOURCE)} cites docs/architecture.md §{n}, which does not exist"
+
+
+def test_no_citation_of_a_file_the_repository_lacks():
+    bad = []
+    cited = re.compile(r"(?<![\w/.])((?:docs|bench|scripts|tests|fuzz|python|src|data)/[\w./-]*\w)")
+    for f in list(files(CODE_DIRS + ["docs"], (".cc", ".h", ".py", ".md", ".sh", ".txt", ".cmake"))) + [
+            os.path.join(SOURCE, "README.md"), os.path.join(SOURCE, "Makefile")]:
+        if f == os.path.abspath(__file__):
+            continue
+        text = open(f, encoding="utf-8", errors="replace").read()
+        for n, line in enumerate(text.split("\n"), 1):
+            if re.search(r"\bDESIGN(\.md)?\b", line):
+                bad.append(f"{os.path.relpath(f, SOURCE)}:{n}: cites DESIGN, which the repository lacks")
+            for path in cited.findall(line):
+                if any(ch in path for ch in "<>*{}$") or path.startswith("src/freeloc/<"):
+                    continue
+                p = path.rstrip(".")
+                # A file named with its folder omitted for brevity is not a citation of a missing file.
+                if not any(os.path.exists(os.path.join(base, p))
+                           for base in (SOURCE, os.path.join(SOURCE, "src", "freeloc"), os.path.dirname(f))):
+                    if p.endswith((".md", ".h", ".cc", ".py", ".sh", ".txt", ".json")):
+                        bad.append(f"{os.path.relpath(f, SOURCE)}:{n}: cites {p}, which does not exist")
+    assert not bad, "\n".join(bad)
+
+
+def test_cited_specs_exist_beside_the_checkout():
+    spec = os.path.join(SOURCE, "..", "shared", "spec")
+    if not os.path.isdir(spec):
+        pytest.skip("no ../shared/spec beside the checkout")
+    bad = []
+    for f in files(CODE_DIRS + ["docs"], (".cc", ".h", ".py", ".md")):
+        for n, line in enumerate(open(f, encoding="utf-8", errors="replace"), 1):
+            for name in re.findall(r"(?<![\w/])spec/([\w-]+\.md)", line):
+                if not os.path.isfile(os.path.join(spec, name)):
+                    bad.append(f"{os.path.relpath(f, SOURCE)}:{n}: cites spec/{name}, not in ../shared/spec")
+    assert not bad, "\n".join(bad)
+
+
+FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
+# The option registry declares each option's flag; the input-limit registry names its own setters.
+REGISTRIES = (os.path.join("pipeline", "option_fields.cc"), os.path.join("core", "limits.cc"))
+
+
+def string_literals(code):
+    """(line, text) of every string literal outside comments (plain C++ tokenizing; no raw strings in the tree)."""
+    out, i, n, line = [], 0, len(code), 1
+    while i < n:
+        c = code[i]
+        if c == "\n":
+            line += 1
+        if code.startswith("//", i):
+            j = code.find("\n", i)
+            i = n if j < 0 else j
+            continue
+        if code.startswith("/*", i):
+            j = code.find("*/", i + 2)
+            line += code.count("\n", i, j)
+            i = n if j < 0 else j + 2
+            continue
+        if c == "'":  # a character literal, e.g. '"'
+            j = i + 1
+            while j < n and code[j] != "'":
+                j += 2 if code[j] == "\\" else 1
+            i = j + 1
+            continue
+        if c == '"':
+            j, start = i + 1, line
+            while j < n and code[j] != '"':
+                j += 2 if code[j] == "\\" else 1
+            out.append((start, code[i + 1:j]))
+            i = j + 1
+            continue
+        i += 1
+    return out
+
+
+def test_the_literal_scanner_finds_what_it_must():
+    code = 'x = 1; // "--not-this"\nFREELOC_CHECK(a, "b; c" << \'"\' << "--this");\n/* "--nor" */ y("--that");'
+    found = [t for _, t in string_literals(code) if FLAG.search(t)]
+    assert found == ["--this", "--that"], found
+
+
+@pytest.mark.parametrize("module", LIBRARY_MODULES)
+def test_library_messages_name_no_flag(module):
+    """The library names option fields and inputs in its errors and logs; the CLI turns fields into flags
+    (cli/common.cc), Python into keywords."""
+    bad = []
+    for f in files([os.path.join("src", "freeloc", module)], (".cc", ".h")):
+        if f.endswith("_test.cc") or f.endswith(REGISTRIES):
+            continue
+        for line, lit in string_literals(open(f, encoding="utf-8").read()):
+            if FLAG.search(lit):
+                bad.append(f"{os.path.relpath(f, SOURCE)}:{line}: \"{lit}\"")
+    assert not bad, "library messages that name a command-line flag:\n" + "\n".join(bad)
