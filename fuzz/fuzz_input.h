@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <string>
 
 #include "freeloc/core/error.h"
@@ -32,6 +33,36 @@ inline uint64_t Touch(const TensorView& t) {
   for (size_t k = 0; k < t.nbytes; ++k) s += t.data[k];
   return s;
 }
+
+// Reads the fuzzer's bytes as a stream of choices; past the end every choice is 0.
+class Choices {
+ public:
+  Choices(const uint8_t* d, size_t n) : d_(d), n_(n) {}
+  uint8_t Byte() { return i_ < n_ ? d_[i_++] : 0; }
+  // An integer biased to the edges that break size arithmetic.
+  int64_t Int() {
+    switch (Byte() % 12) {
+      case 0: return 0;
+      case 1: return 1;
+      case 2: return -1;
+      case 3: return std::numeric_limits<int64_t>::max();
+      case 4: return std::numeric_limits<int64_t>::min();
+      case 5: return int64_t{1} << 62;
+      case 6: return int64_t{1} << 61;
+      case 7: return int64_t{1} << (Byte() % 63);
+      case 8: {
+        uint64_t v = 0;
+        for (int k = 0; k < 8; ++k) v = v << 8 | Byte();
+        return static_cast<int64_t>(v);
+      }
+      default: return Byte() % 24;
+    }
+  }
+
+ private:
+  const uint8_t* d_;
+  size_t n_, i_ = 0;
+};
 
 template <class F>
 void Expect(F&& f) {

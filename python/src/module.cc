@@ -85,6 +85,11 @@ Camera CameraOf(const py::handle& k, const char* what, int width = 0, int height
   if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy)) || c.fx <= 0 ||
       c.fy <= 0 || m(2, 0) != 0 || m(2, 1) != 0 || m(2, 2) != 1)
     BadValue(std::string(what) + ": expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with positive finite focals");
+  try {
+    c.Validate(what);  // the map-free reader's bounds (with the image's size when known)
+  } catch (const Error& e) {
+    BadValue(e.what());
+  }
   return c;
 }
 
@@ -358,6 +363,16 @@ py::dict Run(const std::string& data, const std::string& out, const std::string&
   d["queries"] = r.queries;
   d["relocalized"] = r.relocalized;
   d["resumed_scenes"] = r.resumed_scenes;
+  d["statuses"] = r.statuses;
+  d["input_errors"] = r.input_errors;  // queries that failed on a damaged or unreadable file (status error)
+  d["input_error_messages"] = r.input_error_messages;
+  if (r.input_errors > 0) {  // as the command says it (and exits 3): never a silent "0 of N"
+    const std::string msg = std::to_string(r.input_errors) + " of " + std::to_string(r.queries) +
+                            " queries failed on input errors (status error); first: " +
+                            (r.input_error_messages.empty() ? std::string() : r.input_error_messages[0]) +
+                            " — see result['input_error_messages']";
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, msg.c_str(), 1) != 0) throw py::error_already_set();
+  }
   py::dict per_scene;
   for (const auto& [name, results] : r.results) {
     py::list l;

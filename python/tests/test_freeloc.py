@@ -282,3 +282,79 @@ def test_blas_selection_respects_the_user_and_reports_the_kernels():
     r = subprocess.run([BIN, "-v", "match", "--model", "none.pth", "a.png", "b.png", "--out", "x.txt"],
                        capture_output=True, text=True, env=env)
     assert "BLAS: OpenBLAS" in r.stderr and "OPENBLAS_CORETYPE=Haswell set by the user" in r.stderr, r.stderr
+
+
+def _hostile_pth(path, declared_numel, record_bytes, offset, shape, stride):
+    """A torch.save zip whose storage/view metadata is chosen freely (as tests/testing/pth_builder.h writes it)."""
+    import zipfile
+
+    def s(x):
+        b = x.encode()
+        return b"X" + struct.pack("<I", len(b)) + b
+
+    def long8(v):
+        return b"\x8a\x08" + struct.pack("<q", v)
+
+    def ints(v):
+        return b"(" + b"".join(long8(x) for x in v) + b"t"
+
+    pkl = (b"\x80\x02}(" + s("w") + b"ctorch._utils\n_rebuild_tensor_v2\n((" + s("storage") + b"ctorch\nFloatStorage\n"
+           + s("0") + s("cpu") + long8(declared_numel) + b"tQ" + long8(offset) + ints(shape) + ints(stride)
+           + b"\x89ccollections\nOrderedDict\n)RtRu.")
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED) as z:
+        z.writestr("archive/data.pkl", pkl)
+        z.writestr("archive/byteorder", "little")
+        z.writestr("archive/data/0", bytes(record_bytes))
+
+
+def test_hostile_inputs_raise_freeloc_error_never_crash(tmp_path):
+    """The hostile classes through the Python API: each raises freeloc.Error (files) or ValueError (arguments)."""
+    # A storage count whose byte size wraps 64 bits, with a view far into it (once a SIGSEGV).
+    _hostile_pth(tmp_path / "wrap.pth", 1 << 62, 16, 1 << 40, [4], [1])
+    with pytest.raises(freeloc.Error, match="wrap.pth"):
+        freeloc.Dust3r(str(tmp_path / "wrap.pth"))
+    _hostile_pth(tmp_path / "neg.pth", -1, 16, 0, [0], [1])
+    with pytest.raises(freeloc.Error, match="declares -1 elements"):
+        freeloc.Dust3r(str(tmp_path / "neg.pth"))
+    _hostile_pth(tmp_path / "far.pth", 4, 16, 1 << 50, [0], [1])
+    with pytest.raises(freeloc.Error, match="outside its storage"):
+        freeloc.Dust3r(str(tmp_path / "far.pth"))
+    # A JPEG cut after its EXIF thumbnail (an FF D9 near the end, no image data).
+    thumb = b"\xff\xd8\xff\xdb\x00\x04\x00\x00\xff\xd9"
+    app1 = b"\xff\xe1" + struct.pack(">H", 2 + 6 + len(thumb)) + b"Exif\x00\x00" + thumb
+    (tmp_path / "cut.jpg").write_bytes(b"\xff\xd8" + app1)
+    with pytest.raises(freeloc.Error, match="cut.jpg: JPEG ends before its end-of-image marker"):
+        freeloc.read_image(tmp_path / "cut.jpg")
+    # Intrinsics beyond the image: ValueError naming the argument.
+    reloc = freeloc.Relocalizer()
+    huge = np.array([[1e308, 0, 320], [0, 1e308, 240], [0, 0, 1]])
+    with pytest.raises(ValueError, match="K_ref: focal length"):
+        reloc.relocalize(os.path.join(S3, "seq0", "frame_00000.png"), os.path.join(S3, "seq1", "frame_00000.png"),
+                         huge, K_TUM)
+    # A frame name that leaves its scene.
+    import shutil
+    split = tmp_path / "data" / "val"
+    shutil.copytree(S3, split / "s00003")
+    k = (split / "s00003" / "intrinsics.txt").read_text()
+    (split / "s00003" / "intrinsics.txt").write_text(k + "../s00002/seq1/frame_00000.png 535 539 320 247 640 480\n")
+    with pytest.raises(freeloc.Error, match="is not a path inside the scene"):
+        freeloc.run(str(tmp_path / "data"), str(tmp_path / "x.zip"))
+    assert not (tmp_path / "x.zip").exists()
+    # A preset whose name would become a path.
+    with pytest.raises(ValueError, match="not a path"):
+        freeloc.run(DEMO, str(tmp_path / "y.zip"), preset="precomputed:../../x-essential")
+
+
+def test_run_with_damaged_inputs_reports_them(tmp_path):
+    """As `freeloc run` exits 3 and prints them, Python warns and returns the count and the first messages."""
+    import shutil
+    split = tmp_path / "data" / "val"
+    shutil.copytree(S3, split / "s00003")
+    (split / "s00003" / "seq1" / "frame_00000.png").write_bytes(b"not a png")
+    with pytest.warns(RuntimeWarning, match="1 of 1 queries failed on input errors"):
+        r = freeloc.run(str(tmp_path / "data"), str(tmp_path / "x.zip"))
+    assert r["input_errors"] == 1 and r["statuses"] == {"error": 1}
+    assert "s00003/seq1/frame_00000.png" in r["input_error_messages"][0]
+    assert (tmp_path / "x.zip").exists()
+    p = cli("run", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "c.zip"), check=False)
+    assert p.returncode == 3 and "1 of 1 queries failed on input errors" in p.stderr

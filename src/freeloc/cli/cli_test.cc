@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -669,8 +671,15 @@ TEST(Cli, RunReportsBadInputClearly) {
   freeloc::testing::WriteText(split + "/s00002/seq1/frame_00000.png", "not a png");
   fs::remove(split + "/s00003/seq1/frame_00000.png");
   r = RunFreeloc(run + tmp.File("b.zip"));
-  ASSERT_EQ(r.code, 0) << r.out;
+  // The submission is written, but the run says how many queries failed on input errors, shows the first messages
+  // and where the log is, and exits 3 (never a silent "0 of N" with exit 0).
+  ASSERT_EQ(r.code, 3) << r.out;
   EXPECT_TRUE(Contains(r.out, "0 of 2 queries relocalized in 2 scenes")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "statuses: error 2")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "2 of 2 queries failed on input errors (status error), every record in " +
+                                  tmp.File("log.jsonl")))
+      << r.out;
+  EXPECT_TRUE(Contains(r.out, "  s00002/seq1/frame_00000.png: " + split + "/s00002/seq1/frame_00000.png")) << r.out;
   const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
   EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00002/seq1/frame_00000.png")) << log;
   EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00003/seq1/frame_00000.png")) << log;
@@ -680,14 +689,14 @@ TEST(Cli, RunReportsBadInputClearly) {
   EXPECT_EQ(zip.at("pose_s00002.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0\n");
   EXPECT_EQ(zip.at("pose_s00003.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0\n");
   r = RunFreeloc(run + tmp.File("b0.zip") + " --set always_answer=0");
-  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_EQ(r.code, 3) << r.out;
   const auto zip0 = freeloc::ZipContents::Read(tmp.File("b0.zip")).files;
   EXPECT_EQ(zip0.at("pose_s00002.txt"), "");
   EXPECT_EQ(zip0.at("pose_s00003.txt"), "");
   // A missing reference image fails its scene's queries.
   fs::remove(split + "/s00003/seq0/frame_00000.png");
   r = RunFreeloc(run + tmp.File("c.zip") + " --scenes s00003");
-  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_EQ(r.code, 3) << r.out;
   EXPECT_TRUE(Contains(freeloc::testing::ReadText(tmp.File("log.jsonl")), "\"status\":\"error\",\"message\":\"reference: ")) << r.out;
   // A scene without intrinsics: stops before any scene is processed, naming the file.
   fs::remove(split + "/s00003/intrinsics.txt");
@@ -1046,4 +1055,114 @@ TEST(Cli, CheckArgsValidatesWithoutRunning) {
   EXPECT_EQ(r.code, 2) << r.out;
   r = RunFreeloc("--check-args run --data x --out y.zip --shard 5/4");
   EXPECT_EQ(r.code, 2) << r.out;
+}
+
+// Every output path is checked before the first byte of any output: a run whose --out or --log cannot be written
+// fails at once and leaves nothing (no journal, no submission, no sidecar).
+TEST(Cli, RunThatCannotWriteItsOutputsFailsAtOnceAndLeavesNothing) {
+  namespace fs = std::filesystem;
+  freeloc::testing::TempDir tmp;
+  const std::string run = "run --data " + freeloc::testing::DemoPath() + " --scenes s00003";
+  auto files = [&] {
+    size_t n = 0;
+    for (const auto& e : fs::recursive_directory_iterator(tmp.path())) n += e.is_regular_file() ? 1 : 0;
+    return n;
+  };
+  fs::create_directories(tmp.File("adir"));
+  Result r = RunFreeloc(run + " --out " + tmp.File("adir"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, tmp.File("adir") + ": is a folder, but the submission is a file")) << r.out;
+  r = RunFreeloc(run + " --out " + tmp.File("s.zip") + " --log " + tmp.File("adir"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "is a folder, but the run log is a file")) << r.out;
+  r = RunFreeloc(run + " --out " + tmp.File("s.zip") + " --log " + tmp.File("no/such/folder/log.jsonl"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "does not exist; create it first (the run log)")) << r.out;
+  r = RunFreeloc(run + " --out " + tmp.File("s.zip") + " --log " + tmp.File("s.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "--log: " + tmp.File("s.zip") + " is also the submission")) << r.out;
+  freeloc::testing::WriteText(tmp.File("afile"), "x");
+  r = RunFreeloc(run + " --out " + tmp.File("s.zip") + " --report " + tmp.File("afile"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "is a file, but the HTML report is a folder")) << r.out;
+  EXPECT_EQ(files(), 1u);  // only the test's own afile
+  EXPECT_FALSE(fs::exists(tmp.File("s.zip.progress.jsonl")));
+  r = RunFreeloc(run + " --out " + tmp.File("s.zip") + " --log " + tmp.File("log.jsonl"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(tmp.File("s.zip")) && fs::exists(tmp.File("log.jsonl")));
+}
+
+// Names that become file names are names, not paths: a usage error where the flag is parsed, an error through --set.
+TEST(Cli, NamesThatBecomeFileNamesAreNotPaths) {
+  freeloc::testing::TempDir tmp;
+  const std::string run = "run --data " + freeloc::testing::DemoPath() + " --out " + tmp.File("s.zip");
+  for (const char* bad : {" --preset precomputed:../../x-essential", " --preset precomputed:/etc/x-pnp",
+                          " --matcher precomputed:../SIFT", " --depth provided:../../s00002/seq0/frame_00000.sensor",
+                          " --depth provided:a/b"}) {
+    const Result r = RunFreeloc(run + bad);
+    EXPECT_EQ(r.code, 2) << bad << "\n" << r.out;
+    EXPECT_TRUE(Contains(r.out, "not a path")) << bad << "\n" << r.out;
+  }
+  Result r = RunFreeloc(run + " --set depth=provided:../x");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "the suffix must be letters, digits")) << r.out;
+  r = RunFreeloc(run + " --depth provided:sensor.v2 --scenes s00003");  // a dotted name is still a name
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "no scene has this depth")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("s.zip")));
+}
+
+// Intrinsics from the command line meet the map-free reader's bounds once the image's size is known.
+TEST(Cli, IntrinsicsFromFlagsAreCheckedAgainstTheImage) {
+  const std::string s = freeloc::testing::DemoPath("val/s00003/");
+  const std::string pair = "relocalize --ref " + s + "seq0/frame_00000.png --query " + s + "seq1/frame_00000.png ";
+  const std::string k = "535.4,539.2,320.1,247.6";
+  Result r = RunFreeloc(pair + "--ref-intrinsics 1e308,1e308,320,240 --query-intrinsics " + k);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "reference intrinsics: focal length")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "exceeds 100 image widths")) << r.out;
+  r = RunFreeloc(pair + "--ref-intrinsics " + k + " --query-intrinsics 535,539,5000,247");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "query intrinsics: principal point (5000, 247) is far outside the 640x480 image")) << r.out;
+  // depth --intrinsics: refused before any model is read (no weights needed to see it).
+  freeloc::testing::TempDir tmp;
+  r = RunFreeloc("depth --model " + tmp.File("none.pth") + " --image " + s + "seq0/frame_00000.png --intrinsics "
+                 "1e308,1e308,320,240 --out " + tmp.File("d.png"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "exceeds 100 image widths")) << r.out;
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("d.png")));
+}
+
+// An extreme estimate: the JSON and the Markdown table carry the same value — a finite number both ways, or the
+// official evaluator's Infinity in both (json.dumps writes Infinity; null in one and a number in the other was a bug).
+TEST(Cli, EvalJsonAndTableAgreeOnExtremeEstimates) {
+  freeloc::testing::TempDir tmp;
+  const std::string data = freeloc::testing::DemoPath();
+  for (const double t : {1e150, 1e200, 1e308}) {
+    std::map<std::string, std::vector<freeloc::SubmissionEntry>> sub;
+    sub["s00003"].push_back(
+        {"seq1/frame_00000.png", freeloc::Rigid3d::FromWxyz({1, 0, 0, 0}, Eigen::Vector3d(t, t, t)), 1});
+    freeloc::WriteSubmission(tmp.File("x.zip"), sub);
+    const Result j = RunFreeloc("-q eval --data " + data + " --scenes s00003 --submission " + tmp.File("x.zip") +
+                                " --json -");
+    const Result m = RunFreeloc("-q eval --data " + data + " --scenes s00003 --submission " + tmp.File("x.zip"));
+    ASSERT_EQ(j.code, 0) << j.out;
+    ASSERT_EQ(m.code, 0) << m.out;
+    EXPECT_FALSE(Contains(j.out, "null")) << j.out;
+    for (const char* metric : {"Average Median Translation Error", "Average Median Reprojection Error"}) {
+      const size_t at = j.out.find(std::string("\"") + metric + "\": ");
+      ASSERT_NE(at, std::string::npos) << j.out;
+      const std::string token = j.out.substr(at + std::strlen(metric) + 4, j.out.find_first_of(",\n}", at) -
+                                                                              (at + std::strlen(metric) + 4));
+      const size_t row = m.out.find(std::string("| ") + metric + " | ");
+      ASSERT_NE(row, std::string::npos) << m.out;
+      const std::string cell = m.out.substr(row + std::strlen(metric) + 5, m.out.find(' ', row + std::strlen(metric) + 5) -
+                                                                              (row + std::strlen(metric) + 5));
+      if (token == "Infinity" || token == "NaN") {
+        EXPECT_EQ(cell, token) << metric << " at t=" << t;
+      } else {
+        EXPECT_NEAR(std::stod(cell), std::stod(token), std::abs(std::stod(token)) * 1e-3 + 1e-3) << metric;
+      }
+    }
+  }
 }

@@ -22,7 +22,7 @@ const std::vector<std::pair<std::string, std::string>>& Flags() {
     std::vector<std::pair<std::string, std::string>> f;
     for (const pipeline::OptionField& o : pipeline::OptionFields())
       if (o.flag) f.emplace_back(o.name, o.flag);
-    for (const char* run_field : {"shard", "data", "out"}) f.emplace_back(run_field, std::string("--") + run_field);
+    for (const char* run_field : {"shard", "data", "out", "log"}) f.emplace_back(run_field, std::string("--") + run_field);
     return f;
   }();
   return flags;
@@ -79,16 +79,34 @@ std::string FlagHelp(const char* field, const pipeline::PipelineOptions& default
          (value.empty() || value == "-1" ? std::string() : " (default " + value + ")");
 }
 
+// Names that become file names (precomputed:<name>[-<solver>], provided:<suffix>) are checked as the flag is parsed:
+// a path there is a usage error (exit 2), never a file opened outside the scene.
+CLI::Validator FileNameParts() {
+  return CLI::Validator(
+      [](std::string& v) {
+        const size_t colon = v.find(':');
+        if (colon == std::string::npos) return std::string();
+        const std::string head = v.substr(0, colon);
+        std::string name = v.substr(colon + 1);
+        if (head == "precomputed" && name.find('-') != std::string::npos && name.find('/') == std::string::npos)
+          name = name.substr(0, name.rfind('-'));  // a preset's precomputed:<name>-<solver>
+        if ((head == "precomputed" || head == "provided") && !pipeline::IsFileNamePart(name))
+          return "'" + name + "' names a file: letters, digits, '_', '-', '.' or '+' only, not a path";
+        return std::string();
+      },
+      "NAME");
+}
+
 }  // namespace
 
 void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_preset, bool networks) {
   const pipeline::PipelineOptions d = pipeline::ResolvePreset(default_preset);
   std::string presets;
   for (const std::string& p : pipeline::PresetNames()) presets += (presets.empty() ? "" : ", ") + p;
-  sub->add_option("--preset", a->preset, "default " + default_preset + "; one of " + presets);
+  sub->add_option("--preset", a->preset, "default " + default_preset + "; one of " + presets)->check(FileNameParts());
   if (networks) {  // a command given correspondences and depth maps (pose) has no matcher or depth stage to choose
-    sub->add_option("--matcher", a->matcher, "override: " + FlagHelp("matcher", d));
-    sub->add_option("--depth", a->depth, "override: " + FlagHelp("depth", d));
+    sub->add_option("--matcher", a->matcher, "override: " + FlagHelp("matcher", d))->check(FileNameParts());
+    sub->add_option("--depth", a->depth, "override: " + FlagHelp("depth", d))->check(FileNameParts());
   }
   sub->add_option("--solver", a->solver, "override: " + FlagHelp("solver", d));
   sub->add_option("--scale", a->scale, "override: " + FlagHelp("scale", d));

@@ -49,10 +49,22 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     spec.resume = a.resume;
     if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
     const pipeline::RunResult r = pipeline::RunBenchmark(spec, o, nullptr, comm.get());
-    if (root)
-      std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized,
-                  r.queries, r.scenes.size(), a.out.c_str());
-    return 0;
+    if (!root) return 0;
+    std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized,
+                r.queries, r.scenes.size(), a.out.c_str());
+    std::string statuses;
+    for (const auto& [status, n] : r.statuses) statuses += (statuses.empty() ? "" : ", ") + status + " " + std::to_string(n);
+    std::printf("statuses: %s\n", statuses.c_str());
+    if (r.input_errors == 0) return 0;
+    // Queries that failed on input errors (damaged or unreadable files): the submission is written (they carry the
+    // prior pose), but the run says so and exits 3, so a script cannot mistake it for a clean run.
+    std::fprintf(stderr, "freeloc: %zu of %zu queries failed on input errors (status error)%s:\n", r.input_errors,
+                 r.queries, a.log.empty() ? "" : (", every record in " + a.log).c_str());
+    for (const auto& m : r.input_error_messages) std::fprintf(stderr, "  %s\n", SafeText(m, 300).c_str());
+    if (r.input_errors > r.input_error_messages.size())
+      std::fprintf(stderr, "  … and %zu more%s\n", r.input_errors - r.input_error_messages.size(),
+                   a.log.empty() ? " (run with --log FILE for every record)" : "");
+    return 3;
   } catch (const std::exception& e) {
     if (!comm) throw Error(NameFlags(e.what()));
     // One rank cannot go on: say so once per rank and end every rank (none may wait for it forever).

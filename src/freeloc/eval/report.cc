@@ -18,7 +18,25 @@ namespace {
 
 std::string F(const char* fmt, double v) { return FormatNumber(fmt, v); }
 
-nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+// Non-finite metrics are written as the official evaluator's json.dumps writes them (Infinity, -Infinity, NaN; Python's
+// json.loads reads them back): a marked string in the tree, replaced by the bare token when dumped (JsonDump).
+const char kNonFinite[] = "\x01nonfinite:";
+
+std::string NonFiniteToken(double v) { return std::isnan(v) ? "NaN" : v > 0 ? "Infinity" : "-Infinity"; }
+
+nlohmann::json Num(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(std::string(kNonFinite) + NonFiniteToken(v));
+}
+
+std::string JsonDump(const nlohmann::ordered_json& j, int indent) {
+  std::string out = j.dump(indent);
+  const std::string mark = "\"\\u0001nonfinite:";
+  for (size_t k = out.find(mark); k != std::string::npos; k = out.find(mark, k)) {
+    const size_t end = out.find('"', k + mark.size());
+    out.replace(k, end + 1 - k, out.substr(k + mark.size(), end - k - mark.size()));
+  }
+  return out;
+}
 
 nlohmann::ordered_json MetricsJson(const Metrics& m) {
   nlohmann::ordered_json j;
@@ -45,9 +63,10 @@ std::string EscapeMarkup(const std::string& text) {
 }
 
 std::string FormatNumber(const char* fmt, double v) {
-  if (std::isnan(v)) return "nan";
+  if (!std::isfinite(v)) return NonFiniteToken(v);  // as the JSON says it
   char b[64];
-  std::snprintf(b, sizeof(b), fmt, v);
+  // Fixed notation of a huge value (an extreme estimate) would be cut at the buffer: the same value in e-notation.
+  std::snprintf(b, sizeof(b), std::abs(v) >= 1e12 ? "%.6e" : fmt, v);
   return b;
 }
 
@@ -171,7 +190,7 @@ std::string JsonReport(const EvalRun& r, int indent) {
                  {"failures", r.overall.failures},
                  {"frames", r.overall.estimates + r.overall.failures},
                  {"lines_dropped", dropped}};
-  return j.dump(indent) + "\n";
+  return JsonDump(j, indent) + "\n";
 }
 
 std::string ErrorsCsv(const EvalRun& r) {

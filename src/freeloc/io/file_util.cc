@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -88,6 +89,40 @@ void WriteFileAtomicWith(const std::string& path, const std::function<void(const
     fs::remove(tmp, ec);
     throw;
   }
+}
+
+void CheckWritableFile(const std::string& path, const std::string& what) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  FREELOC_CHECK(!path.empty(), what << ": no path given");
+  FREELOC_CHECK(!fs::is_directory(path, ec), path << ": is a folder, but " << what << " is a file; give a file path");
+  const fs::path target(path);
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  FREELOC_CHECK(fs::is_directory(dir, ec),
+                path << ": the folder " << dir.string() << " does not exist; create it first (" << what << ")");
+  // A real probe (as root, access(2) says yes even on a read-only mount): create and remove a file beside it.
+  std::string probe = (dir / ("." + target.filename().string() + ".probeXXXXXX")).string();
+  const int fd = ::mkstemp(probe.data());
+  FREELOC_CHECK(fd >= 0, path << ": cannot write in " << dir.string() << " (" << std::strerror(errno) << "); "
+                              << "choose a writable place for " << what);
+  ::close(fd);
+  fs::remove(probe, ec);
+}
+
+void CheckWritableFolder(const std::string& path, const std::string& what) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(path, ec)) {
+    FREELOC_CHECK(fs::is_directory(path, ec), path << ": is a file, but " << what << " is a folder; give a folder path");
+    CheckWritableFile((fs::path(path) / "probe").string(), what);
+    return;
+  }
+  fs::path p(path);
+  if (!p.has_filename()) p = p.parent_path();  // "report/"
+  const fs::path parent = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  FREELOC_CHECK(fs::is_directory(parent, ec),
+                path << ": its folder " << parent.string() << " does not exist; create it first (" << what << ")");
+  CheckWritableFile(p.string(), what);  // the folder will be created there
 }
 
 void WriteFileAtomic(const std::string& path, const void* bytes, size_t size) {

@@ -30,6 +30,11 @@ class MappedFile {
 // Writes `bytes` to `path` atomically: a temporary file in the same folder, fsync, rename.
 // A crash leaves either the old file or the new one, never a truncated file.
 void WriteFileAtomic(const std::string& path, const void* bytes, size_t size);
+// Before a long job writes anything: `path` can be written as a file (not a folder, its folder exists and takes a
+// new file — probed, not assumed) / as a folder (an existing writable folder, or creatable in an existing one).
+// Throws naming the path and `what` it is for.
+void CheckWritableFile(const std::string& path, const std::string& what);
+void CheckWritableFolder(const std::string& path, const std::string& what);
 // Same, but the content is produced by `writer`, which gets the temporary file's path.
 void WriteFileAtomicWith(const std::string& path, const std::function<void(const std::string& tmp_path)>& writer);
 

@@ -3,6 +3,8 @@
 // files made safe to print. Each input is the minimal one of its class.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include <string>
 
 #include "freeloc/core/camera.h"
@@ -195,6 +197,35 @@ TEST(HostileText, IntrinsicsOutOfRangeOrDuplicatedAreRefused) {
       "seq0/frame_00000.jpg 500 500 270 360 540 720\nseq1/frame_00000.jpg 500 500 270 360 540 720\n"
       "seq0/frame_00000.jpg 600 600 270 360 540 720\n");
   EXPECT_NE(dup.find("line 3: frame seq0/frame_00000.jpg is already listed on line 1"), std::string::npos) << dup;
+}
+
+// A frame name may not leave its scene: "../s00002/seq1/…" once read another scene's files and wrote that name into
+// the submission. Scene files name frames seq<N>/<file>; anything else is refused with the line number.
+TEST(HostileText, FrameNamesStayInsideTheirScene) {
+  namespace fs = std::filesystem;
+  testing::TempDir tmp;
+  const std::string scene = tmp.File("s00001");
+  fs::create_directories(scene);
+  const std::string ok = "seq0/frame_00000.jpg 500 500 270 360 540 720\nseq1/frame_00000.jpg 500 500 270 360 540 720\n";
+  auto load = [&](const std::string& intrinsics, const std::string& poses) {
+    testing::WriteText(scene + "/intrinsics.txt", intrinsics);
+    testing::WriteText(scene + "/poses.txt", poses);
+    return ErrorOf([&] { MapfreeScene::Load(scene); });
+  };
+  EXPECT_EQ(load(ok, "seq0/frame_00000.jpg 1 0 0 0 0 0 0\n"), "");
+  for (const char* bad : {"../s00002/seq1/frame_00000.jpg", "/etc/passwd", "seq1/../../s00002/seq1/frame_00000.jpg",
+                          "seq1//frame.jpg", "seq1/./frame.jpg", "frame_00000.jpg", "seqx/frame.jpg", "seq1\\f.jpg"}) {
+    const std::string e = load(ok + bad + std::string(" 500 500 270 360 540 720\n"), "");
+    EXPECT_NE(e.find("intrinsics.txt line 3: frame name"), std::string::npos) << bad << ": " << e;
+    EXPECT_NE(e.find("is not a path inside the scene"), std::string::npos) << bad << ": " << e;
+  }
+  const std::string e = load(ok, "seq0/frame_00000.jpg 1 0 0 0 0 0 0\n../s00002/seq1/frame_00000.jpg 1 0 0 0 0 0 0\n");
+  EXPECT_NE(e.find("poses.txt line 2: frame name"), std::string::npos) << e;
+  // A blank line of spaces in poses.txt is skipped (it once indexed an empty split).
+  EXPECT_EQ(load(ok, "seq0/frame_00000.jpg 1 0 0 0 0 0 0\n   \nseq1/frame_00000.jpg 1 0 0 0 0 0 0\n"), "");
+  // relocalize --intrinsics FILE names the user's own images: any name is fine there.
+  testing::WriteText(tmp.File("k.txt"), "photos/ref.jpg 500 500 270 360 540 720\n");
+  EXPECT_EQ(ErrorOf([&] { ReadIntrinsicsFile(tmp.File("k.txt")); }), "");
 }
 
 }  // namespace

@@ -48,17 +48,53 @@ ImageFormat FormatFromExtension(const std::string& path) {
   return ImageFormat::kUnknown;
 }
 
+// Walks a JPEG's segments from SOI to EOI, the way a decoder meets them: each marker segment must lie inside the file,
+// a frame header and a scan must come before the end-of-image marker, and each scan's entropy-coded data must end in
+// a marker. "" when complete, else what is wrong. (An FF D9 near the end is not enough: an EXIF thumbnail holds its
+// own, so a file cut after its APP1 segment once passed.)
+std::string JpegStructureProblem(const std::vector<uint8_t>& b) {
+  const size_t n = b.size();
+  size_t k = 2;  // after SOI
+  bool frame = false, scan = false;
+  while (true) {
+    if (k >= n) return "ends before its end-of-image marker";
+    if (b[k] != 0xFF) return "has data outside a segment at byte " + std::to_string(k);
+    while (k < n && b[k] == 0xFF) ++k;  // fill bytes
+    if (k >= n) return "ends before its end-of-image marker";
+    const uint8_t m = b[k++];
+    if (m == 0xD9) {
+      if (!frame || !scan) return "ends without image data (no frame header or scan before the end-of-image marker)";
+      return "";
+    }
+    if ((m >= 0xD0 && m <= 0xD7) || m == 0x01) continue;  // standalone markers
+    if (k + 2 > n) return "ends inside a marker segment";
+    const size_t len = (size_t{b[k]} << 8) | b[k + 1];
+    if (len < 2 || k + len > n) return "ends inside a marker segment (truncated)";
+    if (m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC) frame = true;
+    k += len;
+    if (m != 0xDA) continue;
+    if (!frame) return "has a scan before its frame header";
+    scan = true;
+    // Entropy-coded data: ends at the first FF that is neither stuffing (FF 00) nor a restart marker.
+    while (true) {
+      while (k < n && b[k] != 0xFF) ++k;
+      if (k + 1 >= n) return "ends inside its image data (truncated)";
+      const uint8_t next = b[k + 1];
+      if (next == 0x00 || (next >= 0xD0 && next <= 0xD7) || next == 0xFF) {
+        k += next == 0xFF ? 1 : 2;
+        continue;
+      }
+      break;
+    }
+  }
+}
+
 // libjpeg and libpng "recover" from truncation by padding with grey; we refuse such files instead.
 void CheckComplete(ImageFormat f, const std::vector<uint8_t>& b, const std::string& what) {
   const std::string fix = "; the file is truncated or damaged — copy or download it again";
   if (f == ImageFormat::kJpeg) {
-    // The end-of-image marker FF D9 must appear at the end (a little trailing padding is tolerated).
-    const size_t tail = std::min<size_t>(b.size(), 1024);
-    bool found = false;
-    for (size_t k = b.size() - tail; k + 1 < b.size(); ++k) {
-      if (b[k] == 0xFF && b[k + 1] == 0xD9) found = true;
-    }
-    FREELOC_CHECK(found, what << ": JPEG has no end-of-image marker" << fix);
+    const std::string problem = JpegStructureProblem(b);
+    FREELOC_CHECK(problem.empty(), what << ": JPEG " << problem << fix);
   } else if (f == ImageFormat::kPng) {
     const size_t tail = std::min<size_t>(b.size(), 64);
     bool found = false;
@@ -170,6 +206,20 @@ Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
   CheckComplete(f, bytes, what);
   CheckPixelLimit(f, bytes, what);
   Image img;
+  if (f == ImageFormat::kPng && bytes.size() > 25 && bytes[24] == 16 && bytes[25] == 0) {
+    // 16-bit greyscale: Pillow, which the networks' reference preprocessing uses, converts it to RGB by clipping each
+    // value to 255 (mode I;16 → RGB); OpenCV would keep the high byte. Decoded here as Pillow does.
+    int w = 0, h = 0, bits = 0;
+    const std::vector<uint16_t> v = internal::DecodeGreyPng(bytes, what, &w, &h, &bits);
+    img.width = w;
+    img.height = h;
+    img.data.resize(static_cast<size_t>(w) * h * 3);
+    for (size_t i = 0; i < v.size(); ++i) {
+      const uint8_t g = static_cast<uint8_t>(std::min<uint16_t>(v[i], 255));
+      img.data[3 * i] = img.data[3 * i + 1] = img.data[3 * i + 2] = g;
+    }
+    return img;
+  }
   std::string error;
   if (!internal::Codecs().decode_rgb(bytes.data(), bytes.size(), &img, &error)) {
     FREELOC_THROW(what << ": cannot decode the " << ImageFormatName(f) << " data"

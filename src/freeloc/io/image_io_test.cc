@@ -108,10 +108,51 @@ TEST(ImageIo, TruncatedFilesAreErrors) {
     DecodeString(jpg.substr(0, jpg.size() - 40), "cut.jpg");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("cut.jpg: JPEG has no end-of-image marker"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cut.jpg: JPEG ends inside its image data (truncated)"), std::string::npos)
+        << e.what();
   }
   EXPECT_THROW(DecodeString(png.substr(0, 10)), Error);
   EXPECT_THROW(DecodeString(""), Error);
+}
+
+// A JPEG whose APP1 segment carries an EXIF thumbnail (a whole JPEG, with its own end-of-image marker) and that is cut
+// right after that segment: an FF D9 sits near the end, but the image has no frame or scan. Pillow refuses it ("image
+// file is truncated"); so must we. Cut inside the segment, inside the scan, or missing only the final marker: refused.
+TEST(ImageIo, JpegTruncatedAfterAnEarlyMarkerIsRefused) {
+  const std::string jpg = Encode(TwoColourBgr(), ".jpg");
+  const std::string thumb = Encode(TwoColourBgr()(cv::Rect(0, 0, 8, 8)), ".jpg");
+  std::string app1 = "\xFF\xE1";
+  const size_t len = 2 + 6 + thumb.size();
+  app1 += static_cast<char>(len >> 8);
+  app1 += static_cast<char>(len & 0xFF);
+  app1 += std::string("Exif\0\0", 6) + thumb;
+  const std::string whole = jpg.substr(0, 2) + app1 + jpg.substr(2);
+  EXPECT_EQ(DecodeString(whole).width, 64);  // the complete file is fine
+  const std::string cut = jpg.substr(0, 2) + app1;
+  ASSERT_NE(cut.find("\xFF\xD9", cut.size() - 8), std::string::npos);  // the thumbnail's marker near the end
+  const std::string e = testing::ErrorOf([&] { DecodeString(cut, "cut.jpg"); });
+  EXPECT_NE(e.find("cut.jpg: JPEG ends before its end-of-image marker"), std::string::npos) << e;
+  EXPECT_FALSE(testing::ErrorOf([&] { DecodeString(jpg.substr(0, 2) + app1.substr(0, 30)); }).empty());
+  EXPECT_FALSE(testing::ErrorOf([&] { DecodeString(whole.substr(0, whole.size() - 2)); }).empty());
+  // Any cut at all of a baseline file is refused.
+  for (size_t n = 2; n + 2 < whole.size(); n += 37) EXPECT_THROW(DecodeString(whole.substr(0, n)), Error) << n;
+}
+
+// 16-bit greyscale PNGs reach the networks as Pillow's convert("RGB") gives them (mode I;16 → RGB clips each value to
+// 255; Pillow's Convert.c I16_RGB), not as OpenCV's high byte: the network input must equal the reference's.
+TEST(ImageIo, SixteenBitGreyPngDecodesAsPillowConvertsIt) {
+  testing::TempDir tmp;
+  const std::vector<uint16_t> v = {0, 1, 200, 255, 256, 1000, 40000, 65535};
+  WritePng16(tmp.File("g16.png"), 4, 2, v);
+  const Image im = ReadImage(tmp.File("g16.png"));
+  ASSERT_EQ(im.width, 4);
+  ASSERT_EQ(im.height, 2);
+  for (size_t i = 0; i < v.size(); ++i)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(im.data[3 * i + c], std::min<int>(v[i], 255)) << i;
+  // 8-bit grey and 16-bit RGB keep their decoding (Pillow: L → RGB copies; RGB;16 keeps the high byte, as OpenCV).
+  WritePng8(tmp.File("g8.png"), 2, 1, {7, 250});
+  const Image g8 = ReadImage(tmp.File("g8.png"));
+  EXPECT_EQ(g8.data, (std::vector<uint8_t>{7, 7, 7, 250, 250, 250}));
 }
 
 TEST(ImageIo, ContentDecidesNotTheExtension) {

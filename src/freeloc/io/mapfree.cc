@@ -1,6 +1,7 @@
 #include "freeloc/io/mapfree.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -83,7 +84,28 @@ std::vector<std::vector<Eigen::Vector4d>> MapfreeScene::LoadCorrespondences(cons
   return out;
 }
 
-std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& ipath) {
+// A frame name must be a relative path inside its scene: seq<N>/<file>, no "..", ".", empty or absolute parts, no
+// backslashes or control characters — a name like "../s00002/seq1/frame_00000.jpg" would read another scene's
+// files and be written into the submission.
+void CheckFrameName(const std::string& name, const std::string& where) {
+  bool ok = name.size() > 5 && name.compare(0, 3, "seq") == 0 && name.find('\\') == std::string::npos;
+  size_t k = 3;
+  while (ok && k < name.size() && std::isdigit(static_cast<unsigned char>(name[k]))) ++k;
+  ok = ok && k > 3 && k < name.size() && name[k] == '/';
+  for (size_t start = k + 1; ok && start <= name.size();) {
+    size_t end = name.find('/', start);
+    if (end == std::string::npos) end = name.size();
+    const std::string part = name.substr(start, end - start);
+    ok = !part.empty() && part != "." && part != "..";
+    start = end + 1;
+  }
+  for (char c : name) ok = ok && static_cast<unsigned char>(c) >= 0x20;
+  FREELOC_CHECK(ok, where << ": frame name '" << SafeText(name, 200) << "' is not a path inside the scene; frame names "
+                          << "are relative, like seq0/frame_00000.jpg (seq<N>/ then the file, no '..' or absolute "
+                          << "paths)");
+}
+
+std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& ipath, bool scene_frames) {
   std::vector<MapfreeFrame> out;
   std::map<std::string, size_t> seen;  // frame → its line
   const auto lines = py::SplitLines(ReadText(ipath));
@@ -95,6 +117,7 @@ std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& ipath) {
                   where << ": expected 7 fields 'path fx fy cx cy width height', got " << parts.size());
     MapfreeFrame f;
     f.name = parts[0];
+    if (scene_frames) CheckFrameName(f.name, where);
     f.camera.fx = Number(parts[1], where);
     f.camera.fy = Number(parts[2], where);
     f.camera.cx = Number(parts[3], where);
@@ -125,7 +148,7 @@ MapfreeScene MapfreeScene::Load(const std::string& dir) {
   FREELOC_CHECK(fs::exists(ipath, ec), ipath << ": missing; every scene needs intrinsics.txt (path fx fy cx cy W H)");
   std::map<std::string, MapfreeFrame> frames;
   std::vector<std::string> order;
-  for (const MapfreeFrame& f : ReadIntrinsicsFile(ipath)) {
+  for (const MapfreeFrame& f : ReadIntrinsicsFile(ipath, /*scene_frames=*/true)) {
     if (!frames.count(f.name)) order.push_back(f.name);
     frames[f.name] = f;
   }
@@ -149,7 +172,7 @@ MapfreeScene MapfreeScene::Load(const std::string& dir) {
     for (size_t i = 0; i < plines.size(); ++i) {
       const std::string where = ppath + " line " + std::to_string(i + 1);
       const auto parts = py::SplitSpace(py::Strip(plines[i]));
-      if (parts[0].find('#') != std::string::npos || py::Strip(plines[i]).empty()) continue;
+      if (parts.empty() || parts[0].find('#') != std::string::npos || py::Strip(plines[i]).empty()) continue;
       FREELOC_CHECK(parts.size() == 8,
                     where << ": expected 8 fields 'path qw qx qy qz tx ty tz', got " << parts.size());
       double v[7];
@@ -159,7 +182,8 @@ MapfreeScene MapfreeScene::Load(const std::string& dir) {
         if (v[k] != 0) all_zero = false;
       }
       const std::string& n = parts[0];
-      FREELOC_CHECK(frames.count(n), where << ": frame " << n << " is not listed in intrinsics.txt");
+      CheckFrameName(n, where);
+      FREELOC_CHECK(frames.count(n), where << ": frame " << SafeText(n, 200) << " is not listed in intrinsics.txt");
       if (n.rfind("seq1/", 0) == 0 && std::find(query_order.begin(), query_order.end(), n) == query_order.end())
         query_order.push_back(n);
       const double qn = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);

@@ -25,7 +25,9 @@ struct MapfreeFrame {
 
 // The frames of an intrinsics file (`path fx fy cx cy width height` per line, `#` lines skipped), in file order.
 // Throws freeloc::Error naming the file and line.
-std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& path);
+// `scene_frames`: the file is a scene's intrinsics.txt, whose frame names must be paths inside the scene
+// (seq<N>/<file>; refused with the line number otherwise).
+std::vector<MapfreeFrame> ReadIntrinsicsFile(const std::string& path, bool scene_frames = false);
 
 struct MapfreeScene {
   std::string name;  // "s00460"

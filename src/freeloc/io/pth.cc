@@ -73,7 +73,8 @@ TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> s
   t.dtype = st.dtype;
   t.shape = std::move(shape);
   FREELOC_CHECK(stride.size() == t.shape.size(), what << ": tensor size and stride differ in length");
-  FREELOC_CHECK(offset >= 0, what << ": negative storage offset " << offset << "; the checkpoint is damaged");
+  FREELOC_CHECK(offset >= 0 && offset <= st.numel, what << ": storage offset " << offset << " lies outside its storage of "
+                                                        << st.numel << " elements; the checkpoint is damaged");
   const int64_t numel = CheckedNumel(t.shape, what);
   // Extent check, overflow-safe: every addressed element must lie inside the storage.
   int64_t max_index = offset;
@@ -220,11 +221,22 @@ class PthReader {
       FREELOC_CHECK(ReadRecord(rec, st.bytes.get()), path_ << ": storage record '" << rec
                                                            << "' is missing from the archive; the checkpoint is "
                                                            << "incomplete or damaged — re-download it");
-      FREELOC_CHECK(st.bytes->size() >= static_cast<size_t>(st.numel) * DTypeSize(st.dtype),
+      // The declared element count against the record's real length, in checked arithmetic: a count whose byte
+      // size wraps 64 bits must not match a tiny record (every view is bounded by this count afterwards).
+      FREELOC_CHECK(st.numel >= 0, path_ << ": storage record '" << rec << "' declares " << st.numel
+                                         << " elements; the checkpoint is damaged");
+      const int64_t need = CheckedMul(st.numel, static_cast<int64_t>(DTypeSize(st.dtype)),
+                                      path_ + ": storage record '" + rec + "' size");
+      FREELOC_CHECK(st.bytes->size() >= static_cast<uint64_t>(need),
                     path_ << ": storage record '" << rec << "' holds " << st.bytes->size() << " bytes, but "
-                          << st.numel << " elements of " << DTypeName(st.dtype) << " need "
-                          << st.numel * DTypeSize(st.dtype) << "; re-download the checkpoint");
+                          << st.numel << " elements of " << DTypeName(st.dtype) << " need " << need
+                          << "; re-download the checkpoint");
       storages_.emplace(key->s, st);
+    } else {
+      const Storage& seen = storages_.at(key->s);
+      FREELOC_CHECK(seen.dtype == st.dtype && seen.numel == st.numel,
+                    pkl_name_ << ": storage '" << key->s << "' is declared twice with different types or sizes; the "
+                              << "checkpoint is damaged");
     }
     auto o = std::make_shared<PyObject>();
     o->kind = PyObject::Kind::kObject;

@@ -386,6 +386,11 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
     for (const auto& q : res->results[name]) {
       ++res->queries;
       if (q.ok()) ++res->relocalized;
+      ++res->statuses[ToString(q.status)];
+      if (q.status == QueryStatus::kError) {
+        ++res->input_errors;
+        if (res->input_error_messages.size() < 5) res->input_error_messages.push_back(name + "/" + q.frame + ": " + q.message);
+      }
       if (q.submitted()) sub[name].push_back({q.frame, q.query_from_ref, q.ok() ? std::max(0.0, q.confidence) : 0.0});
       log += QueryRecordJson(name, q) + "\n";
     }
@@ -407,6 +412,18 @@ RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, cons
   options.Validate();
   if (comm && comm->size() <= 1) comm = nullptr;
   const bool root = !comm || comm->rank() == 0;
+  // Every output path is checked before the first byte of any output (the journal included) is written: a run that
+  // cannot write its log must fail now, not after hours, and a failed start leaves nothing behind.
+  if (root) {
+    CheckWritableFile(spec.out, "the submission");
+    if (!spec.log.empty()) {
+      FREELOC_CHECK(fs::absolute(spec.log) != fs::absolute(spec.out),
+                    "log: " << spec.log << " is also the submission; give the log another path");
+      CheckWritableFile(spec.log, "the run log");
+    }
+  }
+  if (!spec.save_matches.empty()) CheckWritableFolder(spec.save_matches, "the saved matches");
+  if (!spec.report.empty()) CheckWritableFolder(spec.report, "the HTML report");
   RunResult res;
   res.scenes = spec.shard.Select(ResolveScenes(spec.data, spec.split, spec.scenes, &res.split_dir));
   if (!spec.shard.whole() && root) FREELOC_LOG(INFO) << "shard " << spec.shard.ToString() << ": " << res.scenes.size() << " scenes";

@@ -50,6 +50,11 @@ struct RunResult {
   std::map<std::string, MapfreeScene> loaded;               // … as read (cameras, ground truth)
   std::map<std::string, std::vector<QueryResult>> results;  // per scene, queries in poses.txt order
   size_t queries = 0, relocalized = 0, resumed_scenes = 0;
+  // Rank 0, after the outputs are written: how many queries ended with each status, and the queries that failed on
+  // an input error (status error: an unreadable or damaged image, depth map or reference) with the first messages.
+  std::map<std::string, size_t> statuses;
+  size_t input_errors = 0;
+  std::vector<std::string> input_error_messages;  // "<scene>/<frame>: <message>", at most 5
 };
 
 // Makes the relocalizer of a run (tests and users plug their own stages here); default: Relocalizer(options).

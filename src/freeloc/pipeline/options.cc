@@ -1,5 +1,6 @@
 #include "freeloc/pipeline/options.h"
 
+#include <cctype>
 #include <cmath>
 
 #include "freeloc/core/error.h"
@@ -19,6 +20,13 @@ std::pair<std::string, std::string> SplitColon(const std::string& text) {
 }
 }  // namespace
 
+bool IsFileNamePart(const std::string& s) {
+  if (s.empty() || s.size() > 64 || s[0] == '.' || s.find("..") != std::string::npos) return false;
+  for (unsigned char c : s)
+    if (!std::isalnum(c) && c != '_' && c != '-' && c != '.' && c != '+') return false;
+  return true;
+}
+
 MatcherSpec MatcherSpec::FromString(const std::string& text) {
   const auto [head, tail] = SplitColon(text);
   MatcherSpec m;
@@ -27,6 +35,10 @@ MatcherSpec MatcherSpec::FromString(const std::string& text) {
                 "matcher: '" << text << "' is not one of " << kMatcherChoices);
   FREELOC_CHECK(m.kind != MatcherKind::kPrecomputed || !tail.empty(),
                 "matcher: '" << text << "' names no correspondences; write precomputed:<name> (SIFT, SG, LoFTR, …)");
+  // The name becomes a file name (correspondences_<name>.npz): never a path.
+  FREELOC_CHECK(m.kind != MatcherKind::kPrecomputed || IsFileNamePart(tail),
+                "matcher: '" << SafeText(text, 100) << "': the correspondence name must be letters, digits, '_', '-', "
+                             << "'.' or '+' (it names correspondences_<name>.npz), not a path");
   m.correspondences = tail;
   return m;
 }
@@ -43,6 +55,10 @@ DepthSpec DepthSpec::FromString(const std::string& text) {
                 "depth: '" << text << "' is not one of " << kDepthChoices);
   FREELOC_CHECK(d.kind != DepthKind::kProvided || !tail.empty(),
                 "depth: '" << text << "' names no suffix; write provided:<suffix> (e.g. provided:sensor)");
+  // The suffix becomes a file name (frame_xxxxx.<suffix>.png): never a path.
+  FREELOC_CHECK(d.kind != DepthKind::kProvided || IsFileNamePart(tail),
+                "depth: '" << SafeText(text, 100) << "': the suffix must be letters, digits, '_', '-', '.' or '+' "
+                           << "(it names frame_xxxxx.<suffix>.png), not a path");
   d.suffix = d.kind == DepthKind::kProvided ? tail : "";
   return d;
 }

@@ -34,6 +34,10 @@ enum class SolverKind { kEssential, kPnp, kProcrustes, kHybrid };
 // (no SegGPT).
 enum class InstanceSource { kPropagate, kGiven };
 
+// A name that becomes part of a file name (precomputed:<name>, provided:<suffix>): letters, digits, '_', '-', '.', '+',
+// at most 64, not starting with '.' and without "..": never a path.
+bool IsFileNamePart(const std::string& name);
+
 struct MatcherSpec {
   MatcherKind kind = MatcherKind::kSift;
   std::string correspondences;  // kPrecomputed: the name in correspondences_<name>.npz (SIFT, SG, LoFTR, …)

@@ -51,6 +51,9 @@ PipelineOptions ResolvePrecomputed(const std::string& name) {
   o.preset = name;
   o.matcher.kind = MatcherKind::kPrecomputed;
   o.matcher.correspondences = rest.substr(0, dash);
+  FREELOC_CHECK(IsFileNamePart(o.matcher.correspondences),
+                "preset: '" << SafeText(name, 100) << "': the correspondence name must be letters, digits, '_', '-', "
+                            << "'.' or '+' (it names correspondences_<name>.npz), not a path");
   FREELOC_CHECK(TryParseEnum(rest.substr(dash + 1), &o.solver),
                 "preset: '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of "
                             << EnumNames<SolverKind>());

@@ -73,7 +73,25 @@ const PipelineOptions& Relocalizer::options() const { return impl_->o; }
 const DepthMap& Relocalizer::reference_depth() const { return impl_->d_ref; }
 const DepthMap& Relocalizer::last_query_depth() const { return impl_->d_query; }
 
+namespace {
+
+// Intrinsics handed in (flags, Python, an intrinsics file) meet the map-free reader's bounds once the image's size
+// is known: a focal length of 1e308 or a principal point far outside the image is a typo, not a camera.
+void CheckCameraFitsImage(const Camera& camera, const Image& image, const char* what) {
+  // No image, or no intrinsics at all (a default Camera: `freeloc match`, whose matchers need none).
+  if (image.empty() || (camera.fx == 0 && camera.fy == 0 && camera.cx == 0 && camera.cy == 0)) return;
+  Camera k = camera;
+  if (k.width <= 0 || k.height <= 0) {
+    k.width = image.width;
+    k.height = image.height;
+  }
+  k.Validate(what);
+}
+
+}  // namespace
+
 void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameInputs in) {
+  CheckCameraFitsImage(camera, image, "reference intrinsics");
   Impl& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   m.have_ref = false;
@@ -112,6 +130,7 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
                                matching::Correspondences* matches) {
   Impl& m = *impl_;
   FREELOC_CHECK(m.have_ref, "Relocalizer::Relocalize before SetReference");
+  CheckCameraFitsImage(camera, image, "query intrinsics");
   QueryResult r;
   m.d_query = DepthMap();
   if (m.depth->needs_provided() && (m.d_ref.empty() || in.depth.empty())) {
