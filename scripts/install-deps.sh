@@ -13,6 +13,7 @@ PACKAGES=(
   nlohmann-json3-dev libcli11-dev libzip-dev zip unzip
   libgtest-dev libgmock-dev libbenchmark-dev
   pybind11-dev python3-dev python3-numpy python3-pytest
+  python3-pil  # tests only: photos must decode as Pillow (the reference preprocessing) converts them
   libopenmpi-dev openmpi-bin
   chromium
   clang-format

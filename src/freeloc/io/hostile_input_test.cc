@@ -56,7 +56,13 @@ TEST(HostileInput, PthViewsCannotOverflowOrExpand) {
   EXPECT_NE(ErrorOf([&] { PthFile::Open(tmp.File("wrap.pth")); }).find("damaged"), std::string::npos);
   // A stride-0 view of one element as 10^5 × 10^5: once a 40 GB allocation.
   WritePth(tmp.File("bomb.pth"), 1, {100000, 100000}, {0, 0});
-  EXPECT_NE(ErrorOf([&] { PthFile::Open(tmp.File("bomb.pth")); }).find("limit 4 GiB"), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { PthFile::Open(tmp.File("bomb.pth")); }).find("limit: its storage's size, or 64 MiB"),
+            std::string::npos);
+  // 2^24 floats broadcast from one (64 MiB) is still read; one more row is not.
+  WritePth(tmp.File("b64.pth"), 1, {4096, 4096}, {0, 0});
+  EXPECT_EQ(PthFile::Open(tmp.File("b64.pth")).tensors.at(0).numel(), 4096 * 4096);
+  WritePth(tmp.File("b65.pth"), 1, {4097, 4096}, {0, 0});
+  EXPECT_FALSE(ErrorOf([&] { PthFile::Open(tmp.File("b65.pth")); }).empty());
 }
 
 TEST(HostileInput, NpyShapeCannotWrapTheSizeCheck) {

@@ -91,11 +91,14 @@ TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> s
                      << ") reaches past its storage of " << st.numel << " elements; the checkpoint is damaged");
   const size_t es = DTypeSize(st.dtype);
   t.nbytes = static_cast<size_t>(CheckedMul(numel, static_cast<int64_t>(es), what));
-  // A strided (e.g. stride-0, broadcast) view is copied out: bound what a small storage may expand into.
-  constexpr int64_t kMaxExpanded = int64_t{4} << 30;
-  FREELOC_CHECK(*contiguous || static_cast<int64_t>(t.nbytes) <= std::max<int64_t>(kMaxExpanded, st.numel * 8),
+  // A strided view is copied out. A transposed or sliced one addresses at most its storage's elements; one that
+  // addresses more (stride 0: a broadcast) may expand a tiny record, so beyond its storage it is bounded by 64 MiB
+  // (4 GiB from a 4-element storage once took minutes to copy).
+  constexpr int64_t kMaxExpanded = int64_t{64} << 20;
+  FREELOC_CHECK(*contiguous || numel <= st.numel || static_cast<int64_t>(t.nbytes) <= kMaxExpanded,
                 what << ": tensor view " << t.ShapeString() << " would expand " << st.numel << " stored elements into "
-                     << t.nbytes << " bytes (limit 4 GiB); the checkpoint is damaged or hostile");
+                     << t.nbytes << " bytes (limit: its storage's size, or 64 MiB); the checkpoint is damaged or "
+                                    "hostile");
   if (*contiguous) {
     t.data = st.bytes->data() + static_cast<size_t>(offset) * es;
     t.owner = st.bytes;
