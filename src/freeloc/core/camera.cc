@@ -54,6 +54,15 @@ void Camera::Validate(const std::string& what) const {
   }
 }
 
+void Camera::ValidateForImage(int image_width, int image_height, const std::string& what) const {
+  Camera sized = *this;
+  if (sized.width <= 0 || sized.height <= 0) {
+    sized.width = image_width;
+    sized.height = image_height;
+  }
+  sized.Validate(what);
+}
+
 Camera Camera::FromString(const std::string& text, const std::string& what) {
   std::vector<double> v;
   std::stringstream ss(text);

@@ -19,6 +19,9 @@ struct Camera {
   Camera Scaled(int new_width, int new_height) const;
   // Throws freeloc::Error naming `what` when focal lengths are not positive and finite.
   void Validate(const std::string& what) const;
+  // Validate with the bounds of an image of `image_width` × `image_height` pixels when the camera carries no size
+  // of its own: intrinsics given without one (flags, Python) meet the map-free reader's bounds once the image is read.
+  void ValidateForImage(int image_width, int image_height, const std::string& what) const;
 
   // Parses "fx,fy,cx,cy" (the CLI's --intrinsics form).
   static Camera FromString(const std::string& text, const std::string& what);

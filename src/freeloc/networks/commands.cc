@@ -177,10 +177,7 @@ int Segment(const SegmentCommand& o) {
 int Depth(const DepthCommand& o) {
   const Camera cam = Camera::FromString(o.intrinsics, "intrinsics");
   const Image img = ReadImage(o.image);
-  Camera sized = cam;  // the map-free reader's bounds, now that the image's size is known
-  sized.width = img.width;
-  sized.height = img.height;
-  sized.Validate(o.image + ": intrinsics");
+  cam.ValidateForImage(img.width, img.height, o.image + ": intrinsics");
   const nn::RuntimeOptions& rt = o.runtime;
   const auto model = nn::Metric3dModel::Load(o.model, o.config, rt);
   const nn::Metric3dOutput out = model->Estimate(img, cam);

@@ -389,7 +389,8 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
       ++res->statuses[ToString(q.status)];
       if (q.status == QueryStatus::kError) {
         ++res->input_errors;
-        if (res->input_error_messages.size() < 5) res->input_error_messages.push_back(name + "/" + q.frame + ": " + q.message);
+        if (res->input_error_messages.size() < 5)
+          res->input_error_messages.push_back(name + "/" + q.frame + ": " + q.message);
       }
       if (q.submitted()) sub[name].push_back({q.frame, q.query_from_ref, q.ok() ? std::max(0.0, q.confidence) : 0.0});
       log += QueryRecordJson(name, q) + "\n";

@@ -80,12 +80,7 @@ namespace {
 void CheckCameraFitsImage(const Camera& camera, const Image& image, const char* what) {
   // No image, or no intrinsics at all (a default Camera: `freeloc match`, whose matchers need none).
   if (image.empty() || (camera.fx == 0 && camera.fy == 0 && camera.cx == 0 && camera.cy == 0)) return;
-  Camera k = camera;
-  if (k.width <= 0 || k.height <= 0) {
-    k.width = image.width;
-    k.height = image.height;
-  }
-  k.Validate(what);
+  camera.ValidateForImage(image.width, image.height, what);
 }
 
 }  // namespace
