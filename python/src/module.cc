@@ -516,7 +516,7 @@ void BindPoses(py::module_& m) {
       .def_property_readonly("ok", [](const PoseResult& p) { return p.r.ok(); })
       .def_property_readonly("metric", [](const PoseResult& p) { return p.r.metric(); })
       .def_property_readonly("answered", [](const PoseResult& p) { return p.r.answered; },
-                             "not solved: the prior pose (identity) with confidence 0, as submitted (always_answer)")
+                             "not ok but submitted (always_answer): status weak-support with its own pose and low confidence, else the prior pose (identity) with confidence 0")
       .def_property_readonly("route", [](const PoseResult& p) { return p.r.route; },
                              "the solver's route: essential, hybrid, hybrid>essential (fell back), pnp, procrustes")
       .def_property_readonly("qvec", [](const PoseResult& p) {

@@ -358,3 +358,24 @@ def test_run_with_damaged_inputs_reports_them(tmp_path):
     assert (tmp_path / "x.zip").exists()
     p = cli("run", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "c.zip"), check=False)
     assert p.returncode == 3 and "1 of 1 queries failed on input errors" in p.stderr
+
+
+def test_weak_support_is_a_low_confidence_answer_not_the_prior():
+    # 14 true TUM matches among 60: support below the chance bar but clearly above what random matches reach.
+    m = np.loadtxt(MATCHES)
+    weak = 0
+    for seed in range(8):
+        rng = np.random.default_rng(seed)
+        x = np.r_[m[rng.choice(len(m), 14, replace=False)],
+                  np.c_[rng.uniform(0, 640, (46, 2)), rng.uniform(0, 480, (46, 2))]]
+        r = freeloc.estimate_relative_pose(x[:, :2], x[:, 2:], K_TUM, K_TUM, threshold_px=2.0)
+        assert r.status in ("ok-unit-translation", "weak-support", "no-consensus"), r.status
+        if r.status != "weak-support":
+            continue
+        weak += 1
+        assert not r.ok and r.answered and 0 < r.confidence < 1e-3
+        assert abs(np.linalg.norm(r.t) - 1) < 1e-9 and r.inliers.sum() >= 10  # its own pose, not the prior
+        assert r.as_dict()["status"] == "weak-support"
+        s = freeloc.estimate_relative_pose(x[:, :2], x[:, 2:], K_TUM, K_TUM, threshold_px=2.0, always_answer=0)
+        assert s.status == "weak-support" and not s.answered
+    assert weak >= 2

@@ -59,7 +59,7 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height, con
   pipeline::Relocalizer reloc(o);
   reloc.SetReference(Image(width, height), sc.ref, dr);
   q.result = reloc.Relocalize(Image(width, height), sc.query, dq, &pre);
-  if (q.result.ok()) {
+  if (q.result.ok() || q.result.weak()) {  // weak-support answers are submitted and ranked too
     auto official = [](const Rigid3d& query_from_ref) {
       OfficialPose p;
       const Eigen::Quaterniond c2w = query_from_ref.rotation.conjugate();
@@ -107,7 +107,7 @@ inline StudyScore ScoreStudy(const std::vector<StudyQuery>& queries, StudyConfid
   std::vector<bool> pose_ok, vcre_ok;
   StudyScore s;
   for (const auto& q : queries) {
-    if (!q.result.ok()) {
+    if (!q.result.ok() && !q.result.weak()) {
       ++s.failures;
       continue;
     }

@@ -89,10 +89,28 @@ inline void WriteDepthVariants(const std::string& stem, const DepthMap& exact, u
   WriteDepthMm(stem + ".mono.png", DegradeDepthMonocular(exact, rng()));
 }
 
+// How hard a scene's queries are: the default is the benchmark-like set bench/baseline reports on; `Hard()` gives
+// wider baselines and rotations (less overlap, more plane-dominated views of one wall), blurrier texture and image
+// noise — fewer, noisier matches, where twin models and weak support occur.
+struct SceneDifficulty {
+  double min_baseline_m = 0.2, max_baseline_m = 1.2;
+  double max_rotation_rad = 0.15;  // uniform in ±this about a random axis
+  double px_per_m = 160;           // texture density (lower: blurrier, fewer SIFT features)
+  double noise_grey = 0;           // image noise, standard deviation in grey levels
+  static SceneDifficulty Hard() { return {0.3, 2.2, 0.45, 70, 6}; }
+};
+
+inline void AddImageNoise(Image* img, double sigma, uint32_t seed) {
+  if (sigma <= 0) return;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0, sigma);
+  for (uint8_t& v : img->data) v = static_cast<uint8_t>(std::clamp(v + g(rng) + 0.5, 0.0, 255.0));
+}
+
 // One map-free scene folder `dir` (reference seq0/frame_00000.png, queries seq1/frame_{00000,00005,…}.png so every
 // query is an evaluated key), depth suffixes "exact", "degraded", "degraded8" and "mono", GT poses, intrinsics.
 inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int queries, const std::vector<Image>& photos,
-                               int width = 540, int height = 720) {
+                               int width = 540, int height = 720, const SceneDifficulty& hard = {}) {
   namespace fs = std::filesystem;
   fs::create_directories(dir + "/seq0");
   fs::create_directories(dir + "/seq1");
@@ -112,7 +130,8 @@ inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int querie
   };
   // The room (and its box) are fixed by `seed`; each query is a fresh camera placement in it.
   const SyntheticScene base = MakeRoomScene(seed, 0.5, width, height);
-  const Image ref_img = RenderTextured(base, base.ref, Rigid3d(), photos);
+  Image ref_img = RenderTextured(base, base.ref, Rigid3d(), photos, hard.px_per_m);
+  AddImageNoise(&ref_img, hard.noise_grey, seed ^ 0x5bd1e995u);
   WriteImagePng(dir + "/seq0/frame_00000.png", ref_img);
   WriteDepthMm(dir + "/seq0/frame_00000.exact.png", base.depth_ref);
   WriteDepthMm(dir + "/seq0/frame_00000.degraded.png", DegradeDepth(base.depth_ref, rng(), 0.05, 0.05, 0.10, 0.05));
@@ -120,15 +139,17 @@ inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int querie
   add("seq0/frame_00000.png", base.ref, Rigid3d());
   for (int i = 0; i < queries; ++i) {
     SyntheticScene sc = base;
-    const double baseline = 0.2 + 1.0 * u01(rng);
+    const double baseline = hard.min_baseline_m + (hard.max_baseline_m - hard.min_baseline_m) * u01(rng);
     const Eigen::Vector3d axis = Eigen::Vector3d(u01(rng) - 0.5, u01(rng) - 0.5, u01(rng) - 0.5).normalized();
-    const Eigen::Quaterniond q(Eigen::AngleAxisd(0.3 * (u01(rng) - 0.5), axis));
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(2 * hard.max_rotation_rad * (u01(rng) - 0.5), axis));
     const Eigen::Vector3d centre =
         Eigen::Vector3d(u01(rng) - 0.5, 0.3 * (u01(rng) - 0.5), 0.5 * (u01(rng) - 0.5)).normalized() * baseline;
     sc.query_from_ref = Rigid3d(q, -(q * centre));
     char name[64];
     std::snprintf(name, sizeof(name), "seq1/frame_%05d", 5 * i);
-    WriteImagePng(dir + "/" + name + ".png", RenderTextured(sc, sc.query, sc.query_from_ref, photos));
+    Image qimg = RenderTextured(sc, sc.query, sc.query_from_ref, photos, hard.px_per_m);
+    AddImageNoise(&qimg, hard.noise_grey, seed * 31u + static_cast<uint32_t>(i));
+    WriteImagePng(dir + "/" + name + ".png", qimg);
     const DepthMap d = sc.Render(sc.query, sc.query_from_ref);
     WriteDepthMm(dir + "/" + name + ".exact.png", d);
     WriteDepthMm(dir + "/" + name + ".degraded.png", DegradeDepth(d, rng(), 0.05, 0.05, 0.10, 0.05));

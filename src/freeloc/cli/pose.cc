@@ -41,7 +41,8 @@ void PrintText(const pipeline::QueryResult& q, const pipeline::PipelineOptions& 
   std::printf("qvec (wxyz): %.9f %.9f %.9f %.9f\n", qv[0], qv[1], qv[2], qv[3]);
   std::printf("tvec:        %.6f %.6f %.6f %s\n", t.x(), t.y(), t.z(),
               q.metric()     ? "(metres)"
-              : q.answered ? "(the prior pose, submitted with confidence 0: not solved)"
+              : q.prior()  ? "(the prior pose, submitted with confidence 0: not solved)"
+              : q.weak()   ? "(weak support: a low-confidence answer, ranked below every ok one)"
                            : "(unit norm: no depth given, translation direction only)");
   std::printf("inliers:     %d of %d (%d agree on the scale)\n", q.inliers, q.matches, q.scale_inliers);
   std::printf("confidence:  %.6g\n", q.confidence);

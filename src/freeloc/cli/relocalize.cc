@@ -73,7 +73,8 @@ void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, b
       "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n",
       o.Summary().c_str(), q.StatusText().c_str(), qv[0], qv[1], qv[2], qv[3], t.x(), t.y(), t.z(),
       q.metric()     ? "(metres)"
-      : q.answered ? "(the prior pose, submitted with confidence 0: not solved)"
+      : q.prior()  ? "(the prior pose, submitted with confidence 0: not solved)"
+      : q.weak()   ? "(weak support: a low-confidence answer, ranked below every ok one)"
                    : "(unit norm: no depth)", q.confidence, q.matches, q.inliers, q.instances_used,
       q.instances, q.depth_ms, q.match_ms, q.instance_ms, q.solve_ms);
 }

@@ -190,6 +190,10 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
     return;
   }
   double log_scale = mr, anchor = 0;
+  // The maps' common scale error cannot show in their disagreement, but two maps whose anchorings agree closely
+  // make a large one less likely: the prior shrinks from kCommonDepthScaleError towards 1 % as they agree (with
+  // exact depth the 5 % prior alone would rank the answers by |t|, not by their error).
+  double common = kCommonDepthScaleError;
   if (lq.size() >= static_cast<size_t>(std::max(1, opt.min_inliers))) {
     const TrimmedMeanResult tq = TrimmedMean(lq, 0.01);
     const double mq = tq.mean, seq = tq.std_error;
@@ -197,6 +201,7 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
       log_scale = 0.5 * (mr + mq);
       ser = 0.5 * std::sqrt(ser * ser + seq * seq);
       anchor = 0.5 * std::abs(mr - mq);
+      common = std::clamp(2 * anchor, 0.01, kCommonDepthScaleError);
     }
   }
   res->success = true;
@@ -207,9 +212,7 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
   int agree = 0;
   for (size_t i = 0; i < lr.size(); ++i) agree += std::abs(lr[i] - mr) < window[i];
   res->num_inliers = std::max(agree, std::min(kr, opt.min_inliers));
-  // The depth maps' common scale error cannot show in their disagreement: a prior of kCommonDepthScaleError of |t|.
-  res->relative_std_error =
-      std::sqrt(ser * ser + anchor * anchor + kCommonDepthScaleError * kCommonDepthScaleError);
+  res->relative_std_error = std::sqrt(ser * ser + anchor * anchor + common * common);
   res->std_error_m = res->scale * res->relative_std_error;
   res->mean_distance_m = depth_sum / static_cast<double>(lr.size());
   res->confidence = (static_cast<double>(kr) / lr.size()) / (res->relative_std_error + 1e-3);

@@ -1,6 +1,7 @@
 #include "freeloc/geometry/relative_pose.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -16,6 +17,8 @@ void RelativePoseOptions::Validate() const {
   FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && min_iterations <= max_iterations,
                 "relative pose: need 0 <= min_iterations <= max_iterations");
   FREELOC_CHECK(min_inliers >= 5, "relative pose: min_inliers must be at least 5 (the minimal sample)");
+  FREELOC_CHECK(competitor_samples >= 0 && competitor_samples <= 100000,
+                "relative pose: competitor_samples must be in [0, 100000]");
   FREELOC_CHECK(max_seconds >= 0 && std::isfinite(max_seconds), "relative pose: max_seconds must be >= 0");
 }
 
@@ -199,7 +202,8 @@ int ChanceInliers(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eige
 
 RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_ref,
                                         const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,
-                                        const Camera& query, const RelativePoseOptions& opt) {
+                                        const Camera& query, const RelativePoseOptions& opt,
+                                        const DepthSamples& depth) {
   const auto t0 = std::chrono::steady_clock::now();
   opt.Validate();
   FREELOC_CHECK(px_ref.size() == px_query.size(),
@@ -257,6 +261,70 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
       if (in.size() < 6) break;
     }
   }
+  // Competing models: a distinct model with nearly the same support (a planar view's twin) is examined with the
+  // evidence beyond the Sampson count — cheirality, and the depths' consistency when given — and the confidence
+  // learns how plausible the loser stayed.
+  if (opt.competitor_samples > 0 && in.size() >= static_cast<size_t>(opt.min_inliers)) {
+    std::vector<CompetingModel> near;
+    const bool use_depth = !depth.ref.empty() || !depth.query.empty();
+    const auto rivals = FindCompetingRelativeModels(x1, x2, best, in, ro.threshold_sq, th, opt.seed,
+                                                    opt.competitor_samples, 0.7, 3, use_depth ? &near : nullptr);
+    const double sigma = 1.0 / focal;
+    std::vector<PoseRt> models = {best};
+    std::vector<ModelEvidence> ev = {EvaluateRelativeModel(x1, x2, best, ro.threshold_sq, depth, sigma)};
+    for (const auto& r : rivals) {
+      models.push_back(r.pose);
+      ev.push_back(EvaluateRelativeModel(x1, x2, r.pose, ro.threshold_sq, depth, sigma));
+    }
+    // Depth: every model must have enough depth samples; the near-winner minimal-sample models join (a flat
+    // valley of near-equal Sampson support, where the depths pick the point the matches cannot).
+    bool by_depth = use_depth;
+    for (const auto& e : ev) by_depth &= e.depth_samples >= 10;
+    if (by_depth)
+      for (const auto& m : near)
+        if (m.inliers >= 0.9 * static_cast<double>(in.size())) {
+          models.push_back(m.pose);
+          ev.push_back(EvaluateRelativeModel(x1, x2, m.pose, ro.threshold_sq, depth, sigma));
+        }
+    if (models.size() > 1) {
+      const size_t n_rivals = rivals.size() + 1;  // models [0, n_rivals): RANSAC's winner and the refined rivals
+      auto evidence = [&](const ModelEvidence& e) {
+        return by_depth ? static_cast<double>(e.depth_reprojection_inliers) : static_cast<double>(e.in_front);
+      };
+      // RANSAC's winner stands unless the evidence beyond its score is clearly better elsewhere. (Not the lowest
+      // Sampson score among the refined rivals: a refinement can slide into a model that explains more matches
+      // with many of them behind a camera.)
+      size_t win = 0;
+      // The evidence beyond support overrules it when clearly better (10 % and 2 points), among the refined models
+      // — and, with depth, the near-winner ones.
+      const size_t pool = by_depth ? models.size() : n_rivals;
+      size_t best_ev = win;
+      for (size_t k = 0; k < pool; ++k)
+        if (evidence(ev[k]) > evidence(ev[best_ev])) best_ev = k;
+      const bool overruled = evidence(ev[best_ev]) > 1.1 * evidence(ev[win]) + 2;
+      if (overruled) win = best_ev;
+      // The runner-up: the most plausible refined model that is a different answer, and how plausible it stayed —
+      // exp(−Δ/√e): its evidence deficit in (Poisson) standard deviations of the winner's.
+      size_t runner = models.size();
+      for (size_t k = 0; k < n_rivals; ++k)
+        if (k != win && DistinctModels(models[k], models[win]) &&
+            (runner == models.size() || evidence(ev[k]) > evidence(ev[runner])))
+          runner = k;
+      const double e_win = std::max(evidence(ev[win]), 1.0);
+      res.status.competitors = static_cast<int>(rivals.size());
+      if (runner < models.size()) {
+        const double deficit = std::max(0.0, e_win - evidence(ev[runner]));
+        res.status.runner_up_plausibility = std::exp(-deficit / std::sqrt(e_win));
+        res.status.runner_up_inliers = ev[runner].inliers;
+        res.runner_up = Rigid3d(models[runner].R, models[runner].t.normalized());
+      }
+      res.status.decided_by = overruled ? (by_depth ? "depth" : "cheirality") : "support";
+      if (win != 0) {
+        best = models[win];
+        collect(best);
+      }
+    }
+  }
   // Keep the inliers in front of both cameras (cheirality on the refined pose).
   int n_in = 0;
   for (int i : in) {
@@ -266,18 +334,22 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     }
   }
   res.status.num_inliers = n_in;
-  res.status.chance_inliers = ChanceInliers(x1, x2, best, ro.threshold_sq);
-  // Support must beat chance clearly: RANSAC maximises over thousands of hypotheses, so a random set's best model
-  // exceeds its shuffled support by several standard deviations; real geometry exceeds it many times over.
-  const double chance = res.status.chance_inliers;
-  if (n_in < opt.min_inliers || n_in < 2 * chance + 8 * std::sqrt(chance)) {
+  if (n_in < opt.min_inliers) {
     res.inliers.assign(px_ref.size(), 0);
     return finish("no-consensus");
   }
+  res.status.chance_inliers = ChanceInliers(x1, x2, best, ro.threshold_sq);
+  // Support must beat chance clearly: RANSAC maximises over thousands of hypotheses, so a random set's best model
+  // exceeds its shuffled support by several standard deviations; real geometry exceeds it many times over. A model
+  // that does not is still an answer — a weak one: "weak-support", the pose returned, never "ok".
+  // Below the weak bar it is no model at all: what chance gives (random matches select that much), no answer.
+  const double chance = res.status.chance_inliers;
+  bool weak = n_in < 2 * chance + 8 * std::sqrt(chance);
+  bool trivial = n_in < chance + 4 * std::sqrt(chance) + 2;
   // Weak support (few inliers, low ratio): is it more than what RANSAC's search finds in unrelated pairs? The same
   // search on the matches with the query points shuffled (a fixed derangement) must find clearly fewer — random
   // matches select a 5-point model with a dozen chance inliers, which the fixed-model test above cannot see.
-  if (n_in < std::max(3 * opt.min_inliers, static_cast<int>(0.25 * static_cast<double>(x1.size())))) {
+  if (!weak && n_in < std::max(3 * opt.min_inliers, static_cast<int>(0.25 * static_cast<double>(x1.size())))) {
     std::vector<Eigen::Vector3d> x2s(x2.size());
     const size_t offset = x2.size() / 2 + 1;
     for (size_t i = 0; i < x2.size(); ++i) x2s[i] = x2[(i + offset) % x2.size()];
@@ -290,10 +362,12 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     RelModel m;
     const RansacStats ss = Ransac(shuffled, rs, &m);
     res.status.shuffled_best = ss.stop_reason == "no-model" ? 0 : ss.num_inliers;
-    if (n_in < 1.5 * res.status.shuffled_best + 4) {
-      res.inliers.assign(px_ref.size(), 0);
-      return finish("no-consensus");
-    }
+    weak = n_in < 1.5 * res.status.shuffled_best + 4;
+    trivial = n_in < 1.2 * res.status.shuffled_best + 3;
+  }
+  if (weak && trivial) {
+    res.inliers.assign(px_ref.size(), 0);
+    return finish("no-consensus");
   }
   if (InliersDegenerate(px_ref, px_query, res.inliers)) {
     res.inliers.assign(px_ref.size(), 0);
@@ -301,7 +375,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     return finish("degenerate");
   }
   res.query_from_ref = Rigid3d(best.R, best.t.normalized());
-  return finish("ok");
+  return finish(weak ? "weak-support" : "ok");
 }
 
 }  // namespace freeloc::geometry

@@ -392,7 +392,7 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
         if (res->input_error_messages.size() < 5)
           res->input_error_messages.push_back(name + "/" + q.frame + ": " + q.message);
       }
-      if (q.submitted()) sub[name].push_back({q.frame, q.query_from_ref, q.ok() ? std::max(0.0, q.confidence) : 0.0});
+      if (q.submitted()) sub[name].push_back({q.frame, q.query_from_ref, q.prior() ? 0.0 : std::max(0.0, q.confidence)});
       log += QueryRecordJson(name, q) + "\n";
     }
   }

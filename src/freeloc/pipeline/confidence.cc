@@ -25,12 +25,22 @@ PredictedError PredictPoseError(const PoseEvidence& e) {
   PredictedError p;
   p.rotation_deg = rot * kRadToDeg / agree;
   p.translation_m = trans / agree;
+  // A runner-up as plausible as the answer (plausibility 1) is as likely the truth: the error is its distance. One
+  // the evidence clearly ruled out (plausibility ≤ 0.5) adds nothing.
+  const double w = std::clamp((e.rival_plausibility - 0.5) / 0.5, 0.0, 1.0);
+  p.rotation_deg = std::hypot(p.rotation_deg, w * e.rival_rotation_deg);
+  p.translation_m = std::hypot(p.translation_m, w * e.rival_translation_m);
   return p;
 }
 
 double ConfidenceFromPredictedError(const PredictedError& p) {
   const double worst = std::max(p.translation_m / 0.25, p.rotation_deg / 5.0);
-  return 1.0 / std::max(worst, 1e-9);
+  return 1.0 / std::clamp(worst, 1e-9, 1.0 / kWeakSupportCeiling);
+}
+
+double WeakSupportConfidence(double c) {
+  const double r = std::isnan(c) || c <= 0 ? 0.0 : std::isinf(c) ? 1.0 : c / (1.0 + c);
+  return kWeakSupportCeiling * (0.001 + 0.998 * r);  // strictly inside (0, kWeakSupportCeiling)
 }
 
 }  // namespace freeloc::pipeline

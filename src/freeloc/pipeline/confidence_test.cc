@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "testing/confidence_study.h"
 
 namespace freeloc::pipeline {
@@ -43,6 +46,36 @@ TEST(Confidence, PredictedErrorFollowsTheEvidence) {
   const double c = ConfidenceFromPredictedError(PredictPoseError(PoseEvidence{}));
   EXPECT_TRUE(std::isfinite(c));
   EXPECT_GT(c, 0);
+}
+
+// Weak-support answers rank below every supported one — even one predicted hundreds of metres off — and above the
+// prior (0), keeping their own order.
+TEST(Confidence, WeakSupportRanksBelowEverySupportedAnswer) {
+  const double worst_ok = ConfidenceFromPredictedError({1e6, 1e6});
+  double previous = 0;
+  for (double c : {0.0, 1e-6, 0.01, 1.0, 10.0, 1e3, 1e9, std::numeric_limits<double>::infinity()}) {
+    const double w = WeakSupportConfidence(c);
+    EXPECT_GT(w, 0) << c;
+    EXPECT_LT(w, worst_ok) << c;
+    EXPECT_GE(w, previous) << c;
+    previous = w;
+  }
+  EXPECT_GT(WeakSupportConfidence(10), WeakSupportConfidence(1));
+}
+
+// A runner-up that stayed plausible puts its distance under the predicted error; one ruled out adds nothing.
+TEST(Confidence, PlausibleRunnerUpLowersTheConfidence) {
+  PoseEvidence e = Typical();
+  const double alone = ConfidenceFromPredictedError(PredictPoseError(e));
+  e.rival_rotation_deg = 17;
+  e.rival_translation_m = 1.5;
+  e.rival_plausibility = 0.2;  // ruled out
+  EXPECT_DOUBLE_EQ(ConfidenceFromPredictedError(PredictPoseError(e)), alone);
+  e.rival_plausibility = 0.95;  // nearly as likely: the answer is that uncertain
+  const PredictedError p = PredictPoseError(e);
+  EXPECT_GT(p.rotation_deg, 0.8 * 17);
+  EXPECT_GT(p.translation_m, 0.8 * 1.5);
+  EXPECT_LT(ConfidenceFromPredictedError(p), alone / 10);
 }
 
 // The seeded synthetic population of the study (bench/confidence runs it larger; its default seed 1 is the one the

@@ -68,9 +68,9 @@ struct PipelineOptions {
   double threshold_px = -1;                                      // < 0: the solver's default
   double reprojection_px = 16;  // hybrid: two-way reprojection threshold through the depths, pixels
   int depth_shifts = 0;         // hybrid: 1 = also estimate an additive shift of each depth map
-  // Every query gets a pose in the submission (issue 14): a query the solver cannot answer is submitted with the
-  // prior pose (the reference camera's: identity rotation, zero translation) and confidence 0; its status still
-  // says why. 0 = submit solved queries only.
+  // Every query gets a pose in the submission: a weak-support model is submitted with its pose and a confidence
+  // below every ok answer; a query with no model at all with the prior pose (the reference camera's: identity
+  // rotation, zero translation) and confidence 0; the status still says which. 0 = submit ok queries only.
   int always_answer = 1;
   // Networks. Paths left empty are looked up by their published file names in `models_dir`, then in the folders of
   // $FREELOC_MODELS (FindModels); Validate names what is still missing.
@@ -116,11 +116,13 @@ struct PipelineOptions {
 };
 
 // What happened to a query: one text form each (EnumTable<QueryStatus>), used by the log, JSON records, the CLI
-// and the submission (solved poses are submitted; with always_answer every other query too, as the prior pose with
-// confidence 0).
+// and the submission (ok poses are submitted; with always_answer every other query too: weak-support with its pose
+// and low confidence, the rest as the prior pose with confidence 0).
 enum class QueryStatus {
   kOk,                 // metric pose
   kOkUnitTranslation,  // essential without depth: rotation + translation direction (unit norm)
+  kWeakSupport,        // a model whose support is not clearly beyond chance: its pose, with a confidence below
+                       // every ok answer; submitted under always_answer (never counted as solved)
   kTooFewMatches,
   kNoConsensus,        // the robust estimator found no model
   kDegenerate,         // the inliers span (almost) a single pixel: no geometry
@@ -138,8 +140,11 @@ struct QueryResult {
   bool metric() const { return status == QueryStatus::kOk; }
   std::string StatusText() const;  // "ok", "no-consensus", "error: <message>" — for people
   Rigid3d query_from_ref;
-  // !ok() with always_answer: query_from_ref is the prior (identity), submitted with confidence 0.
+  // !ok() with always_answer: submitted anyway — a weak-support pose with its (low) confidence, else the prior
+  // (identity) with confidence 0.
   bool answered = false;
+  bool weak() const { return status == QueryStatus::kWeakSupport; }
+  bool prior() const { return answered && !weak(); }  // the submitted pose is the prior
   bool submitted() const { return ok() || answered; }
   std::string route;  // the solver's route: "essential", "hybrid", "hybrid>essential" (fell back), "pnp", …
   // The confidence model (confidence.h) for every solver; official scale: its support; unit translation: the inlier
@@ -210,6 +215,7 @@ struct EnumTable<pipeline::QueryStatus> {
   static constexpr EnumEntry<pipeline::QueryStatus> kEntries[] = {
       {pipeline::QueryStatus::kOk, "ok"},
       {pipeline::QueryStatus::kOkUnitTranslation, "ok-unit-translation"},
+      {pipeline::QueryStatus::kWeakSupport, "weak-support"},
       {pipeline::QueryStatus::kTooFewMatches, "too-few-matches"},
       {pipeline::QueryStatus::kNoConsensus, "no-consensus"},
       {pipeline::QueryStatus::kDegenerate, "degenerate"},

@@ -109,6 +109,7 @@ matching::Correspondences Relocalizer::Match(const Image& image, const Camera& c
 void AnswerUnsolved(const PipelineOptions& o, QueryResult* r) {
   if (r->ok() || !o.always_answer) return;
   r->answered = true;
+  if (r->weak()) return;  // its own pose, with its (low) confidence
   r->query_from_ref = Rigid3d();  // the prior: the reference camera's pose
   r->confidence = 0;
   r->predicted_translation_m = r->predicted_rotation_deg = 0;

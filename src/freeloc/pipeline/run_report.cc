@@ -40,7 +40,7 @@ eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r)
   q.inliers = r.inliers;
   q.instances = r.instances;
   q.instances_used = r.instances_used;
-  q.has_pose = r.ok();
+  q.has_pose = r.ok() || r.weak();
   q.centre = r.query_from_ref.Center();
   const auto gt = scene.gt.find(r.frame);
   if (gt == scene.gt.end()) return q;

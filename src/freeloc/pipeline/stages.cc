@@ -117,7 +117,31 @@ PoseEvidence EssentialEvidence(const matching::Correspondences& c, const geometr
   ev.scale_candidates = s.num_candidates;
   ev.scale_inliers = s.num_inliers;
   ev.scale_std_error_m = s.std_error_m;
+  if (rel.status.competitors > 0) {
+    // The runner-up at the same metric scale: its rotation and camera-centre distance from the answer.
+    const Rigid3d& a = rel.query_from_ref;
+    const Rigid3d& b = rel.runner_up;
+    ev.rival_plausibility = rel.status.runner_up_plausibility;
+    ev.rival_rotation_deg = RotationAngleDeg(a.rotation, b.rotation);
+    ev.rival_translation_m =
+        std::abs(s.scale) * (a.rotation.conjugate() * a.translation - b.rotation.conjugate() * b.translation).norm();
+  }
   return ev;
+}
+
+// Per-correspondence depths for telling competing models apart (0 where a map has none).
+geometry::DepthSamples SampleDepths(const matching::Correspondences& c, const DepthMap& d_ref,
+                                    const DepthMap& d_query) {
+  geometry::DepthSamples d;
+  if (!d_ref.empty()) {
+    d.ref.resize(c.size());
+    for (size_t i = 0; i < c.size(); ++i) d.ref[i] = geometry::BilinearDepth(d_ref, c.ref[i].x(), c.ref[i].y());
+  }
+  if (!d_query.empty()) {
+    d.query.resize(c.size());
+    for (size_t i = 0; i < c.size(); ++i) d.query[i] = geometry::BilinearDepth(d_query, c.query[i].x(), c.query[i].y());
+  }
+  return d;
 }
 
 // 5-point LO-RANSAC on the correspondences, then the metric scale from both depths on its inliers.
@@ -138,19 +162,26 @@ class EssentialSolver : public PoseSolver {
     }
     geometry::RelativePoseOptions ro;
     if (threshold_px_ > 0) ro.threshold_px = threshold_px_;
-    const auto rel = geometry::EstimateRelativePose(c.ref, c.query, k_ref, k_query, ro);
+    const auto rel =
+        geometry::EstimateRelativePose(c.ref, c.query, k_ref, k_query, ro, SampleDepths(c, d_ref, d_query));
     r->inliers = rel.status.num_inliers;
     r->inlier_mask = rel.inliers;
     r->solve_ms = MsSince(t0);
     r->status = StatusOf(rel.status.reason);
-    if (!rel.status.success) return;
+    const bool weak = r->weak();
+    if (!rel.status.success && !weak) return;
     r->query_from_ref = rel.query_from_ref;
     r->confidence = rel.status.num_inliers;
     if (d_ref.empty() || d_query.empty()) {
-      r->status = QueryStatus::kOkUnitTranslation;
-      return;
+      r->status = QueryStatus::kOkUnitTranslation;  // weak or not: mapped below
+    } else {
+      Scale(c, rel, k_ref, k_query, d_ref, d_query, r);
     }
-    Scale(c, rel, k_ref, k_query, d_ref, d_query, r);
+    // Weak support: an answer ranked below every supported one (its scale failing leaves no pose at all).
+    if (weak && (r->status == QueryStatus::kOk || r->status == QueryStatus::kOkUnitTranslation)) {
+      r->status = QueryStatus::kWeakSupport;
+      r->confidence = WeakSupportConfidence(r->confidence);
+    }
     r->solve_ms = MsSince(t0);
   }
 

@@ -1,0 +1,186 @@
+#include "freeloc/geometry/competing_models.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "freeloc/geometry/five_point.h"
+#include "freeloc/geometry/ransac.h"
+#include "freeloc/geometry/relative_pose.h"
+
+namespace freeloc::geometry {
+
+namespace {
+constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
+constexpr double kDistinctRotationDeg = 1.0;
+constexpr double kDistinctDirectionDeg = 5.0;
+
+
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+bool ValidDepth(const std::vector<double>& d, size_t i) { return i < d.size() && d[i] > 0 && std::isfinite(d[i]); }
+}  // namespace
+
+bool DistinctModels(const PoseRt& a, const PoseRt& b) {
+  return RotationDistanceDeg(a.R, b.R) >= kDistinctRotationDeg || DirectionDistanceDeg(a.t, b.t) >= kDistinctDirectionDeg;
+}
+
+double RotationDistanceDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  const double c = std::clamp(0.5 * ((a.transpose() * b).trace() - 1.0), -1.0, 1.0);
+  return std::acos(c) * kRadToDeg;
+}
+
+double DirectionDistanceDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const double na = a.norm(), nb = b.norm();
+  if (!(na > 0) || !(nb > 0)) return 0;
+  return std::acos(std::clamp(a.dot(b) / (na * nb), -1.0, 1.0)) * kRadToDeg;
+}
+
+ModelEvidence EvaluateRelativeModel(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                                    const PoseRt& pose, double threshold_sq, const DepthSamples& depth,
+                                    double sigma_rad) {
+  ModelEvidence ev;
+  const Eigen::Matrix3d E = EssentialFromPose(pose);
+  // Per in-front inlier: log(depth / triangulated depth) — constant (the scale of t) on the right model — and the
+  // window it may differ by: 10 % for the depth map's own error plus the triangulation's (3σ / parallax).
+  std::vector<double> lr, lq, wr, wq;
+  std::vector<int> ir, iq;
+  for (size_t i = 0; i < x1.size(); ++i) {
+    const double e = SampsonSquared(E, x1[i], x2[i]);
+    if (!(e < threshold_sq)) {
+      ev.score += threshold_sq;
+      continue;
+    }
+    ev.score += e;
+    ++ev.inliers;
+    double l1, l2;
+    if (!TriangulateDepths(pose, x1[i], x2[i], &l1, &l2) || !(l1 > 0) || !(l2 > 0)) continue;
+    ++ev.in_front;
+    const double parallax =
+        std::max(1e-6, std::asin(std::min(1.0, (pose.R * x1[i]).normalized().cross(x2[i].normalized()).norm())));
+    const double window = 0.1 + 3 * sigma_rad / parallax;
+    if (ValidDepth(depth.ref, i)) {
+      lr.push_back(std::log(depth.ref[i] / l1));
+      wr.push_back(window);
+      ir.push_back(static_cast<int>(i));
+    }
+    if (ValidDepth(depth.query, i)) {
+      lq.push_back(std::log(depth.query[i] / l2));
+      wq.push_back(window);
+      iq.push_back(static_cast<int>(i));
+    }
+  }
+  // Reprojection: angle between the moved point and the observed ray, in units of 3σ (a few pixels), truncated.
+  const double tau2 = 9.0 * sigma_rad * sigma_rad * 4.0;
+  for (int side = 0; side < 2; ++side) {
+    const auto& l = side == 0 ? lr : lq;
+    const auto& w = side == 0 ? wr : wq;
+    const auto& idx = side == 0 ? ir : iq;
+    if (l.empty()) continue;
+    const double m = Median(l);
+    ev.depth_samples += static_cast<int>(l.size());
+    for (size_t k = 0; k < l.size(); ++k) {
+      ev.depth_agree += std::abs(l[k] - m) < w[k];
+      const int i = idx[k];
+      // t in the depth's unit: the depths are exp(m) × the unit-baseline triangulation.
+      const Eigen::Vector3d t = pose.t * std::exp(m);
+      Eigen::Vector3d moved, seen;
+      if (side == 0) {
+        moved = pose.R * (depth.ref[static_cast<size_t>(i)] * x1[static_cast<size_t>(i)]) + t;
+        seen = x2[static_cast<size_t>(i)];
+      } else {
+        moved = pose.R.transpose() * (depth.query[static_cast<size_t>(i)] * x2[static_cast<size_t>(i)] - t);
+        seen = x1[static_cast<size_t>(i)];
+      }
+      const double s = moved.normalized().cross(seen.normalized()).squaredNorm();
+      const double e = moved.dot(seen) > 0 ? s : 1.0;
+      ev.depth_reprojection += std::min(e, tau2);
+      ev.depth_reprojection_inliers += e < tau2;
+    }
+  }
+  return ev;
+}
+
+std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen::Vector3d>& x1,
+                                                        const std::vector<Eigen::Vector3d>& x2, const PoseRt& best,
+                                                        const std::vector<int>& best_inliers, double threshold_sq,
+                                                        double loss_scale, uint64_t seed, int samples,
+                                                        double min_support_ratio, int max_models,
+                                                        std::vector<CompetingModel>* near) {
+  std::vector<CompetingModel> out;
+  const size_t n_in = best_inliers.size();
+  if (n_in < 8 || x1.size() != x2.size()) return out;
+  // Scoring set: every correspondence, or an even subsample of 4000 on dense sets (support ratios only).
+  std::vector<int> score_idx;
+  const size_t stride = std::max<size_t>(1, x1.size() / 4000);
+  for (size_t i = 0; i < x1.size(); i += stride) score_idx.push_back(static_cast<int>(i));
+  auto support = [&](const PoseRt& p) {
+    const Eigen::Matrix3d E = EssentialFromPose(p);
+    int n = 0;
+    for (int i : score_idx) n += SampsonSquared(E, x1[i], x2[i]) < threshold_sq;
+    return n;
+  };
+  const int best_support = support(best);
+  if (best_support == 0) return out;
+  // Distinct hypotheses from minimal samples of the winner's inliers, clustered (the best of each cluster kept).
+  std::vector<CompetingModel> clusters;
+  SplitMix64 rng(seed ^ 0xC0FFEE1234567ull);
+  std::vector<PoseRt> poses;
+  int sample[5];
+  for (int it = 0; it < samples; ++it) {
+    for (int k = 0; k < 5; ++k) {
+      bool dup;
+      do {
+        sample[k] = best_inliers[rng.Below(static_cast<uint32_t>(n_in))];
+        dup = false;
+        for (int j = 0; j < k; ++j) dup |= sample[j] == sample[k];
+      } while (dup);
+    }
+    FivePointRelativePose(x1, x2, sample, &poses);
+    for (const PoseRt& p : poses) {
+      if (!DistinctModels(p, best)) {
+        if (near) near->push_back({p, support(p)});
+        continue;
+      }
+      const int s = support(p);
+      if (s < 0.5 * min_support_ratio * best_support) continue;
+      auto c = std::find_if(clusters.begin(), clusters.end(), [&](const CompetingModel& m) { return !DistinctModels(m.pose, p); });
+      if (c == clusters.end()) {
+        clusters.push_back({p, s});
+      } else if (s > c->inliers) {
+        *c = {p, s};
+      }
+    }
+  }
+  std::sort(clusters.begin(), clusters.end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
+  // Refine the strongest few as the winner was refined (two rounds on their own inliers); keep those that stay
+  // distinct from the winner, from each other, and strong enough.
+  for (size_t k = 0; k < clusters.size() && k < static_cast<size_t>(2 * max_models); ++k) {
+    PoseRt p = clusters[k].pose;
+    for (int round = 0; round < 2; ++round) {
+      std::vector<int> in;
+      const Eigen::Matrix3d E = EssentialFromPose(p);
+      for (size_t i = 0; i < x1.size(); ++i)
+        if (SampsonSquared(E, x1[i], x2[i]) < threshold_sq) in.push_back(static_cast<int>(i));
+      if (in.size() < 6) break;
+      RefineRelativePose(x1, x2, in, loss_scale, 10, &p);
+    }
+    const int s = support(p);
+    if (s < min_support_ratio * best_support || !DistinctModels(p, best)) continue;
+    if (std::any_of(out.begin(), out.end(), [&](const CompetingModel& m) { return !DistinctModels(m.pose, p); })) continue;
+    out.push_back({p, s * static_cast<int>(stride)});
+    if (out.size() >= static_cast<size_t>(max_models)) break;
+  }
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
+  if (near) {
+    std::sort(near->begin(), near->end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
+    if (near->size() > 16) near->resize(16);
+    for (auto& m : *near) m.inliers *= static_cast<int>(stride);
+  }
+  return out;
+}
+
+}  // namespace freeloc::geometry
