@@ -7,6 +7,8 @@
 // Precision does not depend on the confidence; only the AUCs do.
 //
 //   confidence [--queries N] [--seed S] [--solvers essential,hybrid,pnp,procrustes] [--size WxH] [--dump]
+//   (a solver may name its scale method: essential/robust, essential/official, hybrid/robust — the essential
+//   fallback's)
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>

@@ -26,7 +26,8 @@ struct StudyQuery {
 };
 
 // Query `i` of the population (deterministic in `seed` and `i`), solved by `solver` (essential | hybrid | pnp |
-// procrustes) on the precomputed correspondences: depth exact for i % 3 == 0, degraded for 1, monocular-like for 2.
+// procrustes, optionally with a scale method: essential/robust, essential/official) on the precomputed
+// correspondences: depth exact for i % 3 == 0, degraded for 1, monocular-like for 2.
 inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height, const std::string& solver = "essential") {
   std::mt19937 rng(seed * 7919u + static_cast<uint32_t>(i));
   std::uniform_real_distribution<double> u01(0, 1);
@@ -54,7 +55,9 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height, con
   }
   std::vector<Eigen::Vector4d> pre;
   for (size_t k = 0; k < p1.size(); ++k) pre.emplace_back(p1[k].x(), p1[k].y(), p2[k].x(), p2[k].y());
-  pipeline::PipelineOptions o = pipeline::ResolvePreset("precomputed:SIFT-" + solver);
+  const size_t slash = solver.find('/');
+  pipeline::PipelineOptions o = pipeline::ResolvePreset("precomputed:SIFT-" + solver.substr(0, slash));
+  if (slash != std::string::npos) pipeline::SetOption(&o, "scale", solver.substr(slash + 1));
   o.depth = pipeline::DepthSpec::FromString("provided:synthetic");
   pipeline::Relocalizer reloc(o);
   reloc.SetReference(Image(width, height), sc.ref, dr);
