@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Per-call cost of the Python API against the solve itself and against `freeloc pose` per call (issue 18).
+"""Per-call cost of the Python API against the solve itself and against `freeloc pose` per call.
 
 A seeded synthetic two-view problem (500 correspondences, 0.5 px noise, 20 % outliers, depth maps for the metric
 scale) is solved 1000 times through freeloc.estimate_relative_pose; the time per call is compared with the solver's

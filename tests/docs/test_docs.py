@@ -56,6 +56,19 @@ def test_no_citation_of_a_file_the_repository_lacks():
     assert not bad, "\n".join(bad)
 
 
+def test_no_comment_or_doc_cites_a_tracker_issue():
+    # Comments and docs say what and why; which tracker issue asked for it belongs in the commit message.
+    bad = []
+    for f in list(files(CODE_DIRS + ["docs"], (".cc", ".h", ".py", ".md", ".sh", ".txt", ".cmake"))) + [
+            os.path.join(SOURCE, "README.md"), os.path.join(SOURCE, "Makefile")]:
+        if f == os.path.abspath(__file__):
+            continue
+        for n, line in enumerate(open(f, encoding="utf-8", errors="replace").read().split("\n"), 1):
+            if re.search(r"\bissues? \d+\b", line):
+                bad.append(f"{os.path.relpath(f, SOURCE)}:{n}: {line.strip()[:100]}")
+    assert not bad, "\n".join(bad)
+
+
 def test_cited_specs_exist_beside_the_checkout():
     spec = os.path.join(SOURCE, "..", "shared", "spec")
     if not os.path.isdir(spec):

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `mpirun -np N freeloc run` (issue 19): the bundled TUM scenes plus copies of them (6 scenes) run with 3 and 2 ranks
+# `mpirun -np N freeloc run`: the bundled TUM scenes plus copies of them (6 scenes) run with 3 and 2 ranks
 # write the single-process submission and sidecar byte for byte and nothing else; a rank killed at start makes the
 # run exit non-zero naming its scenes, and --resume (2 ranks) completes the same bytes. Exit 77 (skipped) when
 # mpirun is absent. Usage: mpi_run_test.sh FREELOC_BINARY DEMO_DIR

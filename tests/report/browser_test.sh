@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `freeloc run --report` opened in a real browser (issue 20): headless Chromium loads index.html from disk with the
+# `freeloc run --report` opened in a real browser: headless Chromium loads index.html from disk with the
 # network off; the DOM must list every query, every image must have loaded (the page marks each img loaded or
 # broken), no http(s) resource may be referenced; a screenshot is kept in the build folder. Exit 77 (skipped) when
 # Chromium is absent. Usage: browser_test.sh FREELOC_BINARY DEMO_DIR OUT_DIR

@@ -1,4 +1,4 @@
-// The confidence study (issue 9, deliver 7; issue 14), shared by pipeline/confidence_test.cc and bench/confidence: a
+// The confidence study, shared by pipeline/confidence_test.cc and bench/confidence: a
 // seeded population of synthetic queries of varied difficulty — baseline, match count, pixel noise, outlier fraction,
 // exact, degraded or monocular-like depth — run through one of the pipeline's solvers, scored with the
 // official map-free errors, and ranked by several confidences to compare the AUCs they give. Header-only.

@@ -150,7 +150,7 @@ inline DepthMap DegradeDepth(const DepthMap& in, uint32_t seed, double global_si
   return d;
 }
 
-// Monocular-like depth (issue 14, deliver 5), each part drawn from `seed`:
+// Monocular-like depth, each part drawn from `seed`:
 //  * a per-image global scale error, log-normal with σ = `log_sigma`, clipped to ×[0.5, 1.5];
 //  * an additive shift, uniform in ±`shift_m`;
 //  * a smooth low-frequency multiplicative field of amplitude uniform in [field_min, field_max];

@@ -371,7 +371,7 @@ TEST(Cli, DepthOnRealFrames) {
 }
 
 // The same correspondences and depth give the same pose, status and confidence from `freeloc pose` and `freeloc
-// run` (issue 13): two synthetic scenes with precomputed correspondences and provided depth, run with
+// run`: two synthetic scenes with precomputed correspondences and provided depth, run with
 // --save-matches; each query's saved correspondences through `pose --preset <the run's preset>` reproduce the log's
 // record to the last bit, failures included.
 TEST(Cli, PoseAndRunAgreeOnTheSameCorrespondences) {
@@ -617,7 +617,7 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   r = RunFreeloc("-q eval --data " + data + " --submission " + tmp.File("s.zip") + " --json -");
   ASSERT_EQ(r.code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
-  // Always answer (issue 14): the no-depth queries are submitted too, with the prior pose and confidence 0.
+  // Always answer: the no-depth queries are submitted too, with the prior pose and confidence 0.
   EXPECT_EQ(j["counts"]["estimates"], 3);
   EXPECT_TRUE(Contains(log, "\"answered\":true")) << log;
   EXPECT_LT(j["Average Median Translation Error"].get<double>(), 0.03);
@@ -683,7 +683,7 @@ TEST(Cli, RunReportsBadInputClearly) {
   const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
   EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00002/seq1/frame_00000.png")) << log;
   EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00003/seq1/frame_00000.png")) << log;
-  // Always answer (issue 14): the failed queries are submitted with the prior pose and confidence 0 — unless
+  // Always answer: the failed queries are submitted with the prior pose and confidence 0 — unless
   // always_answer is 0, when nothing is submitted for them.
   const auto zip = freeloc::ZipContents::Read(tmp.File("b.zip")).files;
   EXPECT_EQ(zip.at("pose_s00002.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0\n");
@@ -906,7 +906,7 @@ TEST(Cli, Mast3rPresetsRunAndEval) {
       EXPECT_EQ(freeloc::testing::ReadText(tmp.File("a.zip")), freeloc::testing::ReadText(tmp.File("b.zip")));
     }
     // The submission is valid and evaluates: random weights solve nothing, so every query is answered with the
-    // prior pose and confidence 0 (always answer, issue 14).
+    // prior pose and confidence 0 (always answer).
     for (const auto& [name, text] : freeloc::ZipContents::Read(tmp.File("a.zip")).files) {
       std::stringstream lines(text);
       for (std::string line; std::getline(lines, line);)
@@ -950,7 +950,7 @@ TEST(Cli, UnknownCpuGetsFastBlasKernels) {
   EXPECT_FALSE(Contains(r.out, "selected by freeloc")) << r.out;
 }
 
-// Instant start (issue 17): commands that run no network never load LibTorch, and those that decode no photo never
+// Instant start: commands that run no network never load LibTorch, and those that decode no photo never
 // load OpenCV's image codecs (~140 libraries); the dynamic loader's own trace (LD_DEBUG=files) says what each process
 // loaded. A network command loads both, on demand.
 TEST(Cli, CommandsWithoutNetworksNeverLoadLibTorch) {

@@ -1,4 +1,4 @@
-// The machine's speed by default (issue 17): Debian's OpenBLAS 0.3.21 does not know recent CPUs (a 6th-generation
+// The machine's speed by default: Debian's OpenBLAS 0.3.21 does not know recent CPUs (a 6th-generation
 // Xeon is "Prescott" to it) and then runs its generic SSE kernels, 3–5× slower than the AVX-512 ones. This decides,
 // from the CPU's flags and the core OpenBLAS reported, which OPENBLAS_CORETYPE would run the right kernels — never
 // one the CPU cannot execute, nothing when OpenBLAS already chose well. Applied before OpenBLAS initialises: the CLI

@@ -1,4 +1,4 @@
-// Resource limits on what input files may make freeloc allocate or walk (issue 16). One process-wide table with
+// Resource limits on what input files may make freeloc allocate or walk. One process-wide table with
 // documented defaults, overridable with the global `--limit NAME=VALUE` flag or `FREELOC_LIMIT_<NAME>` in the
 // environment. Every limit hit is a one-line error naming the file and the limit (LimitHint).
 #pragma once

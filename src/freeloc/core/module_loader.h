@@ -1,5 +1,5 @@
 // freeloc's heavy parts — the networks (LibTorch) and OpenCV's image codecs — are shared libraries loaded on first
-// use, so commands that need neither start in milliseconds (issue 17: `freeloc --version`, `pose`, `eval`, …).
+// use, so commands that need neither start in milliseconds (`freeloc --version`, `pose`, `eval`, …).
 // A module exports one C entry point returning a table of functions; the caller declares the table (light header)
 // and looks it up here. The library is found: already loaded (a program that links it) → beside the freeloc library
 // that holds this loader (build tree and install prefix alike) → the dynamic linker's search path.

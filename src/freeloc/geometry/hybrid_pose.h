@@ -1,4 +1,4 @@
-// Depth-aware hybrid relative pose (issue 14): LO-RANSAC that draws minimal samples from the 5-point solver
+// Depth-aware hybrid relative pose: LO-RANSAC that draws minimal samples from the 5-point solver
 // (five_point.h; its unit-baseline model is completed with the metric length and query-depth scale that its inliers'
 // depths imply) AND from the 3-point depth solvers (relpose_depth_3pt.h, scale only; relpose_depth_shift_3pt.h, scale
 // and shifts), mixed adaptively, as in MADPose (Yu, Liu, Pautrat, Pollefeys, Larsson, "Relative Pose Estimation

@@ -13,7 +13,7 @@
 //    triangulated with the unit-baseline pose, and its depth divided by the triangulated depth says what |t| is
 //    (log ratios, median/MAD-trimmed mean). The reference depth anchors; when the query depth's anchoring agrees
 //    within a factor 2 the two are combined by their geometric mean. A depth-map scale error of e % becomes e % of
-//    |t| (halved in log terms when both agree), not e % of the scene depth as in the vote (issue 14).
+//    |t| (halved in log terms when both agree), not e % of the scene depth as in the vote.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,4 +1,4 @@
-// Regression tests for hostile and odd inputs (issue 16, first classes): each is the minimal input of a crash, hang,
+// Regression tests for hostile and odd inputs (first classes): each is the minimal input of a crash, hang,
 // bomb or wrongly refused file, and must now give a clear freeloc::Error (or be accepted, when valid).
 #include <gtest/gtest.h>
 #include <sys/stat.h>

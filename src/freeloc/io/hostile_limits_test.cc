@@ -1,4 +1,4 @@
-// Regression tests for hostile inputs, second part (issue 16): pickle bombs (deep nesting, cycles, shared-reference
+// Regression tests for hostile inputs, second part: pickle bombs (deep nesting, cycles, shared-reference
 // DAGs, huge integers, foreign globals), the input limits (image pixels, tensors, submission size), and text from
 // files made safe to print. Each input is the minimal one of its class.
 #include <gtest/gtest.h>

@@ -74,7 +74,7 @@ using PersistentLoad = std::function<PyRef(const PyRef& pid)>;
 // to decline.
 using ReduceHook = std::function<PyRef(const std::string& module, const std::string& name, const PyRef& args)>;
 
-// What a pickle may cost (issue 16). The defaults are far beyond any real checkpoint (a DUSt3R state dict is about
+// What a pickle may cost. The defaults are far beyond any real checkpoint (a DUSt3R state dict is about
 // 10 000 objects, nested 6 deep); every limit hit is a one-line error naming the stream.
 struct PickleLimits {
   size_t max_objects = 2'000'000;   // values pushed, also the stack and memo sizes (~250 bytes each)

@@ -1,4 +1,4 @@
-// bf16 that pays (issue 17): the rule that decides it, the prepacked oneDNN layer against fp32, and the accuracy
+// bf16 that pays: the rule that decides it, the prepacked oneDNN layer against fp32, and the accuracy
 // cost of `--precision bf16` on the parity fixtures (bf16 forced with FREELOC_BF16=force so every CPU measures it).
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The networks module (libfreeloc_networks.so, src/freeloc/networks/): every stage and command that runs a network —
 // the DUSt3R/MASt3R matchers with SegGPT instances, Metric3D depth, and the work of `freeloc pointmap / segment /
 // depth`. It is the only part above nn/ that links LibTorch, and it is loaded on first use (core/module_loader.h):
-// presets and commands that use no network never load LibTorch (issue 17: `freeloc --version` and `pose` start in
+// presets and commands that use no network never load LibTorch (`freeloc --version` and `pose` start in
 // milliseconds). A program that links freeloc::networks has it loaded already; the table is the same. Light header.
 #pragma once
 

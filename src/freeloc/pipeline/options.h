@@ -62,7 +62,7 @@ struct PipelineOptions {
   MatcherSpec matcher;
   DepthSpec depth;
   SolverKind solver = SolverKind::kEssential;
-  // essential (and hybrid's fallback): anchored — the depths anchor |t| (issue 14; the vote's error grows with
+  // essential (and hybrid's fallback): anchored — the depths anchor |t| (the vote's error grows with
   // depth ÷ baseline); robust — freeloc's scale vote; official — the benchmark's vote.
   geometry::ScaleMethod scale = geometry::ScaleMethod::kAnchored;
   double threshold_px = -1;                                      // < 0: the solver's default

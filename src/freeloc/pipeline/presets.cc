@@ -16,7 +16,7 @@ struct Preset {
 };
 
 // The benchmark's SIFT baseline uses a 3 px essential threshold; dense DUSt3R matches the solver default (1 px).
-// The network presets use the hybrid depth-aware solver (issue 14: bench/baseline, docs/geometry.md); sift-essential
+// The network presets use the hybrid depth-aware solver (bench/baseline, docs/geometry.md); sift-essential
 // keeps the benchmark's essential + depth scale (with the anchored scale) unless told --solver hybrid.
 constexpr Preset kPresets[] = {
     {"sift-essential", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kEssential, 3.0},

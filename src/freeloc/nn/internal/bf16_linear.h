@@ -1,4 +1,4 @@
-// bf16 that pays (issue 17): a Linear layer in bf16 through oneDNN's matmul with its weights reordered once, at
+// bf16 that pays: a Linear layer in bf16 through oneDNN's matmul with its weights reordered once, at
 // load, into the blocked layout the kernel wants (brgemm on AVX512-BF16 / AMX), f32 accumulation, f32 bias and
 // output. torch::linear on bf16 tensors repacks the weights on every call and rounds the output to bf16; this does
 // neither (half the error, 10–20 % faster on the GEMM alone). Whether bf16 is used at all is decided once per
