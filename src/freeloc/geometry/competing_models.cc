@@ -115,7 +115,7 @@ std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen:
   if (n_in < 8 || x1.size() != x2.size()) return out;
   // Scoring set: every correspondence, or an even subsample of 4000 on dense sets (support ratios only).
   std::vector<int> score_idx;
-  const size_t stride = std::max<size_t>(1, x1.size() / 4000);
+  const size_t stride = std::max<size_t>(1, x1.size() / 2000);
   for (size_t i = 0; i < x1.size(); i += stride) score_idx.push_back(static_cast<int>(i));
   auto support = [&](const PoseRt& p) {
     const Eigen::Matrix3d E = EssentialFromPose(p);
@@ -161,10 +161,10 @@ std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen:
   for (size_t k = 0; k < clusters.size() && k < static_cast<size_t>(2 * max_models); ++k) {
     PoseRt p = clusters[k].pose;
     for (int round = 0; round < 2; ++round) {
-      std::vector<int> in;
+      std::vector<int> in;  // on the scoring set: a dense set's rival is refined on ≤ 4000 of its matches
       const Eigen::Matrix3d E = EssentialFromPose(p);
-      for (size_t i = 0; i < x1.size(); ++i)
-        if (SampsonSquared(E, x1[i], x2[i]) < threshold_sq) in.push_back(static_cast<int>(i));
+      for (int i : score_idx)
+        if (SampsonSquared(E, x1[i], x2[i]) < threshold_sq) in.push_back(i);
       if (in.size() < 6) break;
       RefineRelativePose(x1, x2, in, loss_scale, 10, &p);
     }
@@ -177,7 +177,7 @@ std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen:
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
   if (near) {
     std::sort(near->begin(), near->end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
-    if (near->size() > 16) near->resize(16);
+    if (near->size() > 8) near->resize(8);
     for (auto& m : *near) m.inliers *= static_cast<int>(stride);
   }
   return out;

@@ -64,7 +64,7 @@ struct CompetingModel {
 std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen::Vector3d>& x1,
                                                         const std::vector<Eigen::Vector3d>& x2, const PoseRt& best,
                                                         const std::vector<int>& best_inliers, double threshold_sq,
-                                                        double loss_scale, uint64_t seed, int samples = 120,
+                                                        double loss_scale, uint64_t seed, int samples = 60,
                                                         double min_support_ratio = 0.7, int max_models = 3,
                                                         std::vector<CompetingModel>* near = nullptr);
 

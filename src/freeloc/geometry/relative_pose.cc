@@ -270,11 +270,22 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     const auto rivals = FindCompetingRelativeModels(x1, x2, best, in, ro.threshold_sq, th, opt.seed,
                                                     opt.competitor_samples, 0.7, 3, use_depth ? &near : nullptr);
     const double sigma = 1.0 / focal;
+    // The evidence of every model on the same even subsample of ≤ 4000 correspondences (dense sets).
+    const size_t stride = std::max<size_t>(1, x1.size() / 2000);
+    std::vector<Eigen::Vector3d> e1, e2;
+    DepthSamples ed;
+    for (size_t i = 0; i < x1.size(); i += stride) {
+      e1.push_back(x1[i]);
+      e2.push_back(x2[i]);
+      if (!depth.ref.empty()) ed.ref.push_back(i < depth.ref.size() ? depth.ref[i] : 0.0);
+      if (!depth.query.empty()) ed.query.push_back(i < depth.query.size() ? depth.query[i] : 0.0);
+    }
+    auto evaluate = [&](const PoseRt& p) { return EvaluateRelativeModel(e1, e2, p, ro.threshold_sq, ed, sigma); };
     std::vector<PoseRt> models = {best};
-    std::vector<ModelEvidence> ev = {EvaluateRelativeModel(x1, x2, best, ro.threshold_sq, depth, sigma)};
+    std::vector<ModelEvidence> ev = {evaluate(best)};
     for (const auto& r : rivals) {
       models.push_back(r.pose);
-      ev.push_back(EvaluateRelativeModel(x1, x2, r.pose, ro.threshold_sq, depth, sigma));
+      ev.push_back(evaluate(r.pose));
     }
     // Depth: every model must have enough depth samples; the near-winner minimal-sample models join (a flat
     // valley of near-equal Sampson support, where the depths pick the point the matches cannot).
@@ -284,7 +295,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
       for (const auto& m : near)
         if (m.inliers >= 0.9 * static_cast<double>(in.size())) {
           models.push_back(m.pose);
-          ev.push_back(EvaluateRelativeModel(x1, x2, m.pose, ro.threshold_sq, depth, sigma));
+          ev.push_back(evaluate(m.pose));
         }
     if (models.size() > 1) {
       const size_t n_rivals = rivals.size() + 1;  // models [0, n_rivals): RANSAC's winner and the refined rivals
@@ -315,13 +326,19 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
       if (runner < models.size()) {
         const double deficit = std::max(0.0, e_win - evidence(ev[runner]));
         res.status.runner_up_plausibility = std::exp(-deficit / std::sqrt(e_win));
-        res.status.runner_up_inliers = ev[runner].inliers;
+        res.status.runner_up_inliers = ev[runner].inliers * static_cast<int>(stride);
         res.runner_up = Rigid3d(models[runner].R, models[runner].t.normalized());
       }
       res.status.decided_by = overruled ? (by_depth ? "depth" : "cheirality") : "support";
       if (win != 0) {
         best = models[win];
         collect(best);
+        // A refined rival was refined on a subsample of a dense set: once more on all its inliers. (A near-winner
+        // model picked by the depths stays as it is: the Sampson cost would slide it back along the valley.)
+        if (win <= rivals.size() && stride > 1 && in.size() >= 6 && opt.final_refinement) {
+          RefineRelativePose(x1, x2, in, th, opt.refinement_iterations, &best);
+          collect(best);
+        }
       }
     }
   }

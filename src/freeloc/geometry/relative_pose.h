@@ -29,7 +29,7 @@ struct RelativePoseOptions {
   int min_inliers = 10;
   // Competing models (competing_models.h): minimal samples drawn from the winner's inliers to find a distinct
   // model with nearly the same support (0: no search, RANSAC's winner stands unexamined).
-  int competitor_samples = 120;
+  int competitor_samples = 60;
   double max_seconds = 10.0;  // RANSAC wall-clock budget; then the best model so far, if it passes the checks
   void Validate() const;  // throws freeloc::Error
 };
