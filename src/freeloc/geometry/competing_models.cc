@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "freeloc/core/rigid3d.h"
 #include "freeloc/geometry/five_point.h"
 #include "freeloc/geometry/ransac.h"
 #include "freeloc/geometry/relative_pose.h"
@@ -29,8 +30,7 @@ bool DistinctModels(const PoseRt& a, const PoseRt& b) {
 }
 
 double RotationDistanceDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  const double c = std::clamp(0.5 * ((a.transpose() * b).trace() - 1.0), -1.0, 1.0);
-  return std::acos(c) * kRadToDeg;
+  return RotationAngleDeg(Eigen::Quaterniond(a), Eigen::Quaterniond(b));
 }
 
 double DirectionDistanceDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
@@ -44,60 +44,38 @@ ModelEvidence EvaluateRelativeModel(const std::vector<Eigen::Vector3d>& x1, cons
                                     double sigma_rad) {
   ModelEvidence ev;
   const Eigen::Matrix3d E = EssentialFromPose(pose);
-  // Per in-front inlier: log(depth / triangulated depth) — constant (the scale of t) on the right model — and the
-  // window it may differ by: 10 % for the depth map's own error plus the triangulation's (3σ / parallax).
-  std::vector<double> lr, lq, wr, wq;
-  std::vector<int> ir, iq;
+  // Per in-front inlier with a depth: log(depth / triangulated depth), constant (the scale of t) on the right model.
+  std::vector<double> lr, lq;
+  std::vector<size_t> ir, iq;
   for (size_t i = 0; i < x1.size(); ++i) {
-    const double e = SampsonSquared(E, x1[i], x2[i]);
-    if (!(e < threshold_sq)) {
-      ev.score += threshold_sq;
-      continue;
-    }
-    ev.score += e;
+    if (!(SampsonSquared(E, x1[i], x2[i]) < threshold_sq)) continue;
     ++ev.inliers;
     double l1, l2;
     if (!TriangulateDepths(pose, x1[i], x2[i], &l1, &l2) || !(l1 > 0) || !(l2 > 0)) continue;
     ++ev.in_front;
-    const double parallax =
-        std::max(1e-6, std::asin(std::min(1.0, (pose.R * x1[i]).normalized().cross(x2[i].normalized()).norm())));
-    const double window = 0.1 + 3 * sigma_rad / parallax;
     if (ValidDepth(depth.ref, i)) {
       lr.push_back(std::log(depth.ref[i] / l1));
-      wr.push_back(window);
-      ir.push_back(static_cast<int>(i));
+      ir.push_back(i);
     }
     if (ValidDepth(depth.query, i)) {
       lq.push_back(std::log(depth.query[i] / l2));
-      wq.push_back(window);
-      iq.push_back(static_cast<int>(i));
+      iq.push_back(i);
     }
   }
-  // Reprojection: angle between the moved point and the observed ray, in units of 3σ (a few pixels), truncated.
-  const double tau2 = 9.0 * sigma_rad * sigma_rad * 4.0;
+  // Reprojection through each depth map at the scale its depths agree on (median): the angle between the moved
+  // point and the observed ray within 6σ (a few pixels).
+  const double tau2 = 36.0 * sigma_rad * sigma_rad;
   for (int side = 0; side < 2; ++side) {
     const auto& l = side == 0 ? lr : lq;
-    const auto& w = side == 0 ? wr : wq;
     const auto& idx = side == 0 ? ir : iq;
     if (l.empty()) continue;
-    const double m = Median(l);
     ev.depth_samples += static_cast<int>(l.size());
-    for (size_t k = 0; k < l.size(); ++k) {
-      ev.depth_agree += std::abs(l[k] - m) < w[k];
-      const int i = idx[k];
-      // t in the depth's unit: the depths are exp(m) × the unit-baseline triangulation.
-      const Eigen::Vector3d t = pose.t * std::exp(m);
-      Eigen::Vector3d moved, seen;
-      if (side == 0) {
-        moved = pose.R * (depth.ref[static_cast<size_t>(i)] * x1[static_cast<size_t>(i)]) + t;
-        seen = x2[static_cast<size_t>(i)];
-      } else {
-        moved = pose.R.transpose() * (depth.query[static_cast<size_t>(i)] * x2[static_cast<size_t>(i)] - t);
-        seen = x1[static_cast<size_t>(i)];
-      }
-      const double s = moved.normalized().cross(seen.normalized()).squaredNorm();
-      const double e = moved.dot(seen) > 0 ? s : 1.0;
-      ev.depth_reprojection += std::min(e, tau2);
+    const Eigen::Vector3d t = pose.t * std::exp(Median(l));  // t in the depth's unit
+    for (size_t i : idx) {
+      const Eigen::Vector3d moved = side == 0 ? Eigen::Vector3d(pose.R * (depth.ref[i] * x1[i]) + t)
+                                              : Eigen::Vector3d(pose.R.transpose() * (depth.query[i] * x2[i] - t));
+      const Eigen::Vector3d& seen = side == 0 ? x2[i] : x1[i];
+      const double e = moved.dot(seen) > 0 ? moved.normalized().cross(seen.normalized()).squaredNorm() : 1.0;
       ev.depth_reprojection_inliers += e < tau2;
     }
   }

@@ -30,17 +30,12 @@ struct ModelEvidence {
   int inliers = 0;        // Sampson inliers
   int in_front = 0;       // … in front of both cameras
   int depth_samples = 0;  // in-front inliers with a depth (reference and query counted separately)
-  int depth_agree = 0;    // … whose depth agrees with the triangulation up to the common scale (median)
-  double score = 0;       // MSAC score over all correspondences (lower is better)
-  // Reprojection through the depth maps, at the scale the inliers' depths agree on (median): each in-front inlier's
-  // reference point (depth · ray) moved by the model and compared with the query ray, and the query's the other
-  // way; MSAC score in units of the depth window (lower is better; 0 without depth).
-  double depth_reprojection = 0;
+  // … whose point, moved by the model at the scale the depths agree on (median), reprojects within 6σ of the other
+  // view's ray: the reference point (depth · ray) into the query, the query's back into the reference.
   int depth_reprojection_inliers = 0;
 };
 
-// `sigma_rad`: the angular noise of one correspondence (≈ 1 px / focal), which widens the depth window where the
-// parallax is small.
+// `sigma_rad`: the angular noise of one correspondence (≈ 1 px / focal); the reprojection threshold is 6σ.
 ModelEvidence EvaluateRelativeModel(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
                                     const PoseRt& pose, double threshold_sq, const DepthSamples& depth,
                                     double sigma_rad);

@@ -238,12 +238,9 @@ class HybridSolver : public PoseSolver {
       r->route = "essential";
       return;
     }
-    std::vector<double> zr(c.size()), zq(c.size());
-    for (size_t i = 0; i < c.size(); ++i) {
-      zr[i] = geometry::BilinearDepth(d_ref, c.ref[i].x(), c.ref[i].y());
-      zq[i] = geometry::BilinearDepth(d_query, c.query[i].x(), c.query[i].y());
-    }
-    const geometry::HybridPoseResult h = geometry::EstimateHybridPose(c.ref, c.query, zr, zq, k_ref, k_query, options_);
+    const geometry::DepthSamples z = SampleDepths(c, d_ref, d_query);
+    const geometry::HybridPoseResult h =
+        geometry::EstimateHybridPose(c.ref, c.query, z.ref, z.query, k_ref, k_query, options_);
     const bool fits = h.status.success && h.status.num_inliers >= 0.8 * ess.inliers;
     if (!fits) {
       *r = ess;
