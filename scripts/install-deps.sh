@@ -8,7 +8,7 @@ PACKAGES=(
   build-essential cmake make pkg-config ccache git
   libtorch-dev libopenblas0-openmp libopenblas-dev libdnnl-dev
   libeigen3-dev
-  libopencv-dev libpng-dev
+  libopencv-dev libpng-dev libexif-dev
   libnanoflann-dev
   nlohmann-json3-dev libcli11-dev libzip-dev zip unzip
   libgtest-dev libgmock-dev libbenchmark-dev

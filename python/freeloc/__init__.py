@@ -10,6 +10,8 @@ The same C++ pipeline as the ``freeloc`` command, numpy in and out. Poses are ``
     print(r.status, r.R, r.t, r.confidence)
     reloc = freeloc.Relocalizer("sift-essential")
     r = reloc.relocalize("ref.png", "query.png", K, K, "ref.depth.png", "query.depth.png")
+    r = reloc.relocalize("a.jpg", "b.jpg")  # intrinsics from EXIF (or, dust3r/mast3r presets, the pointmap)
+    freeloc.read_intrinsics("a.jpg")          # {'K': ..., 'source': 'exif', 'why': ..., 'orientation': 6, ...}
     metrics = freeloc.evaluate("data/mapfree", "submission.zip")
 """
 
@@ -33,13 +35,14 @@ from ._freeloc import (  # noqa: F401,E402
     preset_names,
     read_depth,
     read_image,
+    read_intrinsics,
     run,
 )
 from . import _freeloc  # noqa: E402
 
 __all__ = [
     "Dust3r", "Error", "Metric3D", "PoseResult", "Relocalizer", "SegGPT", "__version__", "estimate_relative_pose",
-    "evaluate", "option_names", "preset_names", "read_depth", "read_image", "run",
+    "evaluate", "option_names", "preset_names", "read_depth", "read_image", "read_intrinsics", "run",
 ]
 
 

@@ -26,6 +26,7 @@
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
 #include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/intrinsics.h"
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/vision/dust3r_preprocess.h"
@@ -246,9 +247,10 @@ class PyRelocalizer {
 
   PoseResult Relocalize(const py::handle& ref, const py::handle& query, const py::handle& k_ref,
                         const py::handle& k_query, const py::handle& depth_ref, const py::handle& depth_query) {
-    const Image ri = ImageOf(ref, "ref_image"), qi = ImageOf(query, "query_image");
-    const Camera kr = CameraOf(k_ref, "K_ref", ri.width, ri.height), kq = CameraOf(k_query, "K_query", qi.width, qi.height);
     pipeline::FrameInputs in_ref, in_query;
+    Image ri, qi;
+    const Camera kr = PhotoOf(ref, k_ref, "ref_image", "K_ref", &ri, &in_ref);
+    const Camera kq = PhotoOf(query, k_query, "query_image", "K_query", &qi, &in_query);
     in_ref.depth = DepthOf(depth_ref, "depth_ref");
     in_query.depth = DepthOf(depth_query, "depth_query");
     // As `freeloc relocalize`: no depth given and none overridden → the provided-depth presets answer without depth.
@@ -261,7 +263,7 @@ class PyRelocalizer {
     matching::Correspondences c;
     {
       py::gil_scoped_release nogil;
-      if (!SameReference(no_depth, ri, kr, in_ref.depth)) reloc.SetReference(ri, kr, std::move(in_ref));
+      if (!SameReference(no_depth, ri, kr, in_ref)) reloc.SetReference(ri, kr, std::move(in_ref));
       p.r = reloc.Relocalize(qi, kq, std::move(in_query), &c);
     }
     p.n = c.size();
@@ -271,10 +273,31 @@ class PyRelocalizer {
   const pipeline::PipelineOptions& options() const { return options_; }
 
  private:
+  // An image (a path: decoded upright, with its EXIF; an array: as is) and its intrinsics by freeloc's order
+  // (pipeline/intrinsics.h): `k` when given, else the photo's EXIF, else the pointmap's focal (dust3r/mast3r
+  // presets), else a ValueError naming the keyword.
+  Camera PhotoOf(const py::handle& image, const py::handle& k, const char* image_name, const char* k_name, Image* out,
+                 pipeline::FrameInputs* in) const {
+    ExifInfo exif;
+    *out = IsPath(image) ? ReadImage(PathOf(image), &exif) : ImageOf(image, image_name);
+    Camera given;
+    if (!k.is_none()) given = CameraOf(k, k_name, out->width, out->height);
+    const pipeline::IntrinsicsChoice c =
+        pipeline::ChooseIntrinsics(k.is_none() ? nullptr : &given, pipeline::IntrinsicsSource::kGiven, exif, *out,
+                                   options_.UsesPointmapModel(), image_name);
+    if (c.source == pipeline::IntrinsicsSource::kNone)
+      BadValue(std::string(k_name) + ": not given, and " + image_name + " has no usable EXIF focal length (" + c.why +
+               "); pass " + k_name + " (3x3) or use a dust3r or mast3r preset (they estimate the focal from the "
+               "pointmap)");
+    return pipeline::ApplyIntrinsics(c, in);
+  }
+
   struct Slot {
     std::unique_ptr<pipeline::Relocalizer> reloc;
     Image ref;
     Camera k;
+    pipeline::IntrinsicsSource source = pipeline::IntrinsicsSource::kNone;
+    int orientation = 0;
     DepthMap depth;
     bool set = false;
   };
@@ -289,15 +312,19 @@ class PyRelocalizer {
     return *s.reloc;
   }
 
-  // Whether the slot's reference is this one (same pixels, camera and depth); remembers it when not.
-  bool SameReference(bool no_depth, const Image& im, const Camera& k, const DepthMap& d) {
+  // Whether the slot's reference is this one (same pixels, camera and its source, depth); remembers it when not.
+  bool SameReference(bool no_depth, const Image& im, const Camera& k, const pipeline::FrameInputs& in) {
     Slot& s = slots_[no_depth];
+    const DepthMap& d = in.depth;
     const bool same = s.set && s.ref.width == im.width && s.ref.height == im.height && s.ref.data == im.data &&
                       s.k.fx == k.fx && s.k.fy == k.fy && s.k.cx == k.cx && s.k.cy == k.cy &&
+                      s.source == in.intrinsics_source && s.orientation == in.orientation &&
                       s.depth.width == d.width && s.depth.data == d.data;
     if (!same) {
       s.ref = im;
       s.k = k;
+      s.source = in.intrinsics_source;
+      s.orientation = in.orientation;
       s.depth = d;
       s.set = true;
     }
@@ -499,6 +526,33 @@ void BindFiles(py::module_& m) {
     return a;
   }, py::arg("path"), "The map-free uint16 millimetre PNG as float32 metres (0 = invalid).");
 
+  m.def("read_intrinsics", [](const py::object& path) {
+    ExifInfo exif;
+    const std::string p = PathOf(path);
+    const Image im = ReadImage(p, &exif);
+    const pipeline::IntrinsicsChoice c =
+        pipeline::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, im, false, p);
+    py::dict d;
+    d["width"] = im.width;
+    d["height"] = im.height;
+    d["orientation"] = exif.orientation;
+    d["source"] = c.source == pipeline::IntrinsicsSource::kExif ? "exif" : "none";
+    d["why"] = c.why;
+    if (c.source == pipeline::IntrinsicsSource::kExif) {
+      py::array_t<double> k({py::ssize_t{3}, py::ssize_t{3}});
+      auto m = k.mutable_unchecked<2>();
+      const double v[9] = {c.camera.fx, 0, c.camera.cx, 0, c.camera.fy, c.camera.cy, 0, 0, 1};
+      for (int i = 0; i < 9; ++i) m(i / 3, i % 3) = v[i];
+      d["K"] = k;
+    } else {
+      d["K"] = py::none();
+    }
+    return d;
+  }, py::arg("path"),
+     "What freeloc reads from a photo's EXIF: {'K': 3x3 or None, 'source': 'exif' or 'none', 'why', 'orientation', "
+     "'width', 'height'} for the image as decoded (upright). Without EXIF intrinsics a dust3r/mast3r Relocalizer "
+     "estimates the focal from the pointmap.");
+
   m.def("read_image", [](const py::object& path) {
     const Image im = ReadImage(PathOf(path));
     py::array_t<uint8_t> a({static_cast<py::ssize_t>(im.height), static_cast<py::ssize_t>(im.width), py::ssize_t{3}});
@@ -547,8 +601,9 @@ void BindPoses(py::module_& m) {
   py::class_<PyRelocalizer>(m, "Relocalizer")
       .def(py::init<const std::string&, const py::object&, const py::kwargs&>(), py::arg("preset") = "sift-essential",
            py::arg("models") = py::none())
-      .def("relocalize", &PyRelocalizer::Relocalize, py::arg("ref_image"), py::arg("query_image"), py::arg("K_ref"),
-           py::arg("K_query"), py::arg("depth_ref") = py::none(), py::arg("depth_query") = py::none())
+      .def("relocalize", &PyRelocalizer::Relocalize, py::arg("ref_image"), py::arg("query_image"),
+           py::arg("K_ref") = py::none(), py::arg("K_query") = py::none(), py::arg("depth_ref") = py::none(),
+           py::arg("depth_query") = py::none())
       .def_property_readonly("options", [](const PyRelocalizer& r) {
         return JsonToPy(pipeline::OptionsJson(r.options()));
       });

@@ -379,3 +379,66 @@ def test_weak_support_is_a_low_confidence_answer_not_the_prior():
         s = freeloc.estimate_relative_pose(x[:, :2], x[:, 2:], K_TUM, K_TUM, threshold_px=2.0, always_answer=0)
         assert s.status == "weak-support" and not s.answered
     assert weak >= 2
+
+
+def _exif_jpeg(path, image_path, orientation=1, focal_mm=4.0, fx=520.908620, fy=521.007327, f35=None, rotate=None):
+    """A TUM frame re-encoded as a JPEG with the EXIF a camera writes (Pillow), stored turned by `rotate`."""
+    from PIL import Image
+    from PIL.TiffImagePlugin import IFDRational
+    im = Image.open(image_path).convert("RGB")
+    if rotate is not None:
+        im = im.transpose(rotate)
+    exif = Image.Exif()
+    exif[0x0112] = orientation
+    sub = {}
+    if focal_mm:
+        swap = orientation in (5, 6, 7, 8)  # stored x is displayed y
+        sub[0x920A] = IFDRational(int(focal_mm * 1000), 1000)
+        sub[0xA20E] = IFDRational(int((fy if swap else fx) / focal_mm * 100000), 100000)
+        sub[0xA20F] = IFDRational(int((fx if swap else fy) / focal_mm * 100000), 100000)
+        sub[0xA210] = 4  # mm
+    if f35:
+        sub[0xA405] = f35
+    exif[0x8769] = sub  # the Exif sub-IFD (Pillow writes a dict value as one)
+    im.save(path, "JPEG", quality=95, exif=exif.tobytes())
+    return str(path)
+
+
+def test_intrinsics_are_optional_exif_then_pointmap(tmp_path):
+    pytest.importorskip("PIL.Image", reason="Pillow (python3-pil) is not installed")
+    from PIL import Image
+    ref = _exif_jpeg(tmp_path / "ref.jpg", os.path.join(S3, "seq0", "frame_00000.png"))
+    query = _exif_jpeg(tmp_path / "q.jpg", os.path.join(S3, "seq1", "frame_00000.png"))
+    # read_intrinsics: the EXIF focal to 0.1 %, principal point at the centre.
+    info = freeloc.read_intrinsics(ref)
+    assert info["source"] == "exif" and info["width"] == 640 and info["height"] == 480
+    assert abs(info["K"][0, 0] / 520.908620 - 1) < 1e-3 and abs(info["K"][1, 1] / 521.007327 - 1) < 1e-3
+    assert info["K"][0, 2] == 319.5 and info["K"][1, 2] == 239.5
+    # relocalize without K: the EXIF intrinsics, the same pose as the same K handed in.
+    reloc = freeloc.Relocalizer("sift-essential")
+    r = reloc.relocalize(ref, query, depth_ref=depth(S3, "seq0"), depth_query=depth(S3, "seq1"))
+    d = r.as_dict()
+    assert d["intrinsics"]["ref"]["source"] == "exif" and d["intrinsics"]["query"]["source"] == "exif"
+    g = reloc.relocalize(ref, query, info["K"], info["K"], depth(S3, "seq0"), depth(S3, "seq1"))
+    assert g.as_dict()["intrinsics"]["ref"]["source"] == "given"
+    assert r.status == g.status == "ok"
+    assert np.allclose(r.t, g.t, atol=0.01) and np.allclose(r.R, g.R, atol=1e-3)
+    # A photo stored turned (orientation 6): read upright, the swap of fx/fy undone, the same pose within 0.5°.
+    turned = _exif_jpeg(tmp_path / "q6.jpg", os.path.join(S3, "seq1", "frame_00000.png"), orientation=6,
+                        rotate=Image.Transpose.ROTATE_90)
+    info6 = freeloc.read_intrinsics(turned)
+    assert info6["orientation"] == 6 and info6["width"] == 640
+    assert abs(info6["K"][0, 0] / 520.908620 - 1) < 1e-3
+    r6 = reloc.relocalize(ref, turned, depth_ref=depth(S3, "seq0"), depth_query=depth(S3, "seq1"))
+    angle = np.degrees(np.arccos(np.clip((np.trace(r6.R @ r.R.T) - 1) / 2, -1, 1)))
+    assert r6.status == "ok" and angle < 0.5 and np.linalg.norm(r6.t - r.t) < 0.02
+    # The 35 mm equivalent alone: 36 mm across the long side.
+    only35 = _exif_jpeg(tmp_path / "q35.jpg", os.path.join(S3, "seq1", "frame_00000.png"), focal_mm=None, f35=29)
+    assert abs(freeloc.read_intrinsics(only35)["K"][0, 0] - 29 / 36 * 640) < 1e-9
+    # No source: a ValueError naming the keyword (sift has no pointmap); a PNG has no EXIF.
+    png = os.path.join(S3, "seq0", "frame_00000.png")
+    assert freeloc.read_intrinsics(png)["source"] == "none" and freeloc.read_intrinsics(png)["K"] is None
+    with pytest.raises(ValueError, match="K_ref: not given"):
+        reloc.relocalize(png, query)
+    with pytest.raises(ValueError, match="K_query: not given"):
+        reloc.relocalize(ref, freeloc.read_image(query))  # an array carries no EXIF

@@ -66,6 +66,7 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterRelocalize(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterMerge(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterIntrinsics(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli
 

@@ -86,6 +86,7 @@ int main(int argc, char** argv) {
   cli::RegisterDemo(app, global, &run);
   cli::RegisterMerge(app, global, &run);
   cli::RegisterOptions(app, global, &run);
+  cli::RegisterIntrinsics(app, global, &run);
 
   try {
     app.parse(argc, argv);

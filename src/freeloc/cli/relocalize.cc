@@ -9,6 +9,7 @@
 #include "freeloc/io/correspondence_file.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
+#include "freeloc/pipeline/intrinsics.h"
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
 
@@ -40,13 +41,35 @@ Camera CameraFromFile(const std::string& file, const std::string& image) {
   return by_name->camera;
 }
 
-std::pair<Camera, Camera> Cameras(const RelocArgs& a) {
-  FREELOC_CHECK(a.intrinsics.empty() != (a.ref_k.empty() && a.query_k.empty()),
-                "give --ref-intrinsics and --query-intrinsics (fx,fy,cx,cy), or --intrinsics FILE, not both");
-  FREELOC_CHECK(!a.intrinsics.empty() || (!a.ref_k.empty() && !a.query_k.empty()),
-                "give both --ref-intrinsics and --query-intrinsics (fx,fy,cx,cy), or --intrinsics FILE");
-  if (!a.intrinsics.empty()) return {CameraFromFile(a.intrinsics, a.ref), CameraFromFile(a.intrinsics, a.query)};
-  return {Camera::FromString(a.ref_k, "--ref-intrinsics"), Camera::FromString(a.query_k, "--query-intrinsics")};
+// One photo with the intrinsics freeloc's order gives it (pipeline/intrinsics.h): --<frame>-intrinsics or
+// --intrinsics FILE > EXIF > the pointmap's focal > a one-line error naming the flags.
+struct Photo {
+  Image image;
+  pipeline::IntrinsicsChoice intrinsics;
+};
+
+Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref) {
+  const std::string& path = ref ? a.ref : a.query;
+  const std::string& flag_value = ref ? a.ref_k : a.query_k;
+  const std::string flag = ref ? "--ref-intrinsics" : "--query-intrinsics";
+  Camera given;
+  pipeline::IntrinsicsSource source = pipeline::IntrinsicsSource::kGiven;
+  if (!flag_value.empty()) {
+    given = Camera::FromString(flag_value, flag);
+  } else if (!a.intrinsics.empty()) {
+    given = CameraFromFile(a.intrinsics, path);
+    source = pipeline::IntrinsicsSource::kFile;
+  }
+  const bool have = !flag_value.empty() || !a.intrinsics.empty();
+  Photo p;
+  ExifInfo exif;
+  p.image = ReadImage(path, &exif);
+  p.intrinsics = pipeline::ChooseIntrinsics(have ? &given : nullptr, source, exif, p.image, o.UsesPointmapModel(), path);
+  FREELOC_CHECK(p.intrinsics.source != pipeline::IntrinsicsSource::kNone,
+                path << ": no intrinsics (its EXIF: " << p.intrinsics.why << "); give " << flag
+                     << " fx,fy,cx,cy or --intrinsics FILE, or use a dust3r or mast3r preset (they estimate the focal "
+                        "from the pointmap)");
+  return p;
 }
 
 pipeline::PipelineOptions Options(const RelocArgs& a, const GlobalOptions& g) {
@@ -60,6 +83,20 @@ pipeline::PipelineOptions Options(const RelocArgs& a, const GlobalOptions& g) {
   });
 }
 
+// "fx 535.4 fy 539.2 cx 320.1 cy 247.6 (exif; EXIF orientation 6: rotated 90° clockwise)"
+std::string IntrinsicsText(const pipeline::FrameIntrinsics& f) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "fx %.2f fy %.2f cx %.2f cy %.2f (%s", f.camera.fx, f.camera.fy, f.camera.cx,
+                f.camera.cy, ToString(f.source).c_str());
+  std::string s = buf;
+  if (f.pointmap_focal > 0 && f.source != pipeline::IntrinsicsSource::kPointmap) {
+    std::snprintf(buf, sizeof(buf), "; pointmap focal %.1f", f.pointmap_focal);
+    s += buf;
+  }
+  if (f.orientation >= 2) s += "; EXIF orientation " + std::to_string(f.orientation) + ": " + OrientationText(f.orientation);
+  return s + ")";
+}
+
 void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, bool json) {
   if (json) {
     std::printf("%s\n", pipeline::QueryRecordJson("", q, &o, 2).c_str());
@@ -70,21 +107,27 @@ void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, b
   std::printf(
       "%s\nstatus:      %s\nqvec (wxyz): %.9f %.9f %.9f %.9f\ntvec:        %.6f %.6f %.6f %s\n"
       "confidence:  %.6g\nmatches:     %d (%d inliers)\ninstances:   %d of %d used\n"
-      "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n",
+      "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n"
+      "intrinsics:  ref %s\n             query %s\n",
       o.Summary().c_str(), q.StatusText().c_str(), qv[0], qv[1], qv[2], qv[3], t.x(), t.y(), t.z(),
       q.metric()     ? "(metres)"
       : q.prior()  ? "(the prior pose, submitted with confidence 0: not solved)"
       : q.weak()   ? "(weak support: a low-confidence answer, ranked below every ok one)"
                    : "(unit norm: no depth)", q.confidence, q.matches, q.inliers, q.instances_used,
-      q.instances, q.depth_ms, q.match_ms, q.instance_ms, q.solve_ms);
+      q.instances, q.depth_ms, q.match_ms, q.instance_ms, q.solve_ms, IntrinsicsText(q.ref_intrinsics).c_str(),
+      IntrinsicsText(q.query_intrinsics).c_str());
 }
 
 int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   const pipeline::PipelineOptions o = Options(a, g);
-  const auto [kr, kq] = Cameras(a);
-  const Image ref = ReadImage(a.ref), query = ReadImage(a.query);
+  FREELOC_CHECK(a.intrinsics.empty() || (a.ref_k.empty() && a.query_k.empty()),
+                "give --ref-intrinsics/--query-intrinsics (fx,fy,cx,cy) or --intrinsics FILE, not both");
+  const Photo ref_photo = LoadPhoto(a, o, true), query_photo = LoadPhoto(a, o, false);
+  const Image &ref = ref_photo.image, &query = query_photo.image;
   std::vector<uint16_t> ref_labels, query_labels;
   pipeline::FrameInputs in_ref, in_query;
+  const Camera kr = pipeline::ApplyIntrinsics(ref_photo.intrinsics, &in_ref);
+  const Camera kq = pipeline::ApplyIntrinsics(query_photo.intrinsics, &in_query);
   if (!a.ref_depth.empty()) in_ref.depth = ReadDepthPng(a.ref_depth);
   if (!a.query_depth.empty()) in_query.depth = ReadDepthPng(a.query_depth);
   if (!a.ref_masks.empty()) in_ref.instance_labels = &(ref_labels = ReadLabels(a.ref_masks, ref.width, ref.height));
@@ -106,8 +149,9 @@ void RegisterRelocalize(CLI::App& app, const GlobalOptions& global, RunFn* run) 
   auto* rs = app.add_subcommand("relocalize", "Pose of one query image relative to one reference image");
   rs->add_option("--ref", a->ref, "reference image")->required();
   rs->add_option("--query", a->query, "query image")->required();
-  rs->add_option("--ref-intrinsics", a->ref_k, "fx,fy,cx,cy");
-  rs->add_option("--query-intrinsics", a->query_k, "fx,fy,cx,cy");
+  rs->add_option("--ref-intrinsics", a->ref_k,
+                 "fx,fy,cx,cy; without it: the photo's EXIF focal, else the pointmap's (dust3r/mast3r presets)");
+  rs->add_option("--query-intrinsics", a->query_k, "fx,fy,cx,cy (the same order of sources)");
   rs->add_option("--intrinsics", a->intrinsics,
                  "instead of the two above: a file of 'path fx fy cx cy W H' lines (map-free intrinsics.txt)");
   rs->add_option("--save-matches", a->save_matches, "write the correspondences (x_ref y_ref x_query y_query per line)");

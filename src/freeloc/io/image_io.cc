@@ -228,7 +228,9 @@ Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
   return img;
 }
 
-Image ReadImage(const std::string& path) {
+Image ReadImage(const std::string& path) { return ReadImage(path, nullptr); }
+
+Image ReadImage(const std::string& path, ExifInfo* exif) {
   const std::vector<uint8_t> bytes = ReadFileBytes(path);
   if (!bytes.empty()) {
     const ImageFormat content = SniffImageFormat(bytes.data(), bytes.size());
@@ -238,7 +240,9 @@ Image ReadImage(const std::string& path) {
                            << ImageFormatName(content) << "; decoding it as " << ImageFormatName(content);
     }
   }
-  return DecodeImage(bytes, path);
+  Image image = DecodeImage(bytes, path);
+  if (exif) *exif = ReadExif(bytes);
+  return image;
 }
 
 void WriteImagePng(const std::string& path, const Image& image) {

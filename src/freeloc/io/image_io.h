@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "freeloc/core/image.h"
+#include "freeloc/io/exif.h"
 
 namespace freeloc {
 
@@ -18,6 +19,9 @@ const char* ImageFormatName(ImageFormat f);
 // a supported image, are truncated or cannot be decoded.
 Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what);
 Image ReadImage(const std::string& path);
+// The same, with the file's EXIF (exif.h) in `exif`: its orientation is the one the decoder applied, and intrinsics
+// from it describe the image as returned (displayed orientation).
+Image ReadImage(const std::string& path, ExifInfo* exif);
 
 // Lossless PNG, written atomically.
 void WriteImagePng(const std::string& path, const Image& image);

@@ -7,6 +7,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/core/timing.h"
+#include "freeloc/geometry/focal_from_pointmap.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/matching/proposals.h"
 #include "freeloc/networks/dust3r_stage.h"
@@ -50,7 +51,8 @@ class Dust3rMatcher : public Matcher {
   void SetReference(const Image& image, const Camera&, const std::vector<uint16_t>* labels) override {
     ref_ = image;
     fn_.Clear();
-    have_last_ = false;
+    have_last_ = have_swapped_ = false;
+    ref_focal_ = -1;
     ref_in_ = PreprocessForDust3r(image, instance_.preprocess);
     ref_masks_.clear();
     fn_.Prime(ref_in_);  // the reference's encoder pass, once per scene
@@ -79,6 +81,7 @@ class Dust3rMatcher : public Matcher {
     last_ = fn_.Fn()(ref_in_, q_in);
     r->pair_ms = MsSince(tp);
     have_last_ = true;
+    have_swapped_ = false;
     std::vector<matching::Correspondence> merged = matching::GlobalCorrespondences(last_, ref_in_, q_in, instance_);
     r->global_matches = static_cast<int>(merged.size());
     r->match_ms = MsSince(t0);
@@ -101,10 +104,25 @@ class Dust3rMatcher : public Matcher {
     *ref = NetworkDepthToImage(last_.pts1, last_.h1, last_.w1, ref_in_);
     *query = DepthMap();
     if (with_query) {
-      const matching::PairPointmaps sw = fn_.RunSwappedLast();
+      const matching::PairPointmaps& sw = Swapped();
       *query = NetworkDepthToImage(sw.pts1, sw.h1, sw.w1, q_in_);
     }
     return true;
+  }
+
+  double ReferenceFocal() override {
+    if (ref_focal_ < 0) {
+      // The reference's own pointmap from its (reference, reference) pass — the encoder pass is the cached one.
+      const matching::PairPointmaps pm = fn_.Run(ref_in_, ref_in_);
+      ref_focal_ = FocalOfOwnPointmap(pm.pts1, pm.h1, pm.w1, ref_in_);
+    }
+    return ref_focal_;
+  }
+
+  double QueryFocal() override {
+    if (!have_last_) return 0;
+    const matching::PairPointmaps& sw = Swapped();
+    return FocalOfOwnPointmap(sw.pts1, sw.h1, sw.w1, q_in_);
   }
 
   void AddStats(CacheStats* s) const override {
@@ -114,6 +132,35 @@ class Dust3rMatcher : public Matcher {
   }
 
  private:
+  // The last pair swapped (the query as view 1: its points in its own frame), run once per Match.
+  const matching::PairPointmaps& Swapped() {
+    if (!have_swapped_) {
+      swapped_ = fn_.RunSwappedLast();
+      have_swapped_ = true;
+    }
+    return swapped_;
+  }
+
+  // The focal (original pixels, principal point at the original image's centre) of view 1's own pointmap at network
+  // resolution: each network pixel is placed where it lies in the original image (the pixel-centre mapping of
+  // docs/architecture.md §2), so the resize and crop need no separate correction.
+  static double FocalOfOwnPointmap(const std::vector<float>& pts, int h, int w, const Dust3rInput& in) {
+    std::vector<Eigen::Vector2d> pixels;
+    std::vector<Eigen::Vector3d> points;
+    pixels.reserve(static_cast<size_t>(h) * w);
+    points.reserve(static_cast<size_t>(h) * w);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const float* p = &pts[(static_cast<size_t>(y) * w + x) * 3];
+        double xo, yo;
+        in.ToOriginal(x, y, &xo, &yo);
+        pixels.emplace_back(xo, yo);
+        points.emplace_back(p[0], p[1], p[2]);
+      }
+    return geometry::FocalFromPointmap(pixels, points,
+                                       {(in.orig_width - 1) / 2.0, (in.orig_height - 1) / 2.0});
+  }
+
   // z of a network-resolution pointmap (view 1's own camera frame) at every pixel of the original image: the network
   // pixel nearest to each original pixel (the pixel-centre mapping of docs/architecture.md §2); 0 outside the crop or
   // behind the camera.
@@ -192,6 +239,9 @@ class Dust3rMatcher : public Matcher {
   Dust3rInput ref_in_, q_in_;
   matching::PairPointmaps last_;  // the last query's global pass (MASt3R depth comes from it)
   bool have_last_ = false;
+  matching::PairPointmaps swapped_;  // … and its swapped pass, when asked for (the query's own pointmap)
+  bool have_swapped_ = false;
+  double ref_focal_ = -1;  // the reference's pointmap focal (-1: not estimated yet)
   std::vector<std::pair<int, std::vector<uint8_t>>> ref_masks_;  // 0/1 at the reference's resolution
 };
 class Metric3dDepth : public DepthEstimator {

@@ -80,6 +80,7 @@ const std::vector<Row>& Rows() {
       FREELOC_REAL("reprojection_px", nullptr, reprojection_px, "hybrid: reprojection threshold through the depths, px"),
       FREELOC_INT("depth_shifts", nullptr, depth_shifts, "hybrid: 1 = also estimate each depth map's shift"),
       FREELOC_INT("always_answer", nullptr, always_answer, "1 = unsolved queries are submitted: a weak-support pose with its low confidence, else the prior pose with confidence 0"),
+      FREELOC_INT("check_intrinsics", nullptr, check_intrinsics, "dust3r/mast3r: 1 = warn when given intrinsics differ from the pointmap's focal by > 5 %"),
       FREELOC_TEXT("models_dir", "--models", models_dir, "folder of the published weights files"),
       FREELOC_TEXT("dust3r_model", "--dust3r", dust3r_model, "DUSt3R weights file"),
       FREELOC_TEXT("dust3r_config", "--dust3r-config", dust3r_config, "DUSt3R config.json (optional)"),

@@ -82,6 +82,8 @@ void PipelineOptions::Validate() const {
                 "reprojection_px: " << reprojection_px << " is not a positive number of pixels");
   FREELOC_CHECK(depth_shifts == 0 || depth_shifts == 1, "depth_shifts: " << depth_shifts << " is not 0 or 1");
   FREELOC_CHECK(always_answer == 0 || always_answer == 1, "always_answer: " << always_answer << " is not 0 or 1");
+  FREELOC_CHECK(check_intrinsics == 0 || check_intrinsics == 1,
+                "check_intrinsics: " << check_intrinsics << " is not 0 or 1");
   FREELOC_CHECK(dust3r_size >= 224, "dust3r_size: " << dust3r_size << " is too small; use 224, or a multiple of 16 up from it (512 for the released models)");
   FREELOC_CHECK(match_subsample >= 1, "match_subsample: " << match_subsample << " must be >= 1");
   FREELOC_CHECK(mast3r_subsample >= 1, "mast3r_subsample: " << mast3r_subsample << " must be >= 1 (the seed grid step)");

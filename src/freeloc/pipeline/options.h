@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/core/camera.h"
 #include "freeloc/core/enum_table.h"
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/geometry/metric_scale.h"
@@ -72,6 +73,9 @@ struct PipelineOptions {
   // below every ok answer; a query with no model at all with the prior pose (the reference camera's: identity
   // rotation, zero translation) and confidence 0; the status still says which. 0 = submit ok queries only.
   int always_answer = 1;
+  // DUSt3R/MASt3R matchers: compare intrinsics handed in with the focal the pointmaps give and warn above 5 %
+  // (a wrong calibration otherwise gives a wrong pose in silence). Costs the query's swapped decoder pass.
+  int check_intrinsics = 1;
   // Networks. Paths left empty are looked up by their published file names in `models_dir`, then in the folders of
   // $FREELOC_MODELS (FindModels); Validate names what is still missing.
   std::string models_dir;
@@ -132,6 +136,19 @@ enum class QueryStatus {
   kError,              // an exception inside the query (bad image, bad depth, a network error): see `message`
 };
 
+// Where a frame's intrinsics came from, in the order freeloc prefers them: handed in (flags, Python), a file
+// (intrinsics.txt), the photo's EXIF, the pointmap's focal (DUSt3R/MASt3R). docs/geometry.md "Intrinsics without a
+// calibration".
+enum class IntrinsicsSource { kNone, kGiven, kFile, kExif, kPointmap };
+
+struct FrameIntrinsics {
+  Camera camera;  // all zero while kNone
+  IntrinsicsSource source = IntrinsicsSource::kNone;
+  int orientation = 0;        // the EXIF orientation the decoder applied to the photo (0: no tag, 1: as stored)
+  double pointmap_focal = 0;  // the pointmap's focal when one was estimated (estimate or check), else 0
+  bool known() const { return source != IntrinsicsSource::kNone; }
+};
+
 struct QueryResult {
   std::string frame;
   QueryStatus status = QueryStatus::kError;
@@ -162,6 +179,7 @@ struct QueryResult {
   // masked pairs' network passes and how many masked pairs ran.
   double pair_ms = 0, segment_ms = 0, instance_pass_ms = 0;
   int instance_pairs = 0;
+  FrameIntrinsics ref_intrinsics, query_intrinsics;  // what the solver used, and where it came from
 };
 
 // What the per-scene caches did (for logs and tests).
@@ -176,6 +194,14 @@ struct CacheStats {
 }  // namespace freeloc::pipeline
 
 namespace freeloc {
+template <>
+struct EnumTable<pipeline::IntrinsicsSource> {
+  static constexpr const char* kField = "intrinsics source";
+  static constexpr EnumEntry<pipeline::IntrinsicsSource> kEntries[] = {
+      {pipeline::IntrinsicsSource::kNone, "none"},       {pipeline::IntrinsicsSource::kGiven, "given"},
+      {pipeline::IntrinsicsSource::kFile, "file"},       {pipeline::IntrinsicsSource::kExif, "exif"},
+      {pipeline::IntrinsicsSource::kPointmap, "pointmap"}};
+};
 template <>
 struct EnumTable<pipeline::MatcherKind> {
   static constexpr const char* kField = "matcher";

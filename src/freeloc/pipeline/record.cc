@@ -65,6 +65,31 @@ std::string OptionsJson(const PipelineOptions& o) { return OptionsObject(o).dump
 
 PipelineOptions OptionsFromJson(const std::string& json) { return OptionsFromObject(Parse(json, "options")); }
 
+namespace {
+
+// {"fx", "fy", "cx", "cy", "source"} (+ "orientation" when the photo had the tag, "pointmap_focal" when estimated).
+Json IntrinsicsObject(const FrameIntrinsics& f) {
+  Json j = {{"fx", f.camera.fx}, {"fy", f.camera.fy}, {"cx", f.camera.cx}, {"cy", f.camera.cy},
+            {"source", ToString(f.source)}};
+  if (f.orientation > 0) j["orientation"] = f.orientation;
+  if (f.pointmap_focal > 0) j["pointmap_focal"] = f.pointmap_focal;
+  return j;
+}
+
+FrameIntrinsics IntrinsicsFromJson(const Json& j) {
+  FrameIntrinsics f;
+  f.camera.fx = j.at("fx").get<double>();
+  f.camera.fy = j.at("fy").get<double>();
+  f.camera.cx = j.at("cx").get<double>();
+  f.camera.cy = j.at("cy").get<double>();
+  f.source = ParseEnum<IntrinsicsSource>(j.at("source").get<std::string>());
+  f.orientation = j.value("orientation", 0);
+  f.pointmap_focal = j.value("pointmap_focal", 0.0);
+  return f;
+}
+
+}  // namespace
+
 std::string QueryRecordJson(const std::string& scene, const QueryResult& r, const PipelineOptions* options,
                             int indent) {
   const auto q = r.query_from_ref.QuaternionWxyz();
@@ -97,6 +122,8 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["segment_ms"] = r.segment_ms;
   j["instance_pass_ms"] = r.instance_pass_ms;
   j["instance_pairs"] = r.instance_pairs;
+  if (r.ref_intrinsics.known() || r.query_intrinsics.known())
+    j["intrinsics"] = {{"ref", IntrinsicsObject(r.ref_intrinsics)}, {"query", IntrinsicsObject(r.query_intrinsics)}};
   if (options) j["options"] = OptionsObject(*options);
   return j.dump(indent);
 }
@@ -124,6 +151,10 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.match_ms = j.value("match_ms", 0.0);
     r.instance_ms = j.value("instance_ms", 0.0);
     r.solve_ms = j.value("solve_ms", 0.0);
+    if (j.contains("intrinsics")) {
+      r.ref_intrinsics = IntrinsicsFromJson(j.at("intrinsics").at("ref"));
+      r.query_intrinsics = IntrinsicsFromJson(j.at("intrinsics").at("query"));
+    }
     r.pair_ms = j.value("pair_ms", 0.0);
     r.segment_ms = j.value("segment_ms", 0.0);
     r.instance_pass_ms = j.value("instance_pass_ms", 0.0);

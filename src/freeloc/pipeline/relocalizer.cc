@@ -1,6 +1,8 @@
 #include "freeloc/pipeline/relocalizer.h"
 
 #include <chrono>
+#include <cmath>
+#include <functional>
 #include <filesystem>
 
 #include "freeloc/core/error.h"
@@ -46,6 +48,7 @@ struct Relocalizer::Impl {
   std::unique_ptr<PoseSolver> solver;
   CacheStats stats;
   Camera k_ref;
+  FrameIntrinsics ref_intrinsics;
   DepthMap d_ref, d_query;
   bool have_ref = false;
   void UpdateStats() {
@@ -83,16 +86,66 @@ void CheckCameraFitsImage(const Camera& camera, const Image& image, const char* 
   camera.ValidateForImage(image.width, image.height, what);
 }
 
+
+bool IsZero(const Camera& c) { return c.fx == 0 && c.fy == 0 && c.cx == 0 && c.cy == 0; }
+
+// A camera of focal `f` with the principal point at the centre of `image` (pixel centres at integers).
+Camera CentredCamera(double f, const Image& image) {
+  Camera k;
+  k.fx = k.fy = f;
+  k.cx = (image.width - 1) / 2.0;
+  k.cy = (image.height - 1) / 2.0;
+  k.width = image.width;
+  k.height = image.height;
+  return k;
+}
+
+// The frame's intrinsics: the camera handed in (checked against the pointmap's focal when `focal` can give one and
+// the check is on), or — the caller asked for kPointmap — the pointmap's focal at the image centre.
+FrameIntrinsics ResolveIntrinsics(const Camera& camera, const FrameInputs& in, const Image& image,
+                                  const PipelineOptions& o, const std::function<double()>& focal, const char* frame) {
+  FrameIntrinsics fi;
+  fi.orientation = in.orientation;
+  fi.source = in.intrinsics_source;
+  fi.camera = camera;
+  if (in.intrinsics_source == IntrinsicsSource::kPointmap) {
+    const double f = o.UsesPointmapModel() ? focal() : 0;
+    FREELOC_CHECK(f > 0 || !o.UsesPointmapModel(),
+                  frame << ": no intrinsics were given and its pointmap gives no focal length (too few points in front "
+                           "of the camera); give its fx, fy, cx, cy or use a photo whose EXIF has its focal length");
+    FREELOC_CHECK(f > 0, frame << ": no intrinsics were given and the matcher " << o.matcher.ToString()
+                               << " has no pointmap; give its fx, fy, cx, cy, use a photo whose EXIF has its focal "
+                                  "length, or a DUSt3R/MASt3R matcher (they estimate the focal from the pointmap)");
+    fi.camera = CentredCamera(f, image);
+    fi.pointmap_focal = f;
+    return fi;
+  }
+  CheckCameraFitsImage(camera, image, (std::string(frame) + " intrinsics").c_str());
+  if (o.check_intrinsics && o.UsesPointmapModel() && !IsZero(camera)) {
+    fi.pointmap_focal = focal();
+    const double given = std::sqrt(camera.fx * camera.fy);
+    if (fi.pointmap_focal > 0 && std::abs(given / fi.pointmap_focal - 1) > 0.05)
+      FREELOC_LOG(WARNING) << frame << " intrinsics (" << ToString(fi.source) << "): the focal length " << given
+                           << " px differs from the pointmap's estimate " << fi.pointmap_focal << " px by "
+                           << std::lround(100 * std::abs(given / fi.pointmap_focal - 1))
+                           << " %; a wrong calibration gives a wrong pose — check it (a resized or rotated photo "
+                              "keeps its old intrinsics)";
+  }
+  return fi;
+}
+
 }  // namespace
 
 void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameInputs in) {
-  CheckCameraFitsImage(camera, image, "reference intrinsics");
   Impl& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   m.have_ref = false;
-  m.k_ref = camera;
-  m.d_ref = m.depth->Depth(image, camera, std::move(in.depth));
+  if (in.intrinsics_source != IntrinsicsSource::kPointmap) CheckCameraFitsImage(camera, image, "reference intrinsics");
   m.matcher->SetReference(image, camera, in.instance_labels);
+  m.ref_intrinsics = ResolveIntrinsics(camera, in, image, m.o, [&] { return m.matcher->ReferenceFocal(); },
+                                       "reference");
+  m.k_ref = m.ref_intrinsics.camera;
+  m.d_ref = m.depth->Depth(image, m.k_ref, std::move(in.depth));
   m.stats.reference_ms = MsSince(t0);
   m.UpdateStats();
   m.have_ref = true;
@@ -126,17 +179,24 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
                                matching::Correspondences* matches) {
   Impl& m = *impl_;
   FREELOC_CHECK(m.have_ref, "Relocalizer::Relocalize before SetReference");
-  CheckCameraFitsImage(camera, image, "query intrinsics");
+  if (in.intrinsics_source != IntrinsicsSource::kPointmap) CheckCameraFitsImage(camera, image, "query intrinsics");
   QueryResult r;
   m.d_query = DepthMap();
+  r.ref_intrinsics = m.ref_intrinsics;
   if (m.depth->needs_provided() && (m.d_ref.empty() || in.depth.empty())) {
     r.status = QueryStatus::kNoDepth;
     return r;
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  m.d_query = m.depth->Depth(image, camera, std::move(in.depth));
-  r.depth_ms = m.depth->needs_provided() ? 0.0 : MsSince(t0);
+  // Matching first: a focal estimated from the query's pointmap comes from it, and the depth stage needs the focal.
+  DepthMap provided = std::move(in.depth);
   const matching::Correspondences c = m.matcher->Match(image, camera, in, &r);
+  const auto tf = std::chrono::steady_clock::now();
+  r.query_intrinsics = ResolveIntrinsics(camera, in, image, m.o, [&] { return m.matcher->QueryFocal(); }, "query");
+  r.match_ms += MsSince(tf);
+  const Camera& k_query = r.query_intrinsics.camera;
+  const auto t0 = std::chrono::steady_clock::now();
+  m.d_query = m.depth->Depth(image, k_query, std::move(provided));
+  r.depth_ms = m.depth->needs_provided() ? 0.0 : MsSince(t0);
   if (m.o.UsesMast3rDepth()) {
     // MASt3R's own metric depth of this pair (the reference's changes with the query: pointmaps are per pair).
     const auto t1 = std::chrono::steady_clock::now();
@@ -144,7 +204,7 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
                   "depth mast3r: the matcher " << m.o.matcher.ToString() << " gives no depth");
     r.depth_ms = MsSince(t1);
   }
-  m.solver->Solve(c, m.k_ref, camera, m.d_ref, m.d_query, &r);
+  m.solver->Solve(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
   if (matches) *matches = c;
   m.UpdateStats();
   return r;
@@ -197,6 +257,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
   std::vector<std::vector<Eigen::Vector4d>> pre;
   try {
     FrameInputs ref;
+    ref.intrinsics_source = IntrinsicsSource::kFile;
     ref.depth = ProvidedDepthOf(scene, scene.reference, o);
     if (o.UsesProvidedDepth() && ref.depth.empty())
       FREELOC_LOG(WARNING) << scene.name << ": no '" << o.depth.suffix << "' depth for the reference ("
@@ -215,6 +276,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
     matching::Correspondences c;
     try {
       FrameInputs in;
+      in.intrinsics_source = IntrinsicsSource::kFile;
       in.depth = ProvidedDepthOf(scene, q, o);
       in.correspondences = pre.empty() ? nullptr : &pre[i];
       r = reloc.Relocalize(scene.LoadImage(q), q.camera, std::move(in), on_matches ? &c : nullptr);

@@ -95,6 +95,108 @@ TEST(Relocalizer, CustomMatcherWithBuiltInStages) {
   EXPECT_THROW(Relocalizer(o, nullptr, MakeDepthEstimator(o), MakePoseSolver(o)), Error);
 }
 
+// Intrinsics from the pointmap and the check of given ones, with a matcher whose "pointmap" focals are set by the
+// test: a frame asked to get them from the pointmap gets the focal at the image centre (and is then exact), a given
+// camera 20 % off the pointmap's focal is warned about (and 3 % off is not), check_intrinsics 0 asks no focal, and a
+// matcher without pointmaps is refused with a message saying how to give intrinsics.
+TEST(Relocalizer, IntrinsicsFromThePointmapAndTheirCheck) {
+  class FocalMatcher : public Matcher {
+   public:
+    explicit FocalMatcher(const testing::SyntheticScene& s) : scene_(s) {}
+    void SetReference(const Image&, const Camera&, const std::vector<uint16_t>*) override {}
+    matching::Correspondences Match(const Image&, const Camera&, const FrameInputs&, QueryResult*) override {
+      matching::Correspondences c;
+      scene_.Correspondences(300, 0.3, 5, &c.ref, &c.query);
+      return c;
+    }
+    double ReferenceFocal() override { return ++asked, ref_focal; }
+    double QueryFocal() override { return ++asked, query_focal; }
+    double ref_focal = 0, query_focal = 0;
+    int asked = 0;
+
+   private:
+    const testing::SyntheticScene& scene_;
+  };
+  const testing::SyntheticScene scene = testing::MakeRoomScene(21, 0.6, 320, 240);
+  PipelineOptions base = ResolvePreset("sift-essential");
+  base.depth = DepthSpec::FromString("provided:synthetic");
+  PipelineOptions o = base;
+  o.matcher = MatcherSpec::FromString("dust3r");  // a pointmap matcher, as far as the Relocalizer can tell
+  auto owned = std::make_unique<FocalMatcher>(scene);
+  FocalMatcher* m = owned.get();
+  Relocalizer reloc(o, std::move(owned), MakeDepthEstimator(base), MakePoseSolver(base));
+  const double fq = std::sqrt(scene.query.fx * scene.query.fy);
+
+  // The reference from its pointmap; the query's camera given and 3 % off the pointmap's focal: no warning.
+  m->ref_focal = scene.ref.fx;
+  m->query_focal = fq * 1.03;
+  FrameInputs ref_in;
+  ref_in.depth = scene.depth_ref;
+  ref_in.intrinsics_source = IntrinsicsSource::kPointmap;
+  ::testing::internal::CaptureStderr();
+  reloc.SetReference(Image(320, 240), Camera(), std::move(ref_in));
+  QueryResult r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query);
+  std::string log = ::testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(r.ok()) << r.StatusText();
+  EXPECT_EQ(r.ref_intrinsics.source, IntrinsicsSource::kPointmap);
+  EXPECT_EQ(r.ref_intrinsics.camera.fx, scene.ref.fx);
+  EXPECT_EQ(r.ref_intrinsics.camera.cx, scene.ref.cx);
+  EXPECT_EQ(r.ref_intrinsics.camera.cy, scene.ref.cy);
+  EXPECT_EQ(r.query_intrinsics.source, IntrinsicsSource::kGiven);
+  EXPECT_DOUBLE_EQ(r.query_intrinsics.pointmap_focal, fq * 1.03);
+  EXPECT_EQ(log.find("differs from the pointmap's estimate"), std::string::npos) << log;
+  EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 0.2);
+  EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.02);
+
+  // 20 % off: warned, naming both values; the answer is still the given camera's.
+  m->query_focal = fq * 1.2;
+  ::testing::internal::CaptureStderr();
+  r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query);
+  log = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(log.find("query intrinsics (given): the focal length"), std::string::npos) << log;
+  EXPECT_NE(log.find("by 17 %"), std::string::npos) << log;
+  EXPECT_EQ(r.query_intrinsics.camera.fx, scene.query.fx);
+
+  // The query from its pointmap too (a camera handed in is ignored).
+  m->query_focal = 400;
+  FrameInputs q_in;
+  q_in.depth = scene.depth_query;
+  q_in.intrinsics_source = IntrinsicsSource::kPointmap;
+  r = reloc.Relocalize(Image(320, 240), Camera{1, 1, 1, 1, 0, 0}, std::move(q_in));
+  EXPECT_EQ(r.query_intrinsics.source, IntrinsicsSource::kPointmap);
+  EXPECT_EQ(r.query_intrinsics.camera.fx, 400);
+  EXPECT_EQ(r.query_intrinsics.camera.fy, 400);
+  EXPECT_EQ(r.query_intrinsics.camera.cx, 159.5);
+  // … and when it gives none, a clear error.
+  m->query_focal = 0;
+  q_in = FrameInputs();
+  q_in.depth = scene.depth_query;
+  q_in.intrinsics_source = IntrinsicsSource::kPointmap;
+  EXPECT_NE(testing::ErrorOf([&] { reloc.Relocalize(Image(320, 240), Camera(), std::move(q_in)); })
+                .find("query: no intrinsics were given and its pointmap gives no focal length"),
+            std::string::npos);
+
+  // check_intrinsics 0: no focal is asked for a given camera.
+  o.check_intrinsics = 0;
+  auto owned2 = std::make_unique<FocalMatcher>(scene);
+  FocalMatcher* m2 = owned2.get();
+  Relocalizer unchecked(o, std::move(owned2), MakeDepthEstimator(base), MakePoseSolver(base));
+  unchecked.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
+  r = unchecked.Relocalize(Image(320, 240), scene.query, scene.depth_query);
+  EXPECT_TRUE(r.ok());
+  EXPECT_EQ(m2->asked, 0);
+  EXPECT_EQ(r.query_intrinsics.pointmap_focal, 0);
+
+  // A matcher without pointmaps cannot estimate: the message says how to give intrinsics.
+  PipelineOptions sift = ResolvePreset("sift-essential");
+  Relocalizer plain(sift);
+  FrameInputs none;
+  none.intrinsics_source = IntrinsicsSource::kPointmap;
+  const std::string e = testing::ErrorOf([&] { plain.SetReference(Image(320, 240), Camera(), std::move(none)); });
+  EXPECT_NE(e.find("reference: no intrinsics were given and the matcher sift has no pointmap"), std::string::npos)
+      << e;
+}
+
 // The hybrid solver through the pipeline (precomputed correspondences, provided depth): metric and exact to the
 // centimetre; with an unusable query depth map it falls back to the essential route (the reference depth still
 // anchors the scale); unrelated matches are no-consensus and — always answer — submitted with the prior pose and

@@ -21,12 +21,17 @@ namespace freeloc::pipeline {
 
 // What a frame brings besides its image and camera; everything optional.
 struct FrameInputs {
-  DepthMap depth;  // provided depth (used when the depth stage is provided:<suffix>)
+  DepthMap depth;  // provided depth (used when the depth stage is provided:<suffix>), in the image's displayed orientation
   // Instance label image at the frame's resolution (0 = none, k = instance k): the reference's instances for
   // dust3r+instances (instead of proposals), and the query's with instance_source given.
   const std::vector<uint16_t>* instance_labels = nullptr;
   // Query only, matcher precomputed: the correspondences (x_ref, y_ref, x_query, y_query) in original pixels.
   const std::vector<Eigen::Vector4d>* correspondences = nullptr;
+  // Where the camera handed in with the frame came from (reported in the record). kPointmap: none was
+  // given (the camera handed in is ignored); the Relocalizer estimates the focal from the frame's pointmap
+  // (DUSt3R/MASt3R matchers) or refuses.
+  IntrinsicsSource intrinsics_source = IntrinsicsSource::kGiven;
+  int orientation = 0;  // the EXIF orientation the decoder applied (reported only)
 };
 
 // sift (the benchmark's extractor; reference features once) | dust3r (global reciprocal 3D matches; reference
@@ -47,6 +52,12 @@ class Matcher {
   // the (reference, query) pass; with `with_query` also the query's, from a second decoder pass with the query as
   // view 1), each at its frame's resolution (0 = invalid). False when the matcher has none (depth mast3r needs it).
   virtual bool PairDepth(bool /*with_query*/, DepthMap* /*ref*/, DepthMap* /*query*/) { return false; }
+  // The focal length (the frame's original pixels, principal point at the image centre) the matcher's network gives
+  // from the frame's own pointmap (geometry/focal_from_pointmap.h): the reference's from its (reference, reference)
+  // pass after SetReference, the query's from the last Match's swapped pass. 0 when the matcher has no pointmaps or
+  // they give no focal.
+  virtual double ReferenceFocal() { return 0; }
+  virtual double QueryFocal() { return 0; }
 };
 
 // metric3d (Metric3D v2 on the image) | provided (the depth handed in) | none (always empty). Depth `mast3r` comes
