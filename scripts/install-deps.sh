@@ -9,6 +9,7 @@ PACKAGES=(
   libtorch-dev libopenblas0-openmp libopenblas-dev libdnnl-dev
   libeigen3-dev
   libopencv-dev libpng-dev libexif-dev
+  libcpp-httplib-dev libjs-three  # freeloc serve: HTTP server, the page's 3D view
   libnanoflann-dev
   nlohmann-json3-dev libcli11-dev libzip-dev zip unzip
   libgtest-dev libgmock-dev libbenchmark-dev

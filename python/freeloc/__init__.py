@@ -39,9 +39,10 @@ from ._freeloc import (  # noqa: F401,E402
     run,
 )
 from . import _freeloc  # noqa: E402
+from .client import Client, ServiceError  # noqa: E402,F401
 
 __all__ = [
-    "Dust3r", "Error", "Metric3D", "PoseResult", "Relocalizer", "SegGPT", "__version__", "estimate_relative_pose",
+    "Client", "ServiceError", "Dust3r", "Error", "Metric3D", "PoseResult", "Relocalizer", "SegGPT", "__version__", "estimate_relative_pose",
     "evaluate", "option_names", "preset_names", "read_depth", "read_image", "read_intrinsics", "run",
 ]
 

@@ -470,9 +470,22 @@ TEST(Cli, RunWritesAnHtmlReport) {
       jpgs += src.size() > 4 && src.substr(src.size() - 4) == ".jpg";
     }
     EXPECT_EQ(jpgs, details) << dir;
-    int files = 0;
-    for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.path().extension() == ".jpg";
+    int files = 0, views = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir)) {
+      files += e.path().extension() == ".jpg";
+      views += e.path().string().size() > 9 && e.path().string().substr(e.path().string().size() - 9) == "jpg.3d.js";
+    }
     EXPECT_EQ(files, details) << "unselected detail images must be removed";
+    // Each detail view has its 3D view: the data beside it, a button, and the view's script (three.js copied when
+    // libjs-three is installed).
+    EXPECT_EQ(views, details) << "a 3D view per detail view, the unselected ones removed";
+    size_t buttons = 0;
+    for (size_t p = 0; (p = html.find(">3D view</button>", p)) != std::string::npos; ++p) ++buttons;
+    EXPECT_EQ(buttons, static_cast<size_t>(details));
+    EXPECT_TRUE(std::filesystem::exists(dir + "/view3d.js"));
+    if (std::filesystem::exists("/usr/share/javascript/three/build/three.min.js")) {
+      EXPECT_TRUE(std::filesystem::exists(dir + "/three.min.js"));
+    }
     return html;
   };
   const std::string html = check(tmp.File("rep"), 7, 7);  // 3 first-of-scene + failures (s00001's no-depth)

@@ -67,6 +67,7 @@ void RegisterRelocalize(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterMerge(CLI::App& app, const GlobalOptions& global, RunFn* run);
 void RegisterIntrinsics(CLI::App& app, const GlobalOptions& global, RunFn* run);
+void RegisterServe(CLI::App& app, const GlobalOptions& global, RunFn* run);
 
 }  // namespace freeloc::cli
 

@@ -87,6 +87,7 @@ int main(int argc, char** argv) {
   cli::RegisterMerge(app, global, &run);
   cli::RegisterOptions(app, global, &run);
   cli::RegisterIntrinsics(app, global, &run);
+  cli::RegisterServe(app, global, &run);
 
   try {
     app.parse(argc, argv);

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "freeloc/eval/view3d.h"
 #include "freeloc/core/error.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
@@ -143,7 +144,7 @@ std::string Failures(const std::vector<ReportQuery>& queries) {
   return s;
 }
 
-std::string Details(const std::vector<ReportQuery>& queries) {
+std::string Details(const std::string& dir, const std::vector<ReportQuery>& queries) {
   std::vector<const ReportQuery*> shown;
   for (const auto& q : queries)
     if (!q.visual.empty()) shown.push_back(&q);
@@ -160,7 +161,13 @@ std::string Details(const std::vector<ReportQuery>& queries) {
                         : std::string()) +
          (q->message.empty() ? "" : " · " + Escape(q->message)) + "</p><div class=\"row\"><img src=\"" +
          Escape(q->visual) + "\" alt=\"matches and depth of " + Escape(q->frame) + "\">" + TopDownSvg(*q) +
-         "</div></div>";
+         "</div>" +
+         (std::filesystem::exists(dir + "/" + q->visual + ".3d.js")
+              ? "<p><button data-view=\"" + Escape(q->visual) +
+                    "\" onclick=\"freelocShow3d(this,this.dataset.view)\">3D view</button> the reference's points, its camera (green), the predicted (orange) and the "
+                    "true (blue) query camera; drag to orbit</p><div class=\"v3d\"></div>"
+              : std::string()) +
+         "</div>";
   }
   return s;
 }
@@ -232,11 +239,36 @@ void WriteQueryVisual(const std::string& path, const Image& ref, const Image& qu
   WriteFileAtomic(path, jpg.data(), jpg.size());
 }
 
+// The detail views' 3D buttons: three.js, OrbitControls and the view script are loaded (script tags work from disk)
+// when the first is pressed, then the query's <visual>.3d.js (which sets freelocViews[name]); one view lives at a
+// time (browsers allow few WebGL contexts).
+const char kScript3d[] =
+    "var freelocLive=null;function freelocLoad(src){return new Promise(function(ok,bad){var s=document.createElement("
+    "'script');s.src=src;s.onload=ok;s.onerror=function(){bad(new Error(src+' is missing'))};document.head."
+    "appendChild(s);});}"
+    "async function freelocShow3d(btn,name){var box=btn.parentNode.nextElementSibling;box.style.height='420px';"
+    "try{if(typeof freelocView3d==='undefined'){await freelocLoad('three.min.js').catch(function(){});"
+    "await freelocLoad('OrbitControls.js').catch(function(){});await freelocLoad('view3d.js');}"
+    "window.freelocViews=window.freelocViews||{};if(!freelocViews[name])await freelocLoad(name+'.3d.js');"
+    "if(freelocLive){freelocLive.view&&freelocLive.view.dispose();freelocLive.box.innerHTML='';"
+    "freelocLive.box.style.height='';}"
+    "freelocLive={box:box,view:freelocView3d(box,freelocViews[name])};}catch(e){box.textContent=e.message;}}";
+
 void WriteRunReport(const std::string& dir, const std::string& title, const std::vector<ReportQuery>& queries,
                     const EvalRun* eval) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   FREELOC_CHECK(std::filesystem::is_directory(dir), dir << ": cannot create the report folder (" << ec.message() << ")");
+  // The 3D view's scripts beside index.html (three.js copied from libjs-three when it is installed; without it the
+  // view says so).
+  const std::string view3d = View3dScript();
+  WriteFileAtomic(dir + "/view3d.js", view3d.data(), view3d.size());
+  for (const char* f : {"build/three.min.js", "examples/js/controls/OrbitControls.js"}) {
+    const std::filesystem::path from = std::filesystem::path(kThreeJsDir) / f;
+    if (std::filesystem::exists(from))
+      std::filesystem::copy_file(from, std::filesystem::path(dir) / from.filename(),
+                                 std::filesystem::copy_options::overwrite_existing, ec);
+  }
   std::string html = "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" + Escape(title) +
                      "</title><style>" + kStyle + "</style></head><body><h1>" + Escape(title) + "</h1>";
   size_t answered = 0;
@@ -256,7 +288,7 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
           "<h2>Details (worst first)</h2><p class=\"legend\">lines:<span style=\"background:#1eaa3c\"></span>inlier"
           "<span style=\"background:#dc2828\"></span>outlier<span style=\"background:#4287f5\"></span>instance "
           "matches (one colour per instance); depth maps below the photos (turbo: near blue, far red; grey: none)"
-          "</p>" + Details(queries) + "<script>" + kScript + "</script></body></html>\n";
+          "</p>" + Details(dir, queries) + "<script>" + kScript + kScript3d + "</script></body></html>\n";
   WriteFileAtomic(dir + "/index.html", html.data(), html.size());
 }
 

@@ -266,12 +266,16 @@ void WritePng16(const std::string& path, int width, int height, const std::vecto
 }
 
 std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height, int* bits) {
-  const std::vector<uint8_t> bytes = ReadFileBytes(path);
+  return DecodePng16(ReadFileBytes(path), path, width, height, bits);
+}
+
+std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, const std::string& what, int* width,
+                                  int* height, int* bits) {
   FREELOC_CHECK(SniffImageFormat(bytes.data(), bytes.size()) == ImageFormat::kPng,
-                path << ": not a PNG file; depth maps must be 16-bit PNGs");
-  CheckComplete(ImageFormat::kPng, bytes, path);
-  CheckPixelLimit(ImageFormat::kPng, bytes, path);
-  return internal::DecodeGreyPng(bytes, path, width, height, bits);
+                what << ": not a PNG file; depth maps must be 16-bit PNGs");
+  CheckComplete(ImageFormat::kPng, bytes, what);
+  CheckPixelLimit(ImageFormat::kPng, bytes, what);
+  return internal::DecodeGreyPng(bytes, what, width, height, bits);
 }
 
 std::vector<uint8_t> EncodeJpeg(const Image& rgb, int quality, const std::string& what) {

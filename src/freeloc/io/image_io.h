@@ -33,6 +33,9 @@ void WritePng8(const std::string& path, int width, int height, const std::vector
 void WritePng16(const std::string& path, int width, int height, const std::vector<uint16_t>& values);
 // Reads a single-channel 8- or 16-bit PNG without any conversion; `bits` (optional) receives 8 or 16.
 std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height, int* bits = nullptr);
+// The same from the file's bytes (an upload); `what` names it in errors.
+std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, const std::string& what, int* width,
+                                  int* height, int* bits = nullptr);
 
 // Baseline JPEG of an RGB8 image at `quality` (0-100); `what` names it in errors.
 std::vector<uint8_t> EncodeJpeg(const Image& rgb, int quality, const std::string& what);

@@ -10,6 +10,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
+#include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/npz.h"
 #include "freeloc/io/pyparse.h"
@@ -230,9 +231,11 @@ std::vector<std::string> ListScenes(const std::string& split_dir, const std::vec
   return out;
 }
 
-DepthMap ReadDepthPng(const std::string& path) {
+DepthMap ReadDepthPng(const std::string& path) { return DecodeDepthPng(ReadFileBytes(path), path); }
+
+DepthMap DecodeDepthPng(const std::vector<uint8_t>& bytes, const std::string& path) {
   int w, h, bits = 0;
-  const std::vector<uint16_t> mm = ReadPng16(path, &w, &h, &bits);
+  const std::vector<uint16_t> mm = DecodePng16(bytes, path, &w, &h, &bits);
   FREELOC_CHECK(bits == 16, path << ": an 8-bit PNG is not a depth map; depth maps are 16-bit PNGs in millimetres "
                                     "(the map-free convention)");
   DepthMap d(w, h);

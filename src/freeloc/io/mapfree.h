@@ -59,6 +59,8 @@ std::vector<std::string> ListScenes(const std::string& split_dir, const std::vec
 
 // Provided-depth PNG I/O in the map-free convention (uint16 millimetres, 0 invalid).
 DepthMap ReadDepthPng(const std::string& path);
+// The same from the PNG's bytes (an upload); `what` names it in errors.
+DepthMap DecodeDepthPng(const std::vector<uint8_t>& bytes, const std::string& what);
 void WriteDepthPng(const std::string& path, const DepthMap& depth);
 
 }  // namespace freeloc

@@ -74,6 +74,7 @@ Relocalizer::~Relocalizer() = default;
 const CacheStats& Relocalizer::stats() const { return impl_->stats; }
 const PipelineOptions& Relocalizer::options() const { return impl_->o; }
 const DepthMap& Relocalizer::reference_depth() const { return impl_->d_ref; }
+const FrameIntrinsics& Relocalizer::reference_intrinsics() const { return impl_->ref_intrinsics; }
 const DepthMap& Relocalizer::last_query_depth() const { return impl_->d_query; }
 
 namespace {

@@ -62,6 +62,8 @@ class Relocalizer {
   const PipelineOptions& options() const;
   // The depth the solver used for the current reference and for the last query (empty: none) — for reports.
   const DepthMap& reference_depth() const;
+  // The current reference's intrinsics as resolved (the pointmap's camera when it gave them) and their source.
+  const FrameIntrinsics& reference_intrinsics() const;
   const DepthMap& last_query_depth() const;
 
  private:

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/eval/report.h"
+#include "freeloc/eval/view3d.h"
+#include "freeloc/io/file_util.h"
 #include "freeloc/io/submission.h"
 
 namespace freeloc::pipeline {
@@ -87,6 +90,7 @@ void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, c
     if (static_cast<int>(worst_.size()) > o_.worst) {
       std::error_code ec;
       fs::remove(dir_ + "/" + worst_.begin()->second, ec);  // no longer among the worst
+      fs::remove(dir_ + "/" + worst_.begin()->second + ".3d.js", ec);
       worst_.erase(worst_.begin());
     }
   }
@@ -99,8 +103,24 @@ void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, c
       ref_ = scene.LoadImage(scene.reference);
       ref_scene_ = scene.name;
     }
-    eval::WriteQueryVisual(dir_ + "/" + name, ref_, scene.LoadImage(*f), c.Rows(),
-                           r.inlier_mask, c.source, reloc.reference_depth(), reloc.last_query_depth(), o_);
+    const Image query = scene.LoadImage(*f);
+    eval::WriteQueryVisual(dir_ + "/" + name, ref_, query, c.Rows(), r.inlier_mask, c.source, reloc.reference_depth(),
+                           reloc.last_query_depth(), o_);
+    // The 3D view's data (eval/view3d.h): the reference's points, its camera, the predicted and the true query camera.
+    std::vector<eval::View3dCamera> cams;
+    Camera kr = reloc.reference_intrinsics().camera, kq = r.query_intrinsics.known() ? r.query_intrinsics.camera
+                                                                                   : f->camera;
+    kr.width = ref_.width;
+    kr.height = ref_.height;
+    kq.width = query.width;
+    kq.height = query.height;
+    cams.push_back({Rigid3d(), kr, "#33dd66", "reference"});
+    if (q.has_pose) cams.push_back({r.query_from_ref, kq, "#ff9922", "predicted"});
+    const auto gt = scene.gt.find(r.frame);
+    if (gt != scene.gt.end()) cams.push_back({gt->second, kq, "#3399ff", "true"});
+    const std::string js = "window.freelocViews=window.freelocViews||{};freelocViews[" + nlohmann::json(name).dump() + "]=" +
+                           eval::View3dJson(ref_, reloc.reference_depth(), kr, cams, 6000) + ";\n";
+    WriteFileAtomic(dir_ + "/" + name + ".3d.js", js.data(), js.size());
   } catch (const std::exception& e) {
     FREELOC_LOG(WARNING) << "report: " << scene.name << "/" << r.frame << ": no detail image (" << e.what() << ")";
   }
@@ -139,6 +159,7 @@ void ReportRecorder::Write(const std::string& split_dir, const std::vector<std::
     } else if (exists) {
       std::error_code ec;
       fs::remove(dir_ + "/" + file, ec);
+      fs::remove(dir_ + "/" + file + ".3d.js", ec);
     }
   }
   bool any_gt = false;

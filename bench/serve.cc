@@ -1,0 +1,162 @@
+// bench/serve: a bounded load test of `freeloc serve` on localhost. An in-process server (sift-essential, the bundled
+// TUM pair with its sensor depth, one anchor) answers N concurrent clients for M seconds, each sending relocalize
+// requests back to back; then a burst against a small queue shows the backpressure. Prints the latency quantiles,
+// the throughput, the status counts and the server's memory over time, and stops by itself.
+//   usage: build/bench/serve [--clients 16] [--seconds 120] [--workers 2]   (from the repository root)
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "bench_util.h"
+#include "freeloc/io/file_util.h"
+#include "freeloc/pipeline/options.h"
+#include "freeloc/service/server.h"
+
+#include <httplib.h>  // after Eigen (through the freeloc headers): OpenSSL's headers, which it pulls, define names Eigen uses
+
+namespace {
+
+std::string Bytes(const std::string& path) {
+  const std::vector<uint8_t> b = freeloc::ReadFileBytes(path);
+  return std::string(b.begin(), b.end());
+}
+
+double RssMiB() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int clients = 16, workers = 2;
+  double seconds = 120;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--clients")) clients = std::atoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--seconds")) seconds = std::atof(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--workers")) workers = std::atoi(argv[i + 1]);
+  }
+  const std::string s = "data/demo/val/s00003/";
+  const std::string ref = Bytes(s + "seq0/frame_00000.png"), query = Bytes(s + "seq1/frame_00000.png");
+  const std::string ref_d = Bytes(s + "seq0/frame_00000.sensor.png"), query_d = Bytes(s + "seq1/frame_00000.sensor.png");
+  const std::string k = "520.908620,521.007327,325.141442,249.701764";
+  const auto form = [&](const std::string& image, const std::string& depth) {
+    return httplib::MultipartFormDataItems{{"image", image, "i.png", "image/png"},
+                                           {"depth", depth, "d.png", "image/png"},
+                                           {"intrinsics", k, "", ""}};
+  };
+
+  freeloc::service::ServiceOptions o;
+  o.pipeline = freeloc::pipeline::ResolvePreset("sift-essential");
+  o.port = 0;
+  o.workers = workers;
+  o.max_queue = std::max(clients, 1);
+  freeloc::service::Server server(o);
+  const int port = server.Bind();
+  std::thread serving([&] { server.Serve(); });
+  httplib::Client admin("127.0.0.1", port);
+  const auto created = admin.Post("/v1/anchors", form(ref, ref_d));
+  if (!created || created->status != 201) {
+    std::fprintf(stderr, "serve: could not add the anchor\n");
+    server.Stop();
+    serving.join();
+    return 1;
+  }
+  const std::string id = created->body.substr(created->body.find("\"id\":\"") + 6, 16);
+  const std::string path = "/v1/anchors/" + id + "/relocalize";
+
+  std::printf("# bench/serve\n\n%s\n\n", freeloc::bench::MachineLine().c_str());
+  std::printf("sift-essential with sensor depth, one anchor (TUM s00003), %d workers, %d clients for %.0f s, "
+              "each sending the next request when the last is answered; server and clients in one process.\n\n",
+              workers, clients, seconds);
+  std::mutex mu;
+  std::vector<double> latencies;
+  std::map<int, int> statuses;
+  std::atomic<bool> stop{false};
+  const double t0 = freeloc::bench::NowSeconds();
+  std::vector<std::pair<double, double>> rss{{0, RssMiB()}};
+  std::vector<std::thread> threads;
+  for (int c = 0; c < clients; ++c)
+    threads.emplace_back([&] {
+      httplib::Client cl("127.0.0.1", port);
+      cl.set_read_timeout(300, 0);
+      while (!stop) {
+        const double a = freeloc::bench::NowSeconds();
+        const auto r = cl.Post(path.c_str(), form(query, query_d));
+        const double ms = 1000 * (freeloc::bench::NowSeconds() - a);
+        std::lock_guard<std::mutex> lock(mu);
+        ++statuses[r ? r->status : -1];
+        if (r && r->status == 200) latencies.push_back(ms);
+      }
+    });
+  while (freeloc::bench::NowSeconds() - t0 < seconds) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    const double t = freeloc::bench::NowSeconds() - t0;
+    if (t - rss.back().first >= 10 || t >= seconds) rss.emplace_back(t, RssMiB());
+  }
+  stop = true;
+  for (auto& t : threads) t.join();
+  const double elapsed = freeloc::bench::NowSeconds() - t0;
+  std::sort(latencies.begin(), latencies.end());
+  const auto q = [&](double p) {
+    return latencies.empty() ? 0.0 : latencies[std::min(latencies.size() - 1, static_cast<size_t>(p * latencies.size()))];
+  };
+  std::printf("| clients | workers | requests | answered 200 | other statuses | p50 ms | p95 ms | p99 ms | "
+              "throughput /s |\n|---:|---:|---:|---:|---|---:|---:|---:|---:|\n");
+  int total = 0;
+  std::string other;
+  for (const auto& [st, n] : statuses) {
+    total += n;
+    if (st != 200) other += (other.empty() ? "" : ", ") + std::to_string(st) + ": " + std::to_string(n);
+  }
+  std::printf("| %d | %d | %d | %d | %s | %.1f | %.1f | %.1f | %.2f |\n\n", clients, workers, total, statuses[200],
+              other.empty() ? "none" : other.c_str(), q(0.5), q(0.95), q(0.99), statuses[200] / elapsed);
+  std::printf("Memory (resident, MiB) over the run:\n\n| t (s) |");
+  for (const auto& [t, m] : rss) std::printf(" %.0f |", t);
+  std::printf("\n|---|");
+  for (size_t i = 0; i < rss.size(); ++i) std::printf("---:|");
+  std::printf("\n| RSS |");
+  for (const auto& [t, m] : rss) std::printf(" %.0f |", m);
+  std::printf("\n\n");
+
+  // Backpressure: a new server with 1 worker and a queue of 2, hit by a burst of 4 x clients at once.
+  server.Stop();
+  serving.join();
+  o.workers = 1;
+  o.max_queue = 2;
+  freeloc::service::Server small(o);
+  const int port2 = small.Bind();
+  std::thread serving2([&] { small.Serve(); });
+  httplib::Client admin2("127.0.0.1", port2);
+  const auto created2 = admin2.Post("/v1/anchors", form(ref, ref_d));
+  const std::string path2 = "/v1/anchors/" + created2->body.substr(created2->body.find("\"id\":\"") + 6, 16) +
+                            "/relocalize";
+  std::map<int, int> burst;
+  std::vector<std::thread> b;
+  const int n = 4 * std::max(clients, 1);
+  for (int i = 0; i < n; ++i)
+    b.emplace_back([&] {
+      httplib::Client cl("127.0.0.1", port2);
+      cl.set_read_timeout(300, 0);
+      const auto r = cl.Post(path2.c_str(), form(query, query_d));
+      std::lock_guard<std::mutex> lock(mu);
+      ++burst[r ? r->status : -1];
+    });
+  for (auto& t : b) t.join();
+  small.Stop();
+  serving2.join();
+  std::printf("Backpressure: a burst of %d simultaneous requests against 1 worker and a queue of 2:\n\n| status | "
+              "requests |\n|---|---:|\n", n);
+  for (const auto& [st, c] : burst) std::printf("| %d | %d |\n", st, c);
+  std::printf("\n");
+  return 0;
+}

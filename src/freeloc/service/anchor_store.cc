@@ -1,0 +1,166 @@
+#include "freeloc/service/anchor_store.h"
+
+#include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/logging.h"
+#include "freeloc/core/timing.h"
+#include "freeloc/io/exif.h"
+#include "freeloc/io/file_util.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/mapfree.h"
+
+namespace freeloc::service {
+
+namespace fs = std::filesystem;
+
+DecodedPhoto DecodePhoto(PhotoUpload upload, const pipeline::PipelineOptions& o, const std::string& frame) {
+  DecodedPhoto p;
+  FREELOC_CHECK(!upload.image.empty(), frame << " image: missing or empty; send the photo as the multipart field "
+                                                "'image'");
+  p.image = DecodeImage(upload.image, frame + " image");
+  const ExifInfo exif = ReadExif(upload.image);
+  Camera given;
+  const bool has_k = !upload.intrinsics.empty();
+  if (has_k) given = Camera::FromString(upload.intrinsics, frame + " intrinsics");
+  const pipeline::IntrinsicsChoice c = pipeline::ChooseIntrinsics(
+      has_k ? &given : nullptr, pipeline::IntrinsicsSource::kGiven, exif, p.image, o.UsesPointmapModel(), frame);
+  FREELOC_CHECK(c.source != pipeline::IntrinsicsSource::kNone,
+                frame << " intrinsics: none given and the photo's EXIF has no usable focal length (" << c.why
+                      << "); send 'intrinsics' as fx,fy,cx,cy, or serve a dust3r or mast3r preset (they estimate "
+                         "the focal from the pointmap)");
+  p.camera = pipeline::ApplyIntrinsics(c, &p.inputs);
+  if (!upload.depth.empty()) {
+    p.inputs.depth = DecodeDepthPng(upload.depth, frame + " depth");
+    FREELOC_CHECK(p.inputs.depth.width == p.image.width && p.inputs.depth.height == p.image.height,
+                  frame << " depth: " << p.inputs.depth.width << "x" << p.inputs.depth.height << " for a "
+                        << p.image.width << "x" << p.image.height
+                        << " photo; send the depth map at the photo's displayed size");
+  }
+  return p;
+}
+
+namespace {
+
+std::string NewId() {
+  static std::mt19937_64 rng(std::random_device{}() ^
+                             static_cast<uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count()));
+  static std::mutex mu;
+  std::lock_guard<std::mutex> lock(mu);
+  char buf[17];
+  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(rng()));
+  return buf;
+}
+
+bool ValidId(const std::string& id) {
+  if (id.size() != 16) return false;
+  for (char c : id)
+    if (!std::isxdigit(static_cast<unsigned char>(c))) return false;
+  return true;
+}
+
+}  // namespace
+
+AnchorStore::AnchorStore(const pipeline::PipelineOptions& options, int max_anchors, const std::string& store_dir)
+    : options_(options), max_anchors_(max_anchors), dir_(store_dir) {
+  FREELOC_CHECK(max_anchors >= 1, "max_anchors: " << max_anchors << " must be at least 1");
+  if (dir_.empty()) return;
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  FREELOC_CHECK(!ec, dir_ << ": cannot create the anchor store folder (" << ec.message() << ")");
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    const std::string id = entry.path().filename().string();
+    if (!entry.is_directory() || !ValidId(id) || !fs::exists(entry.path() / "meta.json")) continue;
+    try {
+      PhotoUpload u;
+      const nlohmann::json meta = nlohmann::json::parse(ReadFileBytes((entry.path() / "meta.json").string()));
+      u.image = ReadFileBytes((entry.path() / "image").string());
+      if (meta.value("depth", false)) u.depth = ReadFileBytes((entry.path() / "depth.png").string());
+      u.intrinsics = meta.value("intrinsics", std::string());
+      if (static_cast<int>(anchors_.size()) >= max_anchors_) break;
+      anchors_[id] = Make(id, std::move(u));
+    } catch (const std::exception& e) {
+      FREELOC_LOG(WARNING) << entry.path().string() << ": anchor not reloaded: " << e.what();
+    }
+  }
+  FREELOC_LOG(INFO) << dir_ << ": " << anchors_.size() << " anchors reloaded";
+}
+
+std::shared_ptr<Anchor> AnchorStore::Make(const std::string& id, PhotoUpload upload) const {
+  auto a = std::make_shared<Anchor>();
+  a->id = id;
+  a->has_depth = !upload.depth.empty();
+  pipeline::PipelineOptions o = options_;
+  // As `freeloc relocalize` without depth files: the provided-depth presets answer without depth.
+  if (!a->has_depth && o.UsesProvidedDepth()) o.depth = pipeline::DepthSpec::FromString("none");
+  DecodedPhoto p = DecodePhoto(upload, o, "anchor");
+  a->upload = std::move(upload);
+  a->image = std::move(p.image);
+  const auto t0 = std::chrono::steady_clock::now();
+  a->reloc = std::make_unique<pipeline::Relocalizer>(o);
+  a->reloc->SetReference(a->image, p.camera, std::move(p.inputs));
+  a->reference_ms = MsSince(t0);
+  // The intrinsics as resolved (the pointmap's when it gave them): what a query's record reports for the reference.
+  a->intrinsics = a->reloc->reference_intrinsics();
+  return a;
+}
+
+void AnchorStore::Persist(const Anchor& a) const {
+  if (dir_.empty()) return;
+  const fs::path d = fs::path(dir_) / a.id;
+  fs::create_directories(d);
+  WriteFileAtomic((d / "image").string(), a.upload.image.data(), a.upload.image.size());
+  if (a.has_depth) WriteFileAtomic((d / "depth.png").string(), a.upload.depth.data(), a.upload.depth.size());
+  const std::string meta =
+      nlohmann::json{{"intrinsics", a.upload.intrinsics}, {"depth", a.has_depth}}.dump();  // last: marks it complete
+  WriteFileAtomic((d / "meta.json").string(), meta.data(), meta.size());
+}
+
+std::shared_ptr<Anchor> AnchorStore::Add(PhotoUpload upload) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (static_cast<int>(anchors_.size()) >= max_anchors_)
+      throw StoreFull("the service holds its maximum of " + std::to_string(max_anchors_) +
+                      " anchors; delete some (DELETE /v1/anchors/{id}) or start it with a larger --max-anchors");
+  }
+  std::shared_ptr<Anchor> a = Make(NewId(), std::move(upload));
+  Persist(*a);
+  std::lock_guard<std::mutex> lock(mu_);
+  if (static_cast<int>(anchors_.size()) >= max_anchors_) throw StoreFull("the service holds its maximum of anchors");
+  anchors_[a->id] = a;
+  return a;
+}
+
+std::shared_ptr<Anchor> AnchorStore::Get(const std::string& id) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  const auto it = anchors_.find(id);
+  return it == anchors_.end() ? nullptr : it->second;
+}
+
+bool AnchorStore::Remove(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (!anchors_.erase(id)) return false;
+  if (!dir_.empty() && ValidId(id)) {
+    std::error_code ec;
+    fs::remove((fs::path(dir_) / id / "meta.json"), ec);  // first: a half-removed anchor is never reloaded
+    fs::remove_all(fs::path(dir_) / id, ec);
+  }
+  return true;
+}
+
+std::vector<std::shared_ptr<Anchor>> AnchorStore::List() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<std::shared_ptr<Anchor>> out;
+  for (const auto& [id, a] : anchors_) out.push_back(a);
+  return out;
+}
+
+size_t AnchorStore::size() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return anchors_.size();
+}
+
+}  // namespace freeloc::service

@@ -1,0 +1,533 @@
+#include "freeloc/service/server.h"
+
+#include <httplib.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <deque>
+#include <fstream>
+#include <functional>
+#include <future>
+#include <thread>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "freeloc/core/error.h"
+#include "freeloc/core/logging.h"
+#include "freeloc/core/timing.h"
+#include "freeloc/eval/view3d.h"
+#include "freeloc/io/file_util.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/service/anchor_store.h"
+#include "freeloc/service/page.h"
+
+namespace freeloc::service {
+
+using Json = nlohmann::json;
+
+void ServiceOptions::Validate() const {
+  FREELOC_CHECK(port >= 0 && port <= 65535, "port: " << port << " is not 0-65535");
+  FREELOC_CHECK(workers >= 1 && workers <= 256, "workers: " << workers << " is not 1-256");
+  FREELOC_CHECK(max_queue >= 0 && max_queue <= 100000, "max_queue: " << max_queue << " is not 0-100000");
+  FREELOC_CHECK(max_upload_mb >= 1 && max_upload_mb <= 4096, "max_upload_mb: " << max_upload_mb << " is not 1-4096");
+  FREELOC_CHECK(max_anchors >= 1, "max_anchors: " << max_anchors << " must be at least 1");
+  FREELOC_CHECK(queue_timeout_s > 0, "queue_timeout_s: " << queue_timeout_s << " must be positive");
+  pipeline.Validate();
+}
+
+namespace {
+
+// At most `workers` requests work at once and `max_queue` wait; Enter() refuses at once beyond that, and after
+// `timeout` of waiting.
+class Admission {
+ public:
+  Admission(int workers, int max_queue) : workers_(workers), max_queue_(max_queue) {}
+  bool Enter(double timeout_s) {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (running_ + waiting_ >= workers_ + max_queue_) return false;
+    ++waiting_;
+    const bool got = cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return running_ < workers_; });
+    --waiting_;
+    if (!got) return false;
+    ++running_;
+    return true;
+  }
+  void Leave() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      --running_;
+    }
+    cv_.notify_one();
+  }
+  int running() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return running_;
+  }
+  int waiting() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return waiting_;
+  }
+
+ private:
+  int workers_, max_queue_;
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  int running_ = 0, waiting_ = 0;
+};
+
+// The threads that do the work: `n` of them, for the life of the server. Handlers (httplib's connection threads) hand
+// their work over and wait, so the per-thread state of the libraries underneath (OpenBLAS buffers, OpenCV and OpenMP
+// pools, LibTorch) exists `n` times, not once per connection thread.
+class Workers {
+ public:
+  explicit Workers(int n) {
+    for (int i = 0; i < n; ++i)
+      threads_.emplace_back([this] {
+        while (true) {
+          std::function<void()> job;
+          {
+            std::unique_lock<std::mutex> lock(mu_);
+            cv_.wait(lock, [&] { return stop_ || !jobs_.empty(); });
+            if (jobs_.empty()) return;
+            job = std::move(jobs_.front());
+            jobs_.pop_front();
+          }
+          job();
+        }
+      });
+  }
+  ~Workers() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    for (auto& t : threads_) t.join();
+  }
+  // Runs `job` on a worker thread and returns when it has run (`job` must not throw).
+  void Run(const std::function<void()>& job) {
+    std::promise<void> done;
+    std::future<void> f = done.get_future();
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      jobs_.push_back([&] {
+        job();
+        done.set_value();
+      });
+    }
+    cv_.notify_one();
+    f.get();
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<std::function<void()>> jobs_;
+  std::vector<std::thread> threads_;
+  bool stop_ = false;
+};
+
+// Requests, errors and the latency of the last 4096 answered requests.
+class Metrics {
+ public:
+  void Record(int status, double ms) {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++requests_;
+    if (status >= 400) ++errors_[status];
+    latencies_.push_back(ms);
+    if (latencies_.size() > 4096) latencies_.pop_front();
+  }
+  Json ToJson() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    std::vector<double> v(latencies_.begin(), latencies_.end());
+    std::sort(v.begin(), v.end());
+    const auto q = [&](double p) {
+      return v.empty() ? 0.0 : v[std::min(v.size() - 1, static_cast<size_t>(std::floor(p * (v.size() - 1) + 0.5)))];
+    };
+    Json errors = Json::object();
+    for (const auto& [s, n] : errors_) errors[std::to_string(s)] = n;
+    return {{"requests", requests_},
+            {"errors", errors},
+            {"latency_ms", {{"p50", q(0.5)}, {"p95", q(0.95)}, {"p99", q(0.99)}, {"window", v.size()}}}};
+  }
+
+ private:
+  mutable std::mutex mu_;
+  long long requests_ = 0;
+  std::map<int, long long> errors_;
+  std::deque<double> latencies_;
+};
+
+// VmRSS / VmHWM of this process in MiB (0 where /proc is not there).
+double ProcMiB(const char* key) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind(key, 0) == 0) return std::atof(line.c_str() + std::strlen(key)) / 1024.0;
+  return 0;
+}
+
+void SendJson(httplib::Response& res, int status, const Json& j) {
+  res.status = status;
+  res.set_content(j.dump(), "application/json");
+}
+
+void SendError(httplib::Response& res, int status, const std::string& message) {
+  SendJson(res, status, {{"error", message}});
+}
+
+// The photo fields of a multipart request; throws freeloc::Error (→ 400) naming what is wrong.
+PhotoUpload UploadOf(const httplib::Request& req) {
+  FREELOC_CHECK(req.is_multipart_form_data(),
+                "request: expected multipart/form-data with the fields 'image' (the photo), optional 'depth' "
+                "(16-bit PNG, millimetres) and 'intrinsics' (fx,fy,cx,cy); got "
+                    << (req.get_header_value("Content-Type").empty() ? "no Content-Type"
+                                                                    : "'" + SafeText(req.get_header_value(
+                                                                                         "Content-Type"), 80) + "'"));
+  FREELOC_CHECK(req.has_file("image"), "image: missing; send the photo as the multipart field 'image'");
+  PhotoUpload u;
+  const std::string& img = req.get_file_value("image").content;
+  u.image.assign(img.begin(), img.end());
+  if (req.has_file("depth")) {
+    const std::string& d = req.get_file_value("depth").content;
+    u.depth.assign(d.begin(), d.end());
+  }
+  if (req.has_file("intrinsics")) u.intrinsics = req.get_file_value("intrinsics").content;
+  FREELOC_CHECK(u.intrinsics.size() <= 200, "intrinsics: " << u.intrinsics.size()
+                                                            << " bytes; expected fx,fy,cx,cy");
+  return u;
+}
+
+Json IntrinsicsJson(const pipeline::FrameIntrinsics& f) {
+  return {{"fx", f.camera.fx}, {"fy", f.camera.fy}, {"cx", f.camera.cx}, {"cy", f.camera.cy},
+          {"source", ToString(f.source)}};
+}
+
+Json AnchorJson(const Anchor& a) {
+  return {{"id", a.id},
+          {"width", a.image.width},
+          {"height", a.image.height},
+          {"depth", a.has_depth},
+          {"intrinsics", IntrinsicsJson(a.intrinsics)},
+          {"reference_ms", a.reference_ms}};
+}
+
+std::string Base64(const std::vector<uint8_t>& b) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((b.size() + 2) / 3 * 4);
+  for (size_t i = 0; i < b.size(); i += 3) {
+    const uint32_t v = (uint32_t{b[i]} << 16) | (i + 1 < b.size() ? uint32_t{b[i + 1]} << 8 : 0) |
+                       (i + 2 < b.size() ? uint32_t{b[i + 2]} : 0);
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += i + 1 < b.size() ? t[(v >> 6) & 63] : '=';
+    out += i + 2 < b.size() ? t[v & 63] : '=';
+  }
+  return out;
+}
+
+// A depth map as a grey JPEG (near bright, far dark, invalid black) for the page.
+std::vector<uint8_t> DepthPicture(const DepthMap& d) {
+  std::vector<float> valid;
+  for (float v : d.data)
+    if (v > 0 && std::isfinite(v)) valid.push_back(v);
+  Image im(d.width, d.height);
+  if (!valid.empty()) {
+    std::sort(valid.begin(), valid.end());
+    const float lo = valid[valid.size() / 50], hi = std::max(lo + 1e-3f, valid[valid.size() * 49 / 50]);
+    for (size_t i = 0; i < d.data.size(); ++i) {
+      const float v = d.data[i];
+      if (!(v > 0 && std::isfinite(v))) continue;
+      const uint8_t g = static_cast<uint8_t>(std::clamp(255.0f * (1 - (v - lo) / (hi - lo)), 20.0f, 255.0f));
+      im.data[3 * i] = im.data[3 * i + 1] = im.data[3 * i + 2] = g;
+    }
+  }
+  return EncodeJpeg(im, 85, "depth picture");
+}
+
+std::string ReadStatic(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return "";
+  std::ostringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+struct Server::Impl {
+  ServiceOptions o;
+  AnchorStore store;
+  Admission admission;
+  Metrics metrics;
+  Workers workers;
+  httplib::Server http;  // last: destroyed (its connection threads joined) before the workers
+  int port = 0;
+  std::string three_js, orbit_js;
+
+  explicit Impl(const ServiceOptions& opt)
+      : o(opt),
+        store(opt.pipeline, opt.max_anchors, opt.store_dir),
+        admission(opt.workers, opt.max_queue),
+        workers(opt.workers) {
+    three_js = ReadStatic(o.static_dir + "/build/three.min.js");
+    orbit_js = ReadStatic(o.static_dir + "/examples/js/controls/OrbitControls.js");
+    if (three_js.empty())
+      FREELOC_LOG(WARNING) << o.static_dir << "/build/three.min.js: not found (install libjs-three); the page's "
+                                              "3D view is off";
+    Routes();
+  }
+
+  bool Authorized(const httplib::Request& req, httplib::Response& res) {
+    // The header, or (for the page's <img> links, which send no headers) a `token` query parameter.
+    if (o.token.empty() || req.get_header_value("Authorization") == "Bearer " + o.token ||
+        (req.has_param("token") && req.get_param_value("token") == o.token))
+      return true;
+    SendError(res, 401,
+              req.has_header("Authorization") ? "Authorization: wrong token"
+                                              : "Authorization: this service needs 'Authorization: Bearer <token>'");
+    return false;
+  }
+
+  // Runs `work` as one admitted unit: 503 when the queue is full (or the wait too long), 400 for bad input
+  // (freeloc::Error), 500 for anything else.
+  template <typename Fn>
+  void Admitted(httplib::Response& res, const Fn& work) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (!admission.Enter(o.queue_timeout_s)) {
+      res.set_header("Retry-After", "1");
+      SendError(res, 503, "busy: " + std::to_string(o.workers) + " workers and " + std::to_string(o.max_queue) +
+                              " queued requests; retry later");
+      return;
+    }
+    const double queue_ms = MsSince(t0);
+    workers.Run([&] {
+      try {
+        work(queue_ms);
+      } catch (const AnchorStore::StoreFull& e) {
+        SendError(res, 507, e.what());
+      } catch (const Error& e) {
+        SendError(res, 400, e.what());
+      } catch (const std::exception& e) {
+        FREELOC_LOG(ERROR) << "request failed: " << e.what();
+        SendError(res, 500, std::string("internal error: ") + e.what());
+      }
+    });
+    admission.Leave();
+  }
+
+  void Routes() {
+    http.set_payload_max_length(static_cast<size_t>(o.max_upload_mb) << 20);
+    http.set_read_timeout(30, 0);
+    http.set_write_timeout(30, 0);
+    http.set_keep_alive_timeout(5);
+    const int threads = o.workers + o.max_queue + 8;
+    http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
+    http.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
+      if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;  // our own JSON error
+      const std::string what = res.status == 413   ? "upload too large"
+                               : res.status == 404 ? "no such route"
+                               : res.status == 400 ? "bad request (malformed HTTP or multipart body)"
+                                                   : "error";
+      SendJson(res, res.status, {{"error", what}});
+      return httplib::Server::HandlerResponse::Handled;
+    }));
+    http.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+      std::string what = "internal error";
+      try {
+        if (ep) std::rethrow_exception(ep);
+      } catch (const std::exception& e) {
+        what += std::string(": ") + e.what();
+      } catch (...) {
+      }
+      SendError(res, 500, what);
+    });
+    http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+      // Latency from the request's arrival is not known to httplib; the handlers record their own (below).
+      if (req.path.rfind("/v1/", 0) != 0) metrics.Record(res.status, 0);
+    });
+
+    http.Get("/", [this](const httplib::Request&, httplib::Response& res) {
+      res.set_content(PageHtml(), "text/html; charset=utf-8");
+    });
+    http.Get("/static/three.min.js", [this](const httplib::Request&, httplib::Response& res) {
+      if (three_js.empty()) return SendError(res, 404, "three.js is not installed (Debian package libjs-three)");
+      res.set_content(three_js, "application/javascript");
+    });
+    http.Get("/static/OrbitControls.js", [this](const httplib::Request&, httplib::Response& res) {
+      if (orbit_js.empty()) return SendError(res, 404, "OrbitControls.js is not installed (libjs-three)");
+      res.set_content(orbit_js, "application/javascript");
+    });
+    http.Get("/static/view3d.js", [](const httplib::Request&, httplib::Response& res) {
+      res.set_content(eval::View3dScript(), "application/javascript");
+    });
+    http.Get("/healthz", [this](const httplib::Request&, httplib::Response& res) {
+      SendJson(res, 200, {{"status", "ok"}, {"anchors", store.size()}});
+    });
+    http.Get("/metrics", [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      Json j = metrics.ToJson();
+      j["queue"] = admission.waiting();
+      j["in_flight"] = admission.running();
+      j["anchors"] = store.size();
+      j["rss_mb"] = ProcMiB("VmRSS:");
+      j["peak_rss_mb"] = ProcMiB("VmHWM:");
+      SendJson(res, 200, j);
+    });
+
+    http.Post("/v1/anchors", [this](const httplib::Request& req, httplib::Response& res) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (Authorized(req, res)) {
+        try {
+          PhotoUpload u = UploadOf(req);
+          Admitted(res, [&](double queue_ms) {
+            const std::shared_ptr<Anchor> a = store.Add(std::move(u));
+            Json j = AnchorJson(*a);
+            j["queue_ms"] = queue_ms;
+            SendJson(res, 201, j);
+          });
+        } catch (const Error& e) {
+          SendError(res, 400, e.what());
+        }
+      }
+      metrics.Record(res.status, MsSince(t0));
+    });
+    http.Get("/v1/anchors", [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      Json list = Json::array();
+      for (const auto& a : store.List()) list.push_back(AnchorJson(*a));
+      SendJson(res, 200, {{"anchors", list}});
+    });
+    const std::string id = "/v1/anchors/([0-9a-fA-F]{1,32})";
+    http.Get(id, [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      const auto a = store.Get(req.matches[1]);
+      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      SendJson(res, 200, AnchorJson(*a));
+    });
+    http.Delete(id, [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      if (!store.Remove(req.matches[1])) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      SendJson(res, 200, {{"deleted", std::string(req.matches[1])}});
+    });
+    http.Get(id + "/image", [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      const auto a = store.Get(req.matches[1]);
+      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      const std::vector<uint8_t> jpg = EncodeJpeg(a->image, 90, "anchor image");  // upright, as the pipeline sees it
+      res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
+    });
+    http.Get(id + "/depth", [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      const auto a = store.Get(req.matches[1]);
+      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      if (req.has_param("raw") && req.get_param_value("raw") == "1") {  // the uploaded 16-bit PNG itself
+        if (!a->has_depth) return SendError(res, 404, "anchor " + a->id + ": no depth was uploaded");
+        return res.set_content(std::string(a->upload.depth.begin(), a->upload.depth.end()), "image/png");
+      }
+      std::lock_guard<std::mutex> lock(a->mu);
+      const DepthMap& d = a->reloc->reference_depth();
+      if (d.empty()) return SendError(res, 404, "anchor " + a->id + ": no depth (none uploaded, none estimated)");
+      const std::vector<uint8_t> jpg = DepthPicture(d);
+      res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
+    });
+    http.Get(id + "/points", [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      const auto a = store.Get(req.matches[1]);
+      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      std::lock_guard<std::mutex> lock(a->mu);
+      Camera k = a->intrinsics.camera;
+      k.width = a->image.width;
+      k.height = a->image.height;
+      SendJson(res, 200,
+               Json::parse(eval::View3dJson(a->image, a->reloc->reference_depth(), k,
+                                            {{Rigid3d(), k, "#33dd66", "reference"}})));
+    });
+    http.Post(id + "/relocalize", [this](const httplib::Request& req, httplib::Response& res) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (Authorized(req, res)) Relocalize(req, res, t0);
+      metrics.Record(res.status, MsSince(t0));
+    });
+  }
+
+  void Relocalize(const httplib::Request& req, httplib::Response& res,
+                  std::chrono::steady_clock::time_point t0) {
+    const auto a = store.Get(req.matches[1]);
+    if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+    PhotoUpload u;
+    try {
+      u = UploadOf(req);
+    } catch (const Error& e) {
+      return SendError(res, 400, e.what());
+    }
+    const bool view = req.has_param("view") && req.get_param_value("view") == "1";
+    Admitted(res, [&](double queue_ms) {
+      const auto td = std::chrono::steady_clock::now();
+      DecodedPhoto p = DecodePhoto(std::move(u), a->reloc->options(), "query");
+      const double decode_ms = MsSince(td);
+      std::lock_guard<std::mutex> lock(a->mu);
+      matching::Correspondences c;
+      const pipeline::QueryResult q = a->reloc->Relocalize(p.image, p.camera, std::move(p.inputs), &c);
+      Json j = Json::parse(pipeline::QueryRecordJson("", q, &a->reloc->options()));
+      j["anchor"] = a->id;
+      // The reference side was computed when the anchor was added (reference_ms there), not here.
+      j["service"] = {{"queue_ms", queue_ms}, {"decode_ms", decode_ms}, {"total_ms", MsSince(t0)},
+                      {"reference_reused", true}};
+      if (view) {
+        Json m = Json::array();
+        const size_t n = c.size(), step = std::max<size_t>(1, n / 600);
+        for (size_t i = 0; i < n; i += step)
+          m.push_back({c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y(),
+                       i < q.inlier_mask.size() && q.inlier_mask[i] ? 1 : 0});
+        j["view"] = {{"matches", m}};
+        const DepthMap& dq = a->reloc->last_query_depth();
+        if (!dq.empty()) j["view"]["query_depth"] = "data:image/jpeg;base64," + Base64(DepthPicture(dq));
+        Camera kr = a->intrinsics.camera, kq = q.query_intrinsics.camera;
+        kr.width = a->image.width;
+        kr.height = a->image.height;
+        kq.width = p.image.width;
+        kq.height = p.image.height;
+        std::vector<eval::View3dCamera> cams = {{Rigid3d(), kr, "#33dd66", "reference"}};
+        if (q.ok() || q.weak()) cams.push_back({q.query_from_ref, kq, "#ff9922", "predicted"});
+        j["view"]["view3d"] = Json::parse(eval::View3dJson(a->image, a->reloc->reference_depth(), kr, cams));
+        const std::vector<uint8_t> qj = EncodeJpeg(p.image, 85, "query image");
+        j["view"]["query_image"] = "data:image/jpeg;base64," + Base64(qj);
+      }
+      SendJson(res, 200, j);
+    });
+  }
+};
+
+Server::Server(const ServiceOptions& options) {
+  options.Validate();
+  impl_ = std::make_unique<Impl>(options);
+}
+
+Server::~Server() = default;
+
+int Server::Bind() {
+  Impl& m = *impl_;
+  if (m.o.port == 0) {
+    m.port = m.http.bind_to_any_port(m.o.host);
+    FREELOC_CHECK(m.port > 0, m.o.host << ": cannot bind to any port");
+  } else {
+    FREELOC_CHECK(m.http.bind_to_port(m.o.host, m.o.port),
+                  m.o.host << ":" << m.o.port << ": cannot bind (in use, or not an address of this machine); choose "
+                                                 "another port");
+    m.port = m.o.port;
+  }
+  return m.port;
+}
+
+void Server::Serve() { impl_->http.listen_after_bind(); }
+void Server::Stop() { impl_->http.stop(); }
+int Server::port() const { return impl_->port; }
+
+}  // namespace freeloc::service

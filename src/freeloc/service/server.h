@@ -1,0 +1,48 @@
+// `freeloc serve` (docs/service.md): the relocalization pipeline as an HTTP service (cpp-httplib) with a web page.
+// Anchors (anchor_store.h) are kept warm; a query costs the query's work only. The work is admitted through a
+// bounded queue (at most `workers` requests work at once, `max_queue` more wait; beyond that 503 at once), uploads
+// are bounded (413), every request has a time limit, and Stop() finishes the admitted work before returning.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "freeloc/pipeline/options.h"
+
+namespace freeloc::service {
+
+struct ServiceOptions {
+  pipeline::PipelineOptions pipeline;  // the preset and overrides every anchor and query runs with
+  std::string host = "127.0.0.1";
+  int port = 8080;  // 0: any free port (Server::port() says which)
+  int workers = 1;  // requests doing work at once (each runs the networks with the pipeline's threads)
+  int max_queue = 64;  // requests waiting for a worker; more are answered 503
+  int max_upload_mb = 64;
+  int max_anchors = 1000;
+  std::string token;      // non-empty: every /v1 request needs "Authorization: Bearer <token>"
+  std::string store_dir;  // non-empty: anchors persisted there and reloaded at start
+  double queue_timeout_s = 120;  // a request waiting longer for a worker is answered 503
+  std::string static_dir = "/usr/share/javascript/three";  // three.js (libjs-three) for the page's 3D view
+  void Validate() const;
+};
+
+class Server {
+ public:
+  explicit Server(const ServiceOptions& options);  // loads the networks and the stored anchors
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  // Binds to host:port (throws freeloc::Error when it cannot); returns the port.
+  int Bind();
+  // Serves until Stop(); returns when the last admitted request has been answered.
+  void Serve();
+  void Stop();
+  int port() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace freeloc::service

@@ -1,0 +1,310 @@
+// `freeloc serve` over HTTP on a free localhost port: every route, every error code, the answer equal to
+// `freeloc relocalize --json`, concurrent requests, backpressure, persistence and a clean stop.
+#include "freeloc/service/server.h"
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "freeloc/io/file_util.h"
+#include "freeloc/pipeline/options.h"
+#include "testing/testing.h"
+
+namespace freeloc::service {
+namespace {
+
+using Json = nlohmann::json;
+
+std::string Bytes(const std::string& path) {
+  const std::vector<uint8_t> b = ReadFileBytes(path);
+  return std::string(b.begin(), b.end());
+}
+
+const char* kK = "520.908620,521.007327,325.141442,249.701764";  // s00003's intrinsics
+
+struct Tum {
+  std::string ref, query, ref_depth, query_depth;
+  Tum() {
+    const std::string s = testing::DemoPath("val/s00003/");
+    ref = Bytes(s + "seq0/frame_00000.png");
+    query = Bytes(s + "seq1/frame_00000.png");
+    ref_depth = Bytes(s + "seq0/frame_00000.sensor.png");
+    query_depth = Bytes(s + "seq1/frame_00000.sensor.png");
+  }
+};
+
+httplib::MultipartFormDataItems Photo(const std::string& image, const std::string& depth = "",
+                                      const std::string& k = kK) {
+  httplib::MultipartFormDataItems items = {{"image", image, "photo.png", "image/png"}};
+  if (!depth.empty()) items.push_back({"depth", depth, "depth.png", "image/png"});
+  if (!k.empty()) items.push_back({"intrinsics", k, "", ""});
+  return items;
+}
+
+// A server on a free port, serving from a thread until the fixture ends.
+class Running {
+ public:
+  explicit Running(ServiceOptions o) {
+    o.port = 0;
+    server_ = std::make_unique<Server>(o);
+    port_ = server_->Bind();
+    thread_ = std::thread([this] { server_->Serve(); });
+  }
+  ~Running() {
+    server_->Stop();
+    thread_.join();
+  }
+  httplib::Client Client(const std::string& token = "") const {
+    httplib::Client c("127.0.0.1", port_);
+    c.set_read_timeout(120, 0);
+    if (!token.empty()) c.set_bearer_token_auth(token.c_str());
+    return c;
+  }
+  int port() const { return port_; }
+
+ private:
+  std::unique_ptr<Server> server_;
+  int port_ = 0;
+  std::thread thread_;
+};
+
+ServiceOptions Sift() {
+  ServiceOptions o;
+  o.pipeline = pipeline::ResolvePreset("sift-essential");
+  return o;
+}
+
+std::string AddAnchor(httplib::Client& c, const Tum& t) {
+  auto r = c.Post("/v1/anchors", Photo(t.ref, t.ref_depth));
+  EXPECT_TRUE(r);
+  if (!r) return "";
+  EXPECT_EQ(r->status, 201) << r->body;
+  return Json::parse(r->body).value("id", std::string());
+}
+
+TEST(Service, RoutesAndTheAnswerOfRelocalize) {
+  const Tum t;
+  const Running s(Sift());
+  httplib::Client c = s.Client();
+  auto r = c.Get("/healthz");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  const std::string id = AddAnchor(c, t);
+  ASSERT_EQ(id.size(), 16u);
+  r = c.Get("/v1/anchors");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(Json::parse(r->body)["anchors"].size(), 1u);
+  r = c.Get(("/v1/anchors/" + id).c_str());
+  ASSERT_EQ(r->status, 200);
+  EXPECT_EQ(Json::parse(r->body)["intrinsics"]["source"], "given");
+  EXPECT_EQ(c.Get(("/v1/anchors/" + id + "/image").c_str())->get_header_value("Content-Type"), "image/jpeg");
+  EXPECT_EQ(c.Get(("/v1/anchors/" + id + "/depth").c_str())->status, 200);
+  const Json pts = Json::parse(c.Get(("/v1/anchors/" + id + "/points").c_str())->body);
+  EXPECT_GT(pts["points"].size(), 3000u);
+  EXPECT_EQ(pts["points"].size(), pts["colors"].size());
+
+  // The answer over HTTP is `freeloc relocalize --json` on the same inputs: same pose, status, confidence.
+  r = c.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json http = Json::parse(r->body);
+  const std::string s3 = testing::DemoPath("val/s00003/");
+  const std::string cmd = std::string(FREELOC_BINARY) + " relocalize --ref " + s3 + "seq0/frame_00000.png --query " +
+                          s3 + "seq1/frame_00000.png --ref-intrinsics " + kK + " --query-intrinsics " + kK +
+                          " --ref-depth " + s3 + "seq0/frame_00000.sensor.png --query-depth " + s3 +
+                          "seq1/frame_00000.sensor.png --json";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
+  pclose(p);
+  const Json cli = Json::parse(out);
+  EXPECT_EQ(http["status"], "ok");
+  EXPECT_EQ(http["status"], cli["status"]);
+  EXPECT_EQ(http["qvec"], cli["qvec"]);
+  EXPECT_EQ(http["tvec"], cli["tvec"]);
+  EXPECT_EQ(http["confidence"], cli["confidence"]);
+  EXPECT_EQ(http["inliers"], cli["inliers"]);
+  EXPECT_EQ(http["options"], cli["options"]);
+  // A warm anchor: the reference side is not in the query's cost.
+  EXPECT_TRUE(http["service"]["reference_reused"].get<bool>());
+  EXPECT_FALSE(http.contains("view"));
+  r = c.Post(("/v1/anchors/" + id + "/relocalize?view=1").c_str(), Photo(t.query, t.query_depth));
+  const Json view = Json::parse(r->body)["view"];
+  EXPECT_GT(view["matches"].size(), 100u);
+  EXPECT_EQ(view["query_image"].get<std::string>().rfind("data:image/jpeg;base64,", 0), 0u);
+
+  // The page and its scripts, all from this server.
+  r = c.Get("/");
+  ASSERT_EQ(r->status, 200);
+  EXPECT_NE(r->body.find("/static/three.min.js"), std::string::npos);
+  EXPECT_EQ(r->body.find("http://"), std::string::npos);  // nothing loaded from elsewhere
+  EXPECT_EQ(r->body.find("https://"), std::string::npos);
+  if (std::filesystem::exists("/usr/share/javascript/three/build/three.min.js")) {
+    EXPECT_EQ(c.Get("/static/three.min.js")->status, 200);
+  }
+
+  r = c.Delete(("/v1/anchors/" + id).c_str());
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(c.Delete(("/v1/anchors/" + id).c_str())->status, 404);
+  const Json metrics = Json::parse(c.Get("/metrics")->body);
+  EXPECT_GE(metrics["requests"].get<int>(), 3);
+  EXPECT_GT(metrics["rss_mb"].get<double>(), 0);
+}
+
+// Bad input gets a 4xx with a message naming what is wrong, and the server keeps serving.
+TEST(Service, BadInputIsAClearClientError) {
+  const Tum t;
+  ServiceOptions o = Sift();
+  o.max_upload_mb = 1;
+  const Running s(o);
+  httplib::Client c = s.Client();
+  const std::string id = AddAnchor(c, t);
+  const std::string reloc = "/v1/anchors/" + id + "/relocalize";
+  const auto expect = [&](const httplib::Result& r, int status, const std::string& part) {
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, status) << r->body;
+    const Json j = Json::parse(r->body, nullptr, false);
+    ASSERT_TRUE(j.is_object()) << r->body;
+    EXPECT_NE(j.value("error", std::string()).find(part), std::string::npos) << r->body;
+  };
+  expect(c.Post(reloc.c_str(), "not a form", "text/plain"), 400, "expected multipart/form-data");
+  expect(c.Post(reloc.c_str(), httplib::MultipartFormDataItems{{"depth", t.query_depth, "d.png", "image/png"}}), 400,
+         "image: missing");
+  expect(c.Post(reloc.c_str(), Photo(t.query.substr(0, t.query.size() / 2))), 400, "truncated");
+  expect(c.Post(reloc.c_str(), Photo("GIF89a garbage")), 400, "not a supported image");
+  expect(c.Post(reloc.c_str(), Photo(t.query, "", "1,2,three")), 400, "intrinsics");
+  expect(c.Post(reloc.c_str(), Photo(t.query, "", "1e308,1e308,320,240")), 400, "intrinsics");
+  expect(c.Post(reloc.c_str(), Photo(t.query, t.ref)), 400, "depth");  // an 8-bit RGB PNG as the depth map
+  expect(c.Post("/v1/anchors/0123456789abcdef/relocalize", Photo(t.query)), 404, "unknown");
+  // A PNG that declares 100000 x 100000 pixels.
+  std::string huge = t.query.substr(0, 33);
+  for (int k : {16, 20}) {
+    huge[k] = 0;
+    huge[k + 1] = 1;
+    huge[k + 2] = static_cast<char>(0x86);
+    huge[k + 3] = static_cast<char>(0xA0);
+  }
+  expect(c.Post(reloc.c_str(), Photo(huge + t.query.substr(33))), 400, "pixels");
+  // Bodies over --max-upload-mb, and a declared length far over it: 413 before reading them.
+  expect(c.Post(reloc.c_str(), Photo(std::string(2 << 20, 'x'))), 413, "too large");
+  {
+    httplib::Client raw("127.0.0.1", s.port());
+    httplib::Headers h = {{"Content-Length", "1000000000000"}};
+    const auto r = raw.Post(reloc.c_str(), h, "x", 1, "multipart/form-data; boundary=b");
+    if (r) {
+      EXPECT_EQ(r->status, 413) << r->body;  // (or the connection is closed)
+    }
+  }
+  // A malformed multipart body.
+  expect(c.Post(reloc.c_str(), "--b\r\nContent-Disposition: form-data; name=\"image\"\r\n\r\nabc",
+                "multipart/form-data; boundary=b"),
+         400, "");
+  // Still serving, the anchor intact.
+  const auto r = c.Post(reloc.c_str(), Photo(t.query, t.query_depth));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+}
+
+TEST(Service, TokenIsRequiredWhenSet) {
+  const Tum t;
+  ServiceOptions o = Sift();
+  o.token = "s3cret";
+  const Running s(o);
+  httplib::Client none = s.Client(), wrong = s.Client("nope"), right = s.Client("s3cret");
+  EXPECT_EQ(none.Get("/v1/anchors")->status, 401);
+  EXPECT_EQ(wrong.Get("/v1/anchors")->status, 401);
+  EXPECT_EQ(wrong.Post("/v1/anchors", Photo(t.ref))->status, 401);
+  EXPECT_EQ(wrong.Get("/metrics")->status, 401);
+  EXPECT_EQ(right.Get("/v1/anchors")->status, 200);
+  EXPECT_EQ(none.Get("/healthz")->status, 200);
+}
+
+// 16 concurrent requests against one anchor all succeed with the same answer; with one worker and a queue of one,
+// a burst is answered 503 beyond what fits, never queued without bound.
+TEST(Service, ConcurrencyAndBackpressure) {
+  const Tum t;
+  ServiceOptions o = Sift();
+  o.workers = 2;
+  {
+    const Running s(o);
+    httplib::Client c = s.Client();
+    const std::string id = AddAnchor(c, t);
+    std::vector<std::thread> threads;
+    std::vector<std::string> tvecs(16);
+    std::atomic<int> ok{0};
+    for (int i = 0; i < 16; ++i)
+      threads.emplace_back([&, i] {
+        httplib::Client ci = s.Client();
+        const auto r = ci.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+        if (r && r->status == 200) {
+          ++ok;
+          tvecs[i] = Json::parse(r->body)["tvec"].dump();
+        }
+      });
+    for (auto& th : threads) th.join();
+    EXPECT_EQ(ok.load(), 16);
+    for (const auto& v : tvecs) EXPECT_EQ(v, tvecs[0]);
+  }
+  o.workers = 1;
+  o.max_queue = 1;
+  const Running s(o);
+  httplib::Client c = s.Client();
+  const std::string id = AddAnchor(c, t);
+  std::vector<std::thread> threads;
+  std::atomic<int> ok{0}, busy{0}, other{0};
+  for (int i = 0; i < 8; ++i)
+    threads.emplace_back([&] {
+      httplib::Client ci = s.Client();
+      const auto r = ci.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+      if (r && r->status == 200) {
+        ++ok;
+      } else if (r && r->status == 503 && r->get_header_value("Retry-After") == "1") {
+        ++busy;
+      } else {
+        ++other;
+      }
+    });
+  for (auto& th : threads) th.join();
+  EXPECT_GE(ok.load(), 2);
+  EXPECT_GE(busy.load(), 1);
+  EXPECT_EQ(other.load(), 0);
+  const Json m = Json::parse(c.Get("/metrics")->body);
+  EXPECT_EQ(m["queue"], 0);
+  EXPECT_EQ(m["in_flight"], 0);
+  EXPECT_EQ(m["errors"].value("503", 0), busy.load());
+}
+
+// Anchors persisted with --store come back after a restart and answer the same; --max-anchors is enforced.
+TEST(Service, StoreSurvivesARestartAndMaxAnchorsHolds) {
+  const Tum t;
+  const testing::TempDir tmp;
+  ServiceOptions o = Sift();
+  o.store_dir = tmp.File("anchors");
+  o.max_anchors = 1;
+  std::string id, before;
+  {
+    const Running s(o);
+    httplib::Client c = s.Client();
+    id = AddAnchor(c, t);
+    before = c.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth))->body;
+    const auto full = c.Post("/v1/anchors", Photo(t.ref, t.ref_depth));
+    EXPECT_EQ(full->status, 507) << full->body;
+  }
+  const Running s(o);
+  httplib::Client c = s.Client();
+  const auto r = c.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body)["tvec"], Json::parse(before)["tvec"]);
+  EXPECT_EQ(c.Delete(("/v1/anchors/" + id).c_str())->status, 200);
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("anchors/" + id)));
+}
+
+}  // namespace
+}  // namespace freeloc::service
