@@ -141,15 +141,18 @@ int main(int argc, char** argv) {
   const std::string path2 = "/v1/anchors/" + created2->body.substr(created2->body.find("\"id\":\"") + 6, 16) +
                             "/relocalize";
   std::map<int, int> burst;
+  std::map<std::string, int> failures;  // client-side: no HTTP answer
   std::vector<std::thread> b;
   const int n = 4 * std::max(clients, 1);
   for (int i = 0; i < n; ++i)
     b.emplace_back([&] {
       httplib::Client cl("127.0.0.1", port2);
       cl.set_read_timeout(300, 0);
+      cl.set_write_timeout(300, 0);  // a connection beyond the server's threads waits, unread, until one takes it
       const auto r = cl.Post(path2.c_str(), form(query, query_d));
       std::lock_guard<std::mutex> lock(mu);
       ++burst[r ? r->status : -1];
+      if (!r) ++failures[httplib::to_string(r.error())];
     });
   for (auto& t : b) t.join();
   small.Stop();
@@ -157,6 +160,7 @@ int main(int argc, char** argv) {
   std::printf("Backpressure: a burst of %d simultaneous requests against 1 worker and a queue of 2:\n\n| status | "
               "requests |\n|---|---:|\n", n);
   for (const auto& [st, c] : burst) std::printf("| %d | %d |\n", st, c);
+  for (const auto& [what, c] : failures) std::printf("\n(-1: no HTTP answer: %s, %d)", what.c_str(), c);
   std::printf("\n");
   return 0;
 }

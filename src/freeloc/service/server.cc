@@ -474,12 +474,20 @@ struct Server::Impl {
       const double decode_ms = MsSince(td);
       std::lock_guard<std::mutex> lock(a->mu);
       matching::Correspondences c;
+      const pipeline::CacheStats before = a->reloc->stats();
       const pipeline::QueryResult q = a->reloc->Relocalize(p.image, p.camera, std::move(p.inputs), &c);
+      const pipeline::CacheStats& after = a->reloc->stats();
       Json j = Json::parse(pipeline::QueryRecordJson("", q, &a->reloc->options()));
       j["anchor"] = a->id;
-      // The reference side was computed when the anchor was added (reference_ms there), not here.
-      j["service"] = {{"queue_ms", queue_ms}, {"decode_ms", decode_ms}, {"total_ms", MsSince(t0)},
-                      {"reference_reused", true}};
+      // The reference side ran when the anchor was added (its reference_ms); measured here: no reference encoder
+      // pass and no reference depth estimate ran for this query (the counters did not move).
+      j["service"] = {{"queue_ms", queue_ms},
+                      {"decode_ms", decode_ms},
+                      {"total_ms", MsSince(t0)},
+                      {"reference_encodings", after.reference_encodings},
+                      {"reference_reuses", after.reference_reuses},
+                      {"reference_reused", after.reference_encodings == before.reference_encodings &&
+                                               after.reference_ms == before.reference_ms}};
       if (view) {
         Json m = Json::array();
         const size_t n = c.size(), step = std::max<size_t>(1, n / 600);

@@ -158,6 +158,35 @@ TEST(Service, RoutesAndTheAnswerOfRelocalize) {
   EXPECT_GT(metrics["rss_mb"].get<double>(), 0);
 }
 
+// With a network preset (DUSt3R, tiny fixture weights) the anchor's reference work — model loading, the reference's
+// encoder pass — runs once, when it is added: queries add no reference encoding.
+TEST(Service, WarmAnchorsRunOnlyTheQueryWork) {
+  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
+  const Tum t;
+  ServiceOptions o;
+  o.pipeline = pipeline::ResolvePreset("dust3r");
+  o.pipeline.dust3r_model = testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+  o.pipeline.dust3r_size = 224;
+  o.pipeline.check_intrinsics = 0;
+  const Running s(o);
+  httplib::Client c = s.Client();
+  const std::string id = AddAnchor(c, t);
+  ASSERT_FALSE(id.empty());
+  int encodings = -1, reuses = -1;
+  for (int i = 0; i < 3; ++i) {
+    const auto r = c.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    const Json j = Json::parse(r->body);
+    EXPECT_TRUE(j["service"]["reference_reused"].get<bool>()) << r->body;
+    if (encodings < 0) encodings = j["service"]["reference_encodings"];
+    EXPECT_EQ(j["service"]["reference_encodings"], encodings);
+    if (reuses < 0) reuses = j["service"]["reference_reuses"];
+    EXPECT_EQ(j["service"]["reference_reuses"].get<int>(), reuses + i);  // one reuse of the encoding per query
+  }
+  EXPECT_EQ(encodings, 1);
+}
+
 // Bad input gets a 4xx with a message naming what is wrong, and the server keeps serving.
 TEST(Service, BadInputIsAClearClientError) {
   const Tum t;
