@@ -1,6 +1,7 @@
 // The `freeloc._freeloc` extension (pybind11): the same pipeline as the CLI behind a numpy-in, numpy-out API. Only
 // argument translation lives here — options go through pipeline::SetOption (the typed option table), poses through
-// the pipeline's PoseSolver and Relocalizer, runs through the run controller, metrics through eval. The GIL is
+// the pipeline's PoseSolver and Relocalizer, runs through the run controller, metrics through eval, the networks one
+// by one through the networks module's table (pipeline/networks.h; no nn/ or vision/ header here). The GIL is
 // released during every long call. python/freeloc/__init__.py adds the pure-Python conveniences.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
@@ -22,14 +23,11 @@
 #include "freeloc/eval/report.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/nn/dust3r.h"
-#include "freeloc/nn/metric3d.h"
-#include "freeloc/nn/seggpt.h"
 #include "freeloc/pipeline/benchmark_run.h"
 #include "freeloc/pipeline/intrinsics.h"
+#include "freeloc/pipeline/networks.h"
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
-#include "freeloc/vision/dust3r_preprocess.h"
 
 namespace py = pybind11;
 
@@ -422,90 +420,75 @@ nn::RuntimeOptions RuntimeOf(const std::string& device, const std::string& preci
   return rt;
 }
 
-// The constructor of a network class: weights (+ optional config) loaded for the given runtime.
-template <typename Model>
+// A network of the networks module (pipeline/networks.h), loaded for the given runtime; one wrapper type per Python
+// class.
+template <pipeline::BoundNetwork Kind>
+struct PyNetwork {
+  std::shared_ptr<void> net;
+};
+
+template <pipeline::BoundNetwork Kind>
 auto NetworkInit() {
   return py::init([](const py::object& path, const py::object& config, const std::string& device,
                      const std::string& precision, int threads) {
-    return Model::Load(PathOf(path), config.is_none() ? "" : PathOf(config), RuntimeOf(device, precision, threads));
+    return PyNetwork<Kind>{pipeline::Networks().load_network(Kind, PathOf(path), config.is_none() ? "" : PathOf(config),
+                                                             RuntimeOf(device, precision, threads))};
   });
+}
+using PyDust3r = PyNetwork<pipeline::BoundNetwork::kDust3r>;
+using PyMetric3d = PyNetwork<pipeline::BoundNetwork::kMetric3d>;
+using PySegGpt = PyNetwork<pipeline::BoundNetwork::kSegGpt>;
+
+py::dict TensorDict(const pipeline::NamedTensors& t) {
+  py::dict d;
+  for (const auto& [name, tensor] : t) d[name.c_str()] = TensorArray(tensor);
+  return d;
 }
 
 // DUSt3R / MASt3R on a pair: the `freeloc pointmap` outputs (MASt3R: also desc_1/desc_conf_1/desc_2/desc_conf_2).
-py::dict Dust3rPair(const nn::Dust3rModel& m, const py::handle& img1, const py::handle& img2, int size) {
+py::dict Dust3rPair(const PyDust3r& m, const py::handle& img1, const py::handle& img2, int size) {
   const Image a = ImageOf(img1, "image_1"), b = ImageOf(img2, "image_2");
-  Dust3rPreprocessOptions po;
-  po.size = size;
-  Dust3rInput ia, ib;
-  nn::Dust3rPrediction pr;
+  pipeline::NamedTensors t;
   {
     py::gil_scoped_release nogil;
-    ia = PreprocessForDust3r(a, po);
-    ib = PreprocessForDust3r(b, po);
-    pr = m.Run({ia.normalized.data(), ia.height(), ia.width()}, {ib.normalized.data(), ib.height(), ib.width()});
+    t = pipeline::Networks().run_pointmaps(m.net, a, b, size);
   }
-  py::dict d;
-  d["pts3d_1"] = TensorArray(pr.pts3d_1);
-  d["conf_1"] = TensorArray(pr.conf_1);
-  d["pts3d_2"] = TensorArray(pr.pts3d_2);
-  d["conf_2"] = TensorArray(pr.conf_2);
-  d["image_1"] = TensorArray(MakeTensor(DType::kU8, {ia.height(), ia.width(), 3}, ia.image.data.data(), ia.image.data.size()));
-  d["image_2"] = TensorArray(MakeTensor(DType::kU8, {ib.height(), ib.width(), 3}, ib.image.data.data(), ib.image.data.size()));
-  if (pr.desc_1.nbytes) {
-    d["desc_1"] = TensorArray(pr.desc_1);
-    d["desc_conf_1"] = TensorArray(pr.desc_conf_1);
-    d["desc_2"] = TensorArray(pr.desc_2);
-    d["desc_conf_2"] = TensorArray(pr.desc_conf_2);
-  }
-  return d;
+  return TensorDict(t);
 }
 
 // Metric3D v2 on one image: the `freeloc depth --raw` outputs.
-py::dict Metric3dEstimate(const nn::Metric3dModel& m, const py::handle& image, const py::handle& k) {
+py::dict Metric3dEstimate(const PyMetric3d& m, const py::handle& image, const py::handle& k) {
   const Image im = ImageOf(image, "image");
   const Camera cam = CameraOf(k, "K", im.width, im.height);
-  nn::Metric3dOutput o;
+  pipeline::NamedTensors t;
   {
     py::gil_scoped_release nogil;
-    o = m.Estimate(im, cam);
+    t = pipeline::Networks().run_depth(m.net, im, cam);
   }
-  py::dict d;
-  d["depth"] = TensorArray(MakeTensor(DType::kF32, {o.depth.height, o.depth.width}, o.depth.data.data(),
-                                      o.depth.data.size() * 4));
-  d["confidence"] = TensorArray(MakeTensor(DType::kF32, {o.depth.height, o.depth.width}, o.confidence.data(),
-                                           o.confidence.size() * 4));
-  d["normal"] = TensorArray(MakeTensor(DType::kF32, {3, o.depth.height, o.depth.width}, o.normal.data(),
-                                       o.normal.size() * 4));
-  d["canonical_depth"] = TensorArray(o.canonical_depth);
-  return d;
+  return TensorDict(t);
 }
 
 // SegGPT: the target's mask from prompts (the `freeloc segment` output).
-py::dict SegGptSegment(const nn::SegGptModel& m, const py::list& prompt_images, const py::list& prompt_masks,
+py::dict SegGptSegment(const PySegGpt& m, const py::list& prompt_images, const py::list& prompt_masks,
                        const py::handle& target, const std::string& type) {
   if (prompt_images.size() == 0 || prompt_images.size() != prompt_masks.size())
     BadValue("give one prompt mask per prompt image (and at least one)");
+  if (type != "instance" && type != "semantic") BadValue("type: '" + type + "' is not one of instance, semantic");
   std::vector<Image> pi, pm;
   for (size_t k = 0; k < prompt_images.size(); ++k) {
     pi.push_back(ImageOf(prompt_images[k], "prompt_images"));
     pm.push_back(ImageOf(prompt_masks[k], "prompt_masks"));
   }
   const Image t = ImageOf(target, "target");
-  nn::SegType st;
-  try {
-    st = nn::ParseSegType(type);
-  } catch (const Error& e) {
-    BadValue(e.what());
-  }
-  SegGptMask mask;
+  std::vector<uint8_t> mask;
   {
     py::gil_scoped_release nogil;
-    mask = m.Segment(pi, pm, t, st);
+    mask = pipeline::Networks().run_segment(m.net, pi, pm, t, type);
   }
   py::array_t<bool> a({static_cast<py::ssize_t>(t.height), static_cast<py::ssize_t>(t.width)});
   auto w = a.mutable_unchecked<2>();
   for (int y = 0; y < t.height; ++y)
-    for (int x = 0; x < t.width; ++x) w(y, x) = mask.mask[static_cast<size_t>(y) * t.width + x] != 0;
+    for (int x = 0; x < t.width; ++x) w(y, x) = mask[static_cast<size_t>(y) * t.width + x] != 0;
   py::dict d;
   d["mask"] = a;
   return d;
@@ -631,18 +614,19 @@ void BindRuns(py::module_& m) {
 
 // Dust3r, Metric3D, SegGPT.
 void BindNetworks(py::module_& m) {
-  py::class_<nn::Dust3rModel, std::shared_ptr<nn::Dust3rModel>>(m, "Dust3r")
-      .def(NetworkInit<nn::Dust3rModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
-           py::arg("precision") = "fp32", py::arg("threads") = 0)
+  using pipeline::BoundNetwork;
+  py::class_<PyDust3r>(m, "Dust3r")
+      .def(NetworkInit<BoundNetwork::kDust3r>(), py::arg("path"), py::arg("config") = py::none(),
+           py::arg("device") = "cpu", py::arg("precision") = "fp32", py::arg("threads") = 0)
       .def("__call__", &Dust3rPair, py::arg("image_1"), py::arg("image_2"), py::arg("size") = 512)
-      .def_property_readonly("family", [](const nn::Dust3rModel& d) { return std::string(d.config().family()); });
-  py::class_<nn::Metric3dModel, std::shared_ptr<nn::Metric3dModel>>(m, "Metric3D")
-      .def(NetworkInit<nn::Metric3dModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
-           py::arg("precision") = "fp32", py::arg("threads") = 0)
+      .def_property_readonly("family", [](const PyDust3r& d) { return pipeline::Networks().network_family(d.net); });
+  py::class_<PyMetric3d>(m, "Metric3D")
+      .def(NetworkInit<BoundNetwork::kMetric3d>(), py::arg("path"), py::arg("config") = py::none(),
+           py::arg("device") = "cpu", py::arg("precision") = "fp32", py::arg("threads") = 0)
       .def("estimate", &Metric3dEstimate, py::arg("image"), py::arg("K"));
-  py::class_<nn::SegGptModel, std::shared_ptr<nn::SegGptModel>>(m, "SegGPT")
-      .def(NetworkInit<nn::SegGptModel>(), py::arg("path"), py::arg("config") = py::none(), py::arg("device") = "cpu",
-           py::arg("precision") = "fp32", py::arg("threads") = 0)
+  py::class_<PySegGpt>(m, "SegGPT")
+      .def(NetworkInit<BoundNetwork::kSegGpt>(), py::arg("path"), py::arg("config") = py::none(),
+           py::arg("device") = "cpu", py::arg("precision") = "fp32", py::arg("threads") = 0)
       .def("segment", &SegGptSegment, py::arg("prompt_images"), py::arg("prompt_masks"), py::arg("target"),
            py::arg("type") = "instance");
 }

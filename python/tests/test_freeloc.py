@@ -247,6 +247,34 @@ def test_dust3r_equals_freeloc_pointmap(tmp_path):
     assert "desc_1" not in got
 
 
+@pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "fixtures", "metric3d", "final_norm", "weights.safetensors")),
+                    reason="tiny Metric3D / SegGPT fixtures absent (../shared)")
+def test_metric3d_and_seggpt_equal_the_commands(tmp_path):
+    """Python's Metric3D and SegGPT (through the networks module's table) give what `freeloc depth --raw` and
+    `freeloc segment` write."""
+    d = os.path.join(SHARED, "fixtures", "metric3d")
+    model, config = os.path.join(d, "final_norm", "weights.safetensors"), os.path.join(d, "final_norm", "config.json")
+    image = os.path.join(d, "images", "nyu_rgb_00000_160x120.png")
+    assert cli("depth", "--model", model, "--config", config, "--image", image, "--intrinsics", "100,100,80,60",
+               "--out", str(tmp_path / "d.png"), "--raw", str(tmp_path / "d.safetensors")).returncode == 0
+    want = _safetensors(tmp_path / "d.safetensors")
+    got = freeloc.Metric3D(model, config=config).estimate(image, np.array([[100., 0, 80], [0, 100, 60], [0, 0, 1]]))
+    for k in ("depth", "confidence", "normal", "canonical_depth"):
+        assert k in want, (k, list(want))
+        assert got[k].shape == want[k].shape and np.array_equal(got[k], want[k]), k
+    s = os.path.join(SHARED, "fixtures", "seggpt")
+    sm, sc = os.path.join(s, "weights.safetensors"), os.path.join(s, "config.json")
+    im = os.path.join(s, "images", "c_ensemble")
+    prompt, mask, target = (os.path.join(im, f) for f in ("prompt_image_0.png", "prompt_mask_0.png", "target_image.png"))
+    assert cli("segment", "--model", sm, "--config", sc, "--prompt-image", prompt, "--prompt-mask", mask, "--target",
+               target, "--out", str(tmp_path / "m.png")).returncode == 0
+    want_mask = freeloc.read_image(str(tmp_path / "m.png"))[:, :, 0] > 127
+    got_mask = freeloc.SegGPT(sm, config=sc).segment([prompt], [mask], target)["mask"]
+    assert got_mask.shape == want_mask.shape and np.array_equal(got_mask, want_mask)
+    with pytest.raises(ValueError, match="type"):
+        freeloc.SegGPT(sm, config=sc).segment([prompt], [mask], target, type="panoptic")
+
+
 @pytest.mark.skipif(not os.path.exists(os.path.join(SHARED, "fixtures", "mast3r", "mast3r_tiny.pth")),
                     reason="tiny MASt3R fixture absent (../shared)")
 def test_mast3r_descriptors_equal_freeloc_pointmap(tmp_path):

@@ -7,7 +7,7 @@ import pytest
 
 SOURCE = os.path.abspath(os.environ.get("FREELOC_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", "..")))
 CODE_DIRS = ["src", "python", "bench", "tests", "fuzz", "scripts", "cmake"]
-LIBRARY_MODULES = ["core", "io", "vision", "geometry", "nn", "matching", "pipeline", "networks", "eval"]
+LIBRARY_MODULES = ["core", "io", "vision", "geometry", "nn", "matching", "pipeline", "networks", "eval", "service"]
 
 
 def files(dirs, exts):
@@ -138,3 +138,17 @@ def test_library_messages_name_no_flag(module):
             if FLAG.search(lit):
                 bad.append(f"{os.path.relpath(f, SOURCE)}:{line}: \"{lit}\"")
     assert not bad, "library messages that name a command-line flag:\n" + "\n".join(bad)
+
+
+def test_python_binds_the_pipeline_not_the_networks_directly():
+    """python/ reaches the networks through the networks module's table (pipeline/networks.h), never by including an
+    nn/ or vision/ header (docs/architecture.md §3)."""
+    offenders = []
+    for folder, _, files in os.walk(os.path.join(SOURCE, "python")):
+        for f in files:
+            if f.endswith((".cc", ".h")):
+                path = os.path.join(folder, f)
+                for n, line in enumerate(open(path, encoding="utf-8"), 1):
+                    if re.match(r'\s*#\s*include\s+"freeloc/(nn|vision)/', line):
+                        offenders.append(f"{os.path.relpath(path, SOURCE)}:{n}: {line.strip()}")
+    assert not offenders, offenders

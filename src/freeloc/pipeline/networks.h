@@ -7,8 +7,12 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "freeloc/core/camera.h"
+#include "freeloc/core/image.h"
+#include "freeloc/io/tensor.h"
 #include "freeloc/nn/runtime.h"
 #include "freeloc/pipeline/stages.h"
 
@@ -39,6 +43,11 @@ struct DepthCommand {
   nn::RuntimeOptions runtime;
 };
 
+// The networks one by one, for the bindings (Python's Dust3r, Metric3D, SegGPT): a handle from load_network, results
+// as named host tensors (the names `freeloc pointmap` and `freeloc depth --raw` write).
+enum class BoundNetwork { kDust3r, kMetric3d, kSegGpt };
+using NamedTensors = std::vector<std::pair<std::string, TensorView>>;
+
 struct NetworksApi {
   int abi;  // kNetworksAbi of the build that made the module
   // The matchers `dust3r`, `dust3r+instances`, `mast3r`, `mast3r+instances` (options validated).
@@ -49,8 +58,18 @@ struct NetworksApi {
   int (*pointmap)(const PointmapCommand& command);
   int (*segment)(const SegmentCommand& command);
   int (*depth)(const DepthCommand& command);
+  // The bindings' networks (networks/bindings.h). `type` of run_segment: "instance" | "semantic".
+  std::shared_ptr<void> (*load_network)(BoundNetwork kind, const std::string& path, const std::string& config,
+                                        const nn::RuntimeOptions& runtime);
+  std::string (*network_family)(const std::shared_ptr<void>& network);  // "DUSt3R", "MASt3R", "Metric3D", "SegGPT"
+  NamedTensors (*run_pointmaps)(const std::shared_ptr<void>& network, const Image& image_1, const Image& image_2,
+                                int size);
+  NamedTensors (*run_depth)(const std::shared_ptr<void>& network, const Image& image, const Camera& camera);
+  std::vector<uint8_t> (*run_segment)(const std::shared_ptr<void>& network, const std::vector<Image>& prompt_images,
+                                      const std::vector<Image>& prompt_masks, const Image& target,
+                                      const std::string& type);
 };
-constexpr int kNetworksAbi = 1;
+constexpr int kNetworksAbi = 2;
 constexpr const char* kNetworksLibrary = "libfreeloc_networks.so";
 constexpr const char* kNetworksEntry = "freeloc_networks_v1";
 
