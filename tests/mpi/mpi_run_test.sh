@@ -2,9 +2,10 @@
 # `mpirun -np N freeloc run`: the bundled TUM scenes plus copies of them (6 scenes) run with 3 and 2 ranks
 # write the single-process submission and sidecar byte for byte and nothing else; a rank killed at start makes the
 # run exit non-zero naming its scenes, and --resume (2 ranks) completes the same bytes. Exit 77 (skipped) when
-# mpirun is absent. Usage: mpi_run_test.sh FREELOC_BINARY DEMO_DIR
+# mpirun is absent. Usage: mpi_run_test.sh FREELOC_BINARY DEMO_DIR FAULT_RUN_BINARY (tests/mpi/fault_run.cc: the same run,
+# with the rank named by FREELOC_TEST_KILL_RANK killing itself once it has its scenes)
 set -uo pipefail
-bin="$1"; demo="$2"
+bin="$1"; demo="$2"; fault="$3"
 if ! command -v mpirun >/dev/null 2>&1; then echo "skipped: mpirun is absent (install openmpi-bin)"; exit 77; fi
 # Root in containers and CI; no CMA single-copy in containers; loopback only.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl_vader_single_copy_mechanism=none
@@ -31,7 +32,7 @@ done
 
 # A rank killed at start: non-zero exit, its scenes named; --resume with another N completes the same bytes.
 mkdir -p "$work/kill"
-out="$("${mpi[@]}" -x FREELOC_TEST_KILL_RANK=1 -np 3 "$bin" "${run[@]}" --out "$work/kill/sub.zip" 2>&1)"
+out="$("${mpi[@]}" -x FREELOC_TEST_KILL_RANK=1 -np 3 "$fault" --data "$work/data" --out "$work/kill/sub.zip" 2>&1)"
 code=$?
 [ $code -ne 0 ] || fail "a killed rank left exit code 0"
 echo "$out" | grep -q "rank 1 of 3: [0-9]* scenes (s0000" || fail "the killed rank's scenes are not named: $out"

@@ -15,7 +15,17 @@ TEST(Error, CheckThrowsWithMessage) {
   }
 }
 
-TEST(Error, CheckPassesSilently) { EXPECT_NO_THROW(FREELOC_CHECK(1 + 1 == 2, "never")); }
+// The condition is evaluated once; the message only when the check fails (it may be costly to build).
+TEST(Error, CheckEvaluatesItsConditionOnceAndItsMessageOnlyOnFailure) {
+  int conditions = 0, messages = 0;
+  const auto message = [&] { return ++messages, "failed"; };
+  EXPECT_NO_THROW(FREELOC_CHECK(++conditions == 1, message()));
+  EXPECT_EQ(conditions, 1);
+  EXPECT_EQ(messages, 0);
+  EXPECT_THROW(FREELOC_CHECK(++conditions == 1, message()), Error);
+  EXPECT_EQ(conditions, 2);
+  EXPECT_EQ(messages, 1);
+}
 
 TEST(Error, CheckOpShowsValues) {
   try {

@@ -6,7 +6,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <csignal>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -369,13 +368,6 @@ class SceneRunner {
   int64_t total_ = 0, done_ = 0;
 };
 
-// Test hook for the fault tests (docs/scale-out.md): FREELOC_TEST_KILL_RANK=r ends rank r with SIGKILL once it has
-// its assignment, as a crashed node would.
-void MaybeKillForTest(const RunComm* comm) {
-  const char* v = std::getenv("FREELOC_TEST_KILL_RANK");
-  if (comm && v && std::atoi(v) == comm->rank()) std::raise(SIGKILL);
-}
-
 // The submission (solved queries, and the answered ones with confidence 0; an empty pose file for every scene attempted), the log (header + one record
 // per query) and the sidecar (header + summary), each written atomically.
 void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) {
@@ -458,7 +450,7 @@ RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, cons
     for (const auto& n : mine) list += (list.empty() ? "" : ", ") + n;
     FREELOC_LOG(INFO) << "rank " << comm->rank() << " of " << comm->size() << ": " << mine.size() << " scenes"
                       << (list.empty() ? "" : " (" + list + ")");
-    MaybeKillForTest(comm);
+    if (spec.on_assigned) spec.on_assigned(*comm);
   }
   std::unique_ptr<ReportRecorder> report;
   if (!spec.report.empty()) report = std::make_unique<ReportRecorder>(spec.report, spec.report_options);

@@ -27,6 +27,8 @@ struct Shard {
   std::vector<std::string> Select(const std::vector<std::string>& scenes) const;
 };
 
+class RunComm;
+
 struct RunSpec {
   std::string data;                 // dataset root (holding val/, test/) or a split folder
   std::string split = "val";
@@ -41,6 +43,9 @@ struct RunSpec {
   bool progress_bar = true;         // one bar over the queries on stderr (when it is a terminal)
   // Called after each query (and once for each resumed scene) with the queries done and the total.
   std::function<void(int64_t done, int64_t total)> on_progress;
+  // Called on each rank of a multi-process run once its scenes are assigned (tests/mpi/fault_run.cc kills a rank
+  // there, as a crashed node would).
+  std::function<void(const RunComm& comm)> on_assigned;
   void Validate() const;            // throws naming the field
 };
 
@@ -65,7 +70,6 @@ using RelocalizerFactory = std::function<std::unique_ptr<Relocalizer>(const Pipe
 // are results. Nothing is written unless the run finishes (the journal excepted).
 // With `comm` of more than one rank (run_comm.h: MPI), the scenes are split over the ranks and rank 0 writes the
 // outputs (the same bytes as one process); the other ranks return their own scenes' results only.
-class RunComm;
 RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory = nullptr,
                        RunComm* comm = nullptr);
 
