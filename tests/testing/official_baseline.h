@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "freeloc/geometry/metric_scale.h"
-#include "freeloc/matching/sift.h"
+#include "freeloc/matching/correspondences.h"
 
 namespace freeloc::testing {
 

@@ -7,7 +7,7 @@
 
 #include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/matching/reciprocal.h"
-#include "freeloc/matching/sift.h"
+#include "freeloc/matching/correspondences.h"
 
 namespace freeloc::matching {
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "freeloc/core/image.h"
+#include "freeloc/matching/correspondences.h"
 
 namespace freeloc::matching {
 
@@ -20,27 +21,6 @@ struct SiftOptions {
   bool root_sift = true;
   uint32_t seed = 0;  // FLANN's randomised kd-trees are seeded so runs are reproducible
   void Validate() const;
-};
-
-struct Correspondences {
-  std::vector<Eigen::Vector2d> ref, query;
-  std::vector<int> source;  // optional, per row: the instance that gave it (−1: global matching); empty when unknown
-  size_t size() const { return ref.size(); }
-  // As (x_ref, y_ref, x_query, y_query) rows — the correspondence-file and precomputed-matcher form — and back.
-  std::vector<Eigen::Vector4d> Rows() const {
-    std::vector<Eigen::Vector4d> rows;
-    rows.reserve(size());
-    for (size_t i = 0; i < size(); ++i) rows.emplace_back(ref[i].x(), ref[i].y(), query[i].x(), query[i].y());
-    return rows;
-  }
-  static Correspondences FromRows(const std::vector<Eigen::Vector4d>& rows) {
-    Correspondences c;
-    for (const auto& r : rows) {
-      c.ref.emplace_back(r(0), r(1));
-      c.query.emplace_back(r(2), r(3));
-    }
-    return c;
-  }
 };
 
 // Keypoints (x, y in pixels) and their (Root)SIFT descriptors, row-major [size × dim].

@@ -14,7 +14,7 @@
 #include "freeloc/core/image.h"
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/matching/sift.h"
+#include "freeloc/matching/correspondences.h"
 #include "freeloc/pipeline/options.h"
 #include "freeloc/pipeline/stages.h"
 

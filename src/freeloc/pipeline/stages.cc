@@ -12,6 +12,7 @@
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/relative_pose.h"
 #include "freeloc/matching/instance.h"
+#include "freeloc/matching/sift.h"
 #include "freeloc/pipeline/confidence.h"
 #include "freeloc/pipeline/networks.h"
 

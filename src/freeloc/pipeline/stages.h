@@ -14,7 +14,7 @@
 #include "freeloc/core/camera.h"
 #include "freeloc/core/depth_map.h"
 #include "freeloc/core/image.h"
-#include "freeloc/matching/sift.h"
+#include "freeloc/matching/correspondences.h"
 #include "freeloc/pipeline/options.h"
 
 namespace freeloc::pipeline {
