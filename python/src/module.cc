@@ -23,7 +23,7 @@
 #include "freeloc/eval/report.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/intrinsics.h"
 #include "freeloc/pipeline/networks.h"
 #include "freeloc/pipeline/record.h"
@@ -381,7 +381,7 @@ py::dict Run(const std::string& data, const std::string& out, const std::string&
   pipeline::RunResult r;
   {
     py::gil_scoped_release nogil;
-    r = pipeline::RunBenchmark(spec, o);
+    r = pipeline::ExecuteRun(spec, o);
   }
   py::dict d;
   d["scenes"] = r.scenes;

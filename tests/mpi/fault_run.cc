@@ -9,7 +9,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
-#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/run_comm.h"
 
@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     pipeline::PipelineOptions o = pipeline::ResolvePreset("sift-essential");
     pipeline::FindModels(&o);
     o.Validate();
-    pipeline::RunBenchmark(spec, o, nullptr, comm.get());
+    pipeline::ExecuteRun(spec, o, nullptr, comm.get());
   } catch (const Error& e) {
     std::fprintf(stderr, "fault_run: error: %s\n", e.what());
     return 1;

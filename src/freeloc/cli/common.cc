@@ -8,7 +8,7 @@
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
 #include "freeloc/io/image_io.h"
-#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/relocalizer.h"
 
 namespace freeloc::cli {

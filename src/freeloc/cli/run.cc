@@ -1,4 +1,4 @@
-// `freeloc run` and `freeloc demo`: the run controller (pipeline/benchmark_run.h) from the command line.
+// `freeloc run` and `freeloc demo`: the run controller (pipeline/run_controller.h) from the command line.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -9,7 +9,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/eval/report.h"
-#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/run_comm.h"
 
@@ -48,7 +48,7 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     spec.report_options.per_scene = a.report_per_scene;
     spec.resume = a.resume;
     if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
-    const pipeline::RunResult r = pipeline::RunBenchmark(spec, o, nullptr, comm.get());
+    const pipeline::RunResult r = pipeline::ExecuteRun(spec, o, nullptr, comm.get());
     if (!root) return 0;
     std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized,
                 r.queries, r.scenes.size(), a.out.c_str());
@@ -120,7 +120,7 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
   pipeline::RunSpec spec;
   spec.data = data_dir;
   spec.out = (std::filesystem::temp_directory_path() / ("freeloc_demo_" + std::to_string(getpid()) + ".zip")).string();
-  const pipeline::RunResult r = pipeline::RunBenchmark(spec, o);
+  const pipeline::RunResult r = pipeline::ExecuteRun(spec, o);
   PrintDemoTable(r);
   size_t estimated = 0;
   for (const auto& [name, results] : r.results)

@@ -1,7 +1,7 @@
 // The relocalization pipeline (docs/architecture.md §1–3). A `Relocalizer` runs the stages (stages.h: Matcher,
 // DepthEstimator, PoseSolver — built in from PipelineOptions, or your own): the reference frame's work once (its depth,
 // SIFT features or DUSt3R encoding, instance proposals), then only query work per query. Every entry point — `freeloc
-// relocalize`, `pose`, `match`, `run` (benchmark_run.h) and the Python bindings — goes through it.
+// relocalize`, `pose`, `match`, `run` (run_controller.h) and the Python bindings — goes through it.
 #pragma once
 
 #include <functional>

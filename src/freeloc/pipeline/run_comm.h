@@ -1,5 +1,5 @@
 // How the processes of one distributed run talk (docs/architecture.md §3.3: the run controller's MPI ranks).
-// RunBenchmark with a RunComm of size > 1 splits the scenes over the ranks (balanced by query count, deterministic);
+// ExecuteRun with a RunComm of size > 1 splits the scenes over the ranks (balanced by query count, deterministic);
 // the ranks send each finished scene and a tick per query to rank 0, which journals, shows the one progress bar and
 // writes the one submission — byte-identical to a single-process run. Light header; MPI stays in run_comm.cc.
 #pragma once

@@ -2,7 +2,7 @@
 // It owns the long-running work — scenes read and checked before any work, networks loaded before the first scene, the
 // journal (`<out>.progress.jsonl`: a header, then one line per finished scene, fsync'ed) and --resume, shards,
 // per-query and per-scene error isolation, the submission (atomic), the JSON-lines log and the provenance sidecar
-// `<out>.json`. `freeloc run` and `freeloc demo` only parse arguments, call RunBenchmark and print.
+// `<out>.json`. `freeloc run` and `freeloc demo` only parse arguments, call ExecuteRun and print.
 #pragma once
 
 #include <functional>
@@ -70,7 +70,7 @@ using RelocalizerFactory = std::function<std::unique_ptr<Relocalizer>(const Pipe
 // are results. Nothing is written unless the run finishes (the journal excepted).
 // With `comm` of more than one rank (run_comm.h: MPI), the scenes are split over the ranks and rank 0 writes the
 // outputs (the same bytes as one process); the other ranks return their own scenes' results only.
-RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory = nullptr,
+RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory = nullptr,
                        RunComm* comm = nullptr);
 
 // The split folder under `data` (or `data` itself) and the scenes to process: all of them, or `only` (each must

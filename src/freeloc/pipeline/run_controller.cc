@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/run_controller.h"
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -399,7 +399,7 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
 
 }  // namespace
 
-RunResult RunBenchmark(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory,
+RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory,
                        RunComm* comm) {
   spec.Validate();
   options.Validate();

@@ -1,6 +1,6 @@
 // The run controller on synthetic map-free scenes: outputs and provenance, per-query isolation of any exception
 // (a LibTorch one included), per-scene isolation of a damaged scene, resume after a journal, the bundled demo data.
-#include "freeloc/pipeline/benchmark_run.h"
+#include "freeloc/pipeline/run_controller.h"
 
 #include <c10/util/Exception.h>
 #include <gtest/gtest.h>
@@ -49,9 +49,9 @@ RunSpec Spec(const Split& split) {
   return spec;
 }
 
-TEST(BenchmarkRun, WritesSubmissionLogAndProvenance) {
+TEST(RunController, WritesSubmissionLogAndProvenance) {
   Split split;
-  const RunResult r = RunBenchmark(Spec(split), Options());
+  const RunResult r = ExecuteRun(Spec(split), Options());
   ASSERT_EQ(r.scenes, (std::vector<std::string>{"s00003", "s00004"}));
   EXPECT_EQ(r.queries, 8u);
   for (const auto& name : r.scenes) {
@@ -86,7 +86,7 @@ TEST(BenchmarkRun, WritesSubmissionLogAndProvenance) {
   // Deterministic: the same run gives the same bytes.
   RunSpec again = Spec(split);
   again.out = split.tmp.File("again.zip");
-  RunBenchmark(again, Options());
+  ExecuteRun(again, Options());
   EXPECT_EQ(testing::ReadText(again.out), testing::ReadText(split.out()));
 }
 
@@ -104,16 +104,16 @@ class ThrowingMatcher : public Matcher {
   int fail_at_, calls_ = 0;
 };
 
-TEST(BenchmarkRun, ALibTorchExceptionFailsOnlyItsQuery) {
+TEST(RunController, ALibTorchExceptionFailsOnlyItsQuery) {
   Split split;
-  const RunResult clean = RunBenchmark(Spec(split), Options());
+  const RunResult clean = ExecuteRun(Spec(split), Options());
   RunSpec spec = Spec(split);
   spec.out = split.tmp.File("t.zip");
   const RelocalizerFactory factory = [](const PipelineOptions& o) {
     return std::make_unique<Relocalizer>(o, std::make_unique<ThrowingMatcher>(2), MakeDepthEstimator(o),
                                          MakePoseSolver(o));
   };
-  const RunResult r = RunBenchmark(spec, Options(), factory);
+  const RunResult r = ExecuteRun(spec, Options(), factory);
   const auto& s3 = r.results.at("s00003");
   // Query 0 has too few correspondences but is matched (call 0); call 2 is seq1/frame_00002.
   ASSERT_EQ(s3[2].status, QueryStatus::kError);
@@ -130,10 +130,10 @@ TEST(BenchmarkRun, ALibTorchExceptionFailsOnlyItsQuery) {
   EXPECT_TRUE(fs::exists(spec.out));
 }
 
-TEST(BenchmarkRun, ADamagedSceneFailsItsQueriesAndTheRunGoesOn) {
+TEST(RunController, ADamagedSceneFailsItsQueriesAndTheRunGoesOn) {
   Split split;
   testing::WriteText(split.root() + "/val/s00003/correspondences_SIFT.npz", "not a zip");
-  const RunResult r = RunBenchmark(Spec(split), Options());
+  const RunResult r = ExecuteRun(Spec(split), Options());
   for (const auto& q : r.results.at("s00003")) {
     EXPECT_EQ(q.status, QueryStatus::kError);
     EXPECT_EQ(q.message.rfind("reference: ", 0), 0u) << q.message;
@@ -144,18 +144,18 @@ TEST(BenchmarkRun, ADamagedSceneFailsItsQueriesAndTheRunGoesOn) {
   EXPECT_GE(ok, 2);
 }
 
-TEST(BenchmarkRun, RefusesBadSpecsBeforeAnyWork) {
+TEST(RunController, RefusesBadSpecsBeforeAnyWork) {
   Split split;
   RunSpec spec = Spec(split);
   spec.out.clear();
-  EXPECT_THROW(RunBenchmark(spec, Options()), Error);
+  EXPECT_THROW(ExecuteRun(spec, Options()), Error);
   spec = Spec(split);
   spec.scenes = {"s09999"};
-  EXPECT_THROW(RunBenchmark(spec, Options()), Error);
+  EXPECT_THROW(ExecuteRun(spec, Options()), Error);
   PipelineOptions o = Options();
   o.depth.suffix = "nope";
   try {
-    RunBenchmark(Spec(split), o);
+    ExecuteRun(Spec(split), o);
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()).rfind("depth provided:nope: no scene has this depth", 0), 0u) << e.what();
@@ -169,7 +169,7 @@ TEST(BenchmarkRun, RefusesBadSpecsBeforeAnyWork) {
 }
 
 // A run refused because another process holds the journal names that process.
-TEST(BenchmarkRun, ARefusedRunNamesTheProcessHoldingTheJournal) {
+TEST(RunController, ARefusedRunNamesTheProcessHoldingTheJournal) {
   Split split;
   const std::string journal = split.out() + ".progress.jsonl";
   testing::WriteText(journal, "");
@@ -188,7 +188,7 @@ TEST(BenchmarkRun, ARefusedRunNamesTheProcessHoldingTheJournal) {
   }
   char c = 0;
   ASSERT_EQ(::read(ready[0], &c, 1), 1);
-  const std::string e = testing::ErrorOf([&] { RunBenchmark(Spec(split), Options()); });
+  const std::string e = testing::ErrorOf([&] { ExecuteRun(Spec(split), Options()); });
   ::kill(child, SIGKILL);
   ::waitpid(child, nullptr, 0);
   EXPECT_NE(e.find("(process " + std::to_string(child) + ") is writing this submission"), std::string::npos) << e;
@@ -196,9 +196,9 @@ TEST(BenchmarkRun, ARefusedRunNamesTheProcessHoldingTheJournal) {
 
 // Crash safety of the journal: a second run on the same --out is refused while the first holds it; a torn last
 // line (a crash or a full disk mid-write) is cut on resume, and the resumed run writes the clean run's bytes.
-TEST(BenchmarkRun, TheJournalIsLockedAndATornTailIsCut) {
+TEST(RunController, TheJournalIsLockedAndATornTailIsCut) {
   Split split;
-  const RunResult clean = RunBenchmark(Spec(split), Options());
+  const RunResult clean = ExecuteRun(Spec(split), Options());
   const std::string clean_bytes = testing::ReadText(split.out());
   RunSpec spec = Spec(split);
   spec.out = split.tmp.File("j.zip");
@@ -207,10 +207,10 @@ TEST(BenchmarkRun, TheJournalIsLockedAndATornTailIsCut) {
     if (done != 1) return;
     RunSpec other = Spec(split);
     other.out = split.tmp.File("j.zip");
-    second = testing::ErrorOf([&] { RunBenchmark(other, Options()); });
+    second = testing::ErrorOf([&] { ExecuteRun(other, Options()); });
     throw std::runtime_error("stop");  // the first run dies here, mid-scene, leaving its journal
   };
-  EXPECT_THROW(RunBenchmark(spec, Options()), std::runtime_error);
+  EXPECT_THROW(ExecuteRun(spec, Options()), std::runtime_error);
   EXPECT_NE(second.find("another freeloc run is writing this submission"), std::string::npos) << second;
   const std::string journal = split.tmp.File("j.zip.progress.jsonl");
   const std::string header = testing::ReadText(journal);
@@ -220,25 +220,25 @@ TEST(BenchmarkRun, TheJournalIsLockedAndATornTailIsCut) {
     if (done == 5) throw std::runtime_error("stop again");  // after the first scene (4 queries) was journaled
   };
   spec.resume = true;
-  EXPECT_THROW(RunBenchmark(spec, Options()), std::runtime_error);
+  EXPECT_THROW(ExecuteRun(spec, Options()), std::runtime_error);
   const std::string after = testing::ReadText(journal);
   EXPECT_EQ(after.find("{\"scene\":\"s0000{"), std::string::npos) << "the fragment must be cut";
   EXPECT_EQ(std::count(after.begin(), after.end(), '\n'), 2) << after;  // header + one whole scene
   spec.on_progress = nullptr;
-  const RunResult r = RunBenchmark(spec, Options());
+  const RunResult r = ExecuteRun(spec, Options());
   EXPECT_EQ(r.resumed_scenes, 1u);
   EXPECT_EQ(testing::ReadText(spec.out), clean_bytes);  // resumed ok poses come back digit for digit
   EXPECT_EQ(clean.queries, r.queries);
 }
 
 // The bundled TUM scenes (data/demo, present in every checkout): sift-essential with the sensor depth.
-TEST(BenchmarkRun, BundledDemoScenes) {
+TEST(RunController, BundledDemoScenes) {
   testing::TempDir tmp;
   RunSpec spec;
   spec.data = testing::DemoPath();
   spec.out = tmp.File("demo.zip");
   spec.progress_bar = false;
-  const RunResult r = RunBenchmark(spec, ResolvePreset("sift-essential"));
+  const RunResult r = ExecuteRun(spec, ResolvePreset("sift-essential"));
   EXPECT_EQ(r.queries, 7u);
   EXPECT_EQ(r.relocalized, 2u);  // s00001 has no depth maps
   for (const auto& q : r.results.at("s00001")) EXPECT_EQ(q.status, QueryStatus::kNoDepth);
