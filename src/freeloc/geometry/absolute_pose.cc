@@ -2,7 +2,9 @@
 
 #include <Eigen/Dense>
 #include <chrono>
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "freeloc/core/error.h"
 #include "freeloc/geometry/metric_scale.h"
@@ -240,6 +242,35 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
   if (static_cast<int>(in.size()) < o.min_inliers) {
     Finish(&res, "no-consensus", t0);
     return res;
+  }
+  // Never a confident wrong answer: with a low inlier ratio the support may be what the search finds in any set of
+  // pairs (a 3-point model fitted to 10 000 samples finds a dozen chance inliers among a few hundred random pairs).
+  // The same search on the pairs shuffled (at most 2000 of them, the count scaled back) says what chance gives; a
+  // support not clearly beyond it is no consensus.
+  if (in.size() * 4 < X.size()) {
+    std::vector<int> pick(X.size());
+    for (size_t i = 0; i < pick.size(); ++i) pick[i] = static_cast<int>(i);
+    std::mt19937 rng(static_cast<uint32_t>(o.seed) + 0x5eed);
+    std::shuffle(pick.begin(), pick.end(), rng);
+    const size_t m = std::min<size_t>(X.size(), 2000);
+    std::vector<Eigen::Vector3d> Xs(m);
+    std::vector<Eigen::Vector2d> xs(m);
+    for (size_t i = 0; i < m; ++i) {
+      Xs[i] = X[pick[i]];
+      xs[i] = x[pick[(i + 1) % m]];  // each 3-D point with another point's pixel
+    }
+    PnPEstimator shuffled(Xs, xs, query, o.threshold_px);
+    PoseRt chance_model;
+    const RansacStats sst = Ransac(shuffled, ro, &chance_model);
+    int chance = 0;
+    if (sst.stop_reason != "no-model")
+      for (size_t i = 0; i < m; ++i) chance += shuffled.SquaredError(chance_model, i) < ro.threshold_sq;
+    const double scaled = chance * static_cast<double>(X.size()) / static_cast<double>(m);
+    res.status.shuffled_best = static_cast<int>(std::lround(scaled));
+    if (static_cast<double>(in.size()) < 1.5 * scaled + 3) {
+      Finish(&res, "no-consensus", t0);
+      return res;
+    }
   }
   if (best.t.norm() > o.max_translation) {
     Finish(&res, "degenerate", t0);
