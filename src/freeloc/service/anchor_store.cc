@@ -17,7 +17,7 @@ namespace freeloc::service {
 
 namespace fs = std::filesystem;
 
-DecodedPhoto DecodePhoto(PhotoUpload upload, const pipeline::PipelineOptions& o, const std::string& frame) {
+DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOptions& o, const std::string& frame) {
   DecodedPhoto p;
   FREELOC_CHECK(!upload.image.empty(), frame << " image: missing or empty; send the photo as the multipart field "
                                                 "'image'");

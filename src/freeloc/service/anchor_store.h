@@ -33,7 +33,7 @@ struct DecodedPhoto {
   Camera camera;
   pipeline::FrameInputs inputs;
 };
-DecodedPhoto DecodePhoto(PhotoUpload upload, const pipeline::PipelineOptions& options, const std::string& frame);
+DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOptions& options, const std::string& frame);
 
 struct Anchor {
   std::string id;

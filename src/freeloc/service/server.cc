@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <future>
@@ -133,13 +134,18 @@ class Workers {
   bool stop_ = false;
 };
 
-// Requests, errors and the latency of the last 4096 answered requests.
+// Requests and errors of every route, and the latency of the last 4096 requests that did work.
 class Metrics {
  public:
-  void Record(int status, double ms) {
+  // Every answered request, by its status (the server's logger calls this once per request).
+  void Count(int status) {
     std::lock_guard<std::mutex> lock(mu_);
     ++requests_;
     if (status >= 400) ++errors_[status];
+  }
+  // The latency of a request that did work (adding an anchor, a relocalization).
+  void Latency(double ms) {
+    std::lock_guard<std::mutex> lock(mu_);
     latencies_.push_back(ms);
     if (latencies_.size() > 4096) latencies_.pop_front();
   }
@@ -252,12 +258,12 @@ std::vector<uint8_t> DepthPicture(const DepthMap& d) {
   return EncodeJpeg(im, 85, "depth picture");
 }
 
+// A static file's text, "" when it is not there (three.js is optional for the API).
 std::string ReadStatic(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return "";
-  std::ostringstream s;
-  s << f.rdbuf();
-  return s.str();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return "";
+  const std::vector<uint8_t> b = ReadFileBytes(path);
+  return std::string(b.begin(), b.end());
 }
 
 }  // namespace
@@ -349,10 +355,7 @@ struct Server::Impl {
       }
       SendError(res, 500, what);
     });
-    http.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
-      // Latency from the request's arrival is not known to httplib; the handlers record their own (below).
-      if (req.path.rfind("/v1/", 0) != 0) metrics.Record(res.status, 0);
-    });
+    http.set_logger([this](const httplib::Request&, const httplib::Response& res) { metrics.Count(res.status); });
 
     http.Get("/", [this](const httplib::Request&, httplib::Response& res) {
       res.set_content(PageHtml(), "text/html; charset=utf-8");
@@ -397,7 +400,7 @@ struct Server::Impl {
           SendError(res, 400, e.what());
         }
       }
-      metrics.Record(res.status, MsSince(t0));
+      metrics.Latency(MsSince(t0));
     });
     http.Get("/v1/anchors", [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
@@ -453,7 +456,7 @@ struct Server::Impl {
     http.Post(id + "/relocalize", [this](const httplib::Request& req, httplib::Response& res) {
       const auto t0 = std::chrono::steady_clock::now();
       if (Authorized(req, res)) Relocalize(req, res, t0);
-      metrics.Record(res.status, MsSince(t0));
+      metrics.Latency(MsSince(t0));
     });
   }
 
@@ -470,7 +473,7 @@ struct Server::Impl {
     const bool view = req.has_param("view") && req.get_param_value("view") == "1";
     Admitted(res, [&](double queue_ms) {
       const auto td = std::chrono::steady_clock::now();
-      DecodedPhoto p = DecodePhoto(std::move(u), a->reloc->options(), "query");
+      DecodedPhoto p = DecodePhoto(u, a->reloc->options(), "query");
       const double decode_ms = MsSince(td);
       std::lock_guard<std::mutex> lock(a->mu);
       matching::Correspondences c;

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "freeloc/eval/view3d.h"
 #include "freeloc/pipeline/options.h"
 
 namespace freeloc::service {
@@ -22,7 +23,7 @@ struct ServiceOptions {
   std::string token;      // non-empty: every /v1 request needs "Authorization: Bearer <token>"
   std::string store_dir;  // non-empty: anchors persisted there and reloaded at start
   double queue_timeout_s = 120;  // a request waiting longer for a worker is answered 503
-  std::string static_dir = "/usr/share/javascript/three";  // three.js (libjs-three) for the page's 3D view
+  std::string static_dir = eval::kThreeJsDir;  // three.js (libjs-three) for the page's 3D view
   void Validate() const;
 };
 
