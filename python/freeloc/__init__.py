@@ -13,6 +13,10 @@ The same C++ pipeline as the ``freeloc`` command, numpy in and out. Poses are ``
     r = reloc.relocalize("a.jpg", "b.jpg")  # intrinsics from EXIF (or, dust3r/mast3r presets, the pointmap)
     freeloc.read_intrinsics("a.jpg")          # {'K': ..., 'source': 'exif', 'why': ..., 'orientation': 6, ...}
     metrics = freeloc.evaluate("data/mapfree", "submission.zip")
+    # The Multi Frame track: a window of frames (oldest first, the evaluated one last), fused into one pose.
+    r = reloc.relocalize_window("ref.png", ["f1.png", "f2.png", "q.png"], K, K, "ref.depth.png", depths)
+    freeloc.run("data/mapfree", "multi.zip", track="multi-frame")
+    metrics = freeloc.evaluate("data/mapfree", "multi.zip", track="multi-frame")
 """
 
 import json as _json
@@ -47,8 +51,11 @@ __all__ = [
 ]
 
 
-def evaluate(data, submission, split="val", scenes=None):
-    """Map-free metrics of a submission ZIP, as ``freeloc eval --json``: a dict keyed by the official metric names."""
+def evaluate(data, submission, split="val", scenes=None, track="single-frame"):
+    """Map-free metrics of a submission ZIP, as ``freeloc eval --json``: a dict keyed by the official metric names.
+
+    ``track="multi-frame"`` scores the Multi Frame track's evaluated frames (linear positions 9, 19, … of each
+    scene's sorted seq1 frames) instead of every 5th frame."""
     if isinstance(scenes, str):
         scenes = [s for s in scenes.split(",") if s]
-    return _json.loads(_freeloc._evaluate(_os.fspath(data), _os.fspath(submission), split, list(scenes or [])))
+    return _json.loads(_freeloc._evaluate(_os.fspath(data), _os.fspath(submission), split, list(scenes or []), track))

@@ -27,6 +27,7 @@
 #include "freeloc/pipeline/intrinsics.h"
 #include "freeloc/pipeline/networks.h"
 #include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/multi_frame.h"
 #include "freeloc/pipeline/relocalizer.h"
 
 namespace py = pybind11;
@@ -268,6 +269,76 @@ class PyRelocalizer {
     return p;
   }
 
+  // The Multi Frame track's query: `frames` oldest first, the evaluated frame last (1–9); per frame its K (or one
+  // K for all, or none: EXIF), its depth map and its device pose (4×4 frame_from_query, or None).
+  PoseResult RelocalizeWindow(const py::handle& ref, const py::list& frames, const py::handle& k_ref,
+                              const py::handle& ks, const py::handle& depth_ref, const py::handle& depths,
+                              const py::handle& device_poses) {
+    const size_t n = frames.size();
+    if (n < 1 || n > 9) BadValue("frames: give 1 to 9 frames (oldest first, the evaluated frame last), got " +
+                                 std::to_string(n));
+    auto per_frame = [&](const py::handle& v, const char* what) -> std::vector<py::object> {
+      std::vector<py::object> out(n, py::none());
+      if (v.is_none()) return out;
+      if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) {
+        const py::sequence seq = py::reinterpret_borrow<py::sequence>(v);
+        if (seq.size() != n)
+          BadValue(std::string(what) + ": give one per frame (" + std::to_string(n) + "), got " +
+                   std::to_string(seq.size()));
+        for (size_t i = 0; i < n; ++i) out[i] = seq[i];
+        return out;
+      }
+      for (auto& o : out) o = py::reinterpret_borrow<py::object>(v);  // one value for every frame
+      return out;
+    };
+    const auto k_list = per_frame(ks, "Ks");
+    const auto d_list = per_frame(depths, "depths");
+    const auto p_list = device_poses.is_none() ? std::vector<py::object>(n, py::none())
+                                               : per_frame(device_poses, "device_poses");
+    pipeline::FrameInputs in_ref;
+    Image ri;
+    const Camera kr = PhotoOf(ref, k_ref, "ref_image", "K_ref", &ri, &in_ref);
+    in_ref.depth = DepthOf(depth_ref, "depth_ref");
+    std::vector<pipeline::WindowFrame> window(n);
+    bool any_depth = !in_ref.depth.empty();
+    for (size_t i = 0; i < n; ++i) {
+      pipeline::WindowFrame& f = window[i];
+      f.name = "frame " + std::to_string(i);
+      f.camera = PhotoOf(frames[i], k_list[i], "frames[i]", "Ks[i]", &f.image, &f.inputs);
+      f.inputs.depth = DepthOf(d_list[i], "depths[i]");
+      any_depth = any_depth || !f.inputs.depth.empty();
+      if (!p_list[i].is_none()) {
+        const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(p_list[i]);
+        if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4)
+          BadValue("device_poses[" + std::to_string(i) + "]: expected a 4x4 matrix (frame_from_query) or None");
+        Eigen::Matrix3d R;
+        Eigen::Vector3d t;
+        for (int r = 0; r < 3; ++r) {
+          for (int c = 0; c < 3; ++c) R(r, c) = a.at(r, c);
+          t(r) = a.at(r, 3);
+        }
+        if (!R.allFinite() || !t.allFinite() || (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 ||
+            R.determinant() < 0)
+          BadValue("device_poses[" + std::to_string(i) + "]: the upper 3x3 is not a rotation");
+        f.has_device = true;
+        f.device_from_query = Rigid3d(R, t);
+      }
+    }
+    const bool no_depth = !any_depth && !depth_overridden_ && options_.UsesProvidedDepth();
+    PoseResult p;
+    p.options = options_;
+    if (no_depth) p.options.depth = pipeline::DepthSpec::FromString("none");
+    pipeline::Relocalizer& reloc = Get(no_depth);
+    matching::Correspondences c;
+    {
+      py::gil_scoped_release nogil;
+      if (!SameReference(no_depth, ri, kr, in_ref)) reloc.SetReference(ri, kr, std::move(in_ref));
+      p.r = pipeline::RelocalizeWindow(reloc, std::move(window), &c);
+    }
+    p.n = c.size();
+    return p;
+  }
+
   const pipeline::PipelineOptions& options() const { return options_; }
 
  private:
@@ -335,11 +406,17 @@ class PyRelocalizer {
 };
 
 std::string Evaluate(const std::string& data, const std::string& submission, const std::string& split,
-                     const std::vector<std::string>& scenes) {
+                     const std::vector<std::string>& scenes, const std::string& track) {
+  Track t = Track::kSingleFrame;
+  try {
+    t = ParseEnum<Track>(track);
+  } catch (const Error& e) {
+    BadValue(e.what());
+  }
   py::gil_scoped_release nogil;
   std::string split_dir;
   const std::vector<std::string> list = pipeline::ResolveScenes(data, split, scenes, &split_dir);
-  return eval::JsonReport(eval::RunEvaluation(split_dir, list, submission));
+  return eval::JsonReport(eval::RunEvaluation(split_dir, list, submission, t));
 }
 
 py::dict Run(const std::string& data, const std::string& out, const std::string& preset, const std::string& split,
@@ -587,6 +664,12 @@ void BindPoses(py::module_& m) {
       .def("relocalize", &PyRelocalizer::Relocalize, py::arg("ref_image"), py::arg("query_image"),
            py::arg("K_ref") = py::none(), py::arg("K_query") = py::none(), py::arg("depth_ref") = py::none(),
            py::arg("depth_query") = py::none())
+      .def("relocalize_window", &PyRelocalizer::RelocalizeWindow, py::arg("ref_image"), py::arg("frames"),
+           py::arg("K_ref") = py::none(), py::arg("Ks") = py::none(), py::arg("depth_ref") = py::none(),
+           py::arg("depths") = py::none(), py::arg("device_poses") = py::none(),
+           "The Multi Frame track: the last of `frames` (oldest first, 1–9) relocalized from its whole window, with "
+           "per-frame Ks, depths and device poses (4x4 frame_from_query or None); as_dict()['window'] says how the "
+           "frames voted.")
       .def_property_readonly("options", [](const PyRelocalizer& r) {
         return JsonToPy(pipeline::OptionsJson(r.options()));
       });
@@ -596,7 +679,7 @@ void BindPoses(py::module_& m) {
 // _evaluate, run, option and preset names.
 void BindRuns(py::module_& m) {
   m.def("_evaluate", &Evaluate, py::arg("data"), py::arg("submission"), py::arg("split") = "val",
-        py::arg("scenes") = std::vector<std::string>{});
+        py::arg("scenes") = std::vector<std::string>{}, py::arg("track") = "single-frame");
   m.def("run", &Run, py::arg("data"), py::arg("out"), py::arg("preset") = "sift-essential", py::arg("split") = "val",
         py::arg("scenes") = std::vector<std::string>{}, py::arg("log") = "", py::arg("resume") = false,
         py::arg("shard") = "", py::arg("save_matches") = "", py::arg("models") = py::none(),

@@ -470,3 +470,70 @@ def test_intrinsics_are_optional_exif_then_pointmap(tmp_path):
         reloc.relocalize(png, query)
     with pytest.raises(ValueError, match="K_query: not given"):
         reloc.relocalize(ref, freeloc.read_image(query))  # an array carries no EXIF
+
+
+def quat_to_matrix(w, x, y, z):
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def test_relocalize_window_is_the_single_frame_answer_for_one_frame_and_fuses_more():
+    reloc = freeloc.Relocalizer("sift-essential")
+    kr, kq = camera(S3, "seq0/frame_00000.png"), camera(S3, "seq1/frame_00000.png")
+    ref, query = os.path.join(S3, "seq0", "frame_00000.png"), os.path.join(S3, "seq1", "frame_00000.png")
+    single = reloc.relocalize(ref, query, kr, kq, depth(S3, "seq0"), depth(S3, "seq1"))
+    one = reloc.relocalize_window(ref, [query], kr, kq, depth(S3, "seq0"), [depth(S3, "seq1")])
+    assert np.array_equal(one.t, single.t) and one.status == single.status == "ok"
+    # s00001: five frames of a TUM sequence (no depth), the device poses from its ground truth (frame_from_query).
+    s1 = os.path.join(DEMO, "val", "s00001")
+    gt = {}
+    for line in open(os.path.join(s1, "poses.txt")):
+        f = line.split()
+        T = np.eye(4)
+        T[:3, :3] = quat_to_matrix(*map(float, f[1:5]))
+        T[:3, 3] = list(map(float, f[5:8]))
+        gt[f[0]] = T
+    names = [f"seq1/frame_{i:05d}.png" for i in range(5)]
+    frames = [os.path.join(s1, n) for n in names]
+    k = camera(s1, names[0])
+    poses = [gt[n] @ np.linalg.inv(gt[names[-1]]) for n in names]
+    r = reloc.relocalize_window(os.path.join(s1, "seq0", "frame_00000.png"), frames, k, k, device_poses=poses)
+    w = r.as_dict()["window"]
+    assert w["frames"] == 5 and [v["frame"] for v in w["votes"]][-1] == "frame 4"
+    assert w["votes"][-1]["relation"] == "self"
+    assert r.ok and w["used"] >= 2
+    err = np.degrees(np.arccos(np.clip((np.trace(r.R.T @ gt[names[-1]][:3, :3]) - 1) / 2, -1, 1)))
+    assert err < 2.0
+    with pytest.raises(ValueError, match="device_poses"):
+        reloc.relocalize_window(os.path.join(s1, "seq0", "frame_00000.png"), frames, k, k, device_poses=[np.eye(3)] * 5)
+    with pytest.raises(ValueError, match="frames"):
+        reloc.relocalize_window(os.path.join(s1, "seq0", "frame_00000.png"), frames * 2, k, k)
+
+
+def test_evaluate_multi_frame_scores_linear_positions_9_19(tmp_path):
+    # A scene whose frame numbers skip; the submission answers every frame, each with its own translation error.
+    scene = tmp_path / "val" / "s00007"
+    (scene / "seq1").mkdir(parents=True)
+    numbers = [n for n in range(26) if n not in (4, 13)]  # 24 frames: positions 9 and 19 are frames 10 and 21
+    k = "seq0/frame_00000.jpg 500 500 270 360 540 720\n"
+    gt = "seq0/frame_00000.jpg 1 0 0 0 0 0 0\n"
+    sub = ""
+    for n in numbers:
+        k += f"seq1/frame_{n:05d}.jpg 500 500 270 360 540 720\n"
+        gt += f"seq1/frame_{n:05d}.jpg 1 0 0 0 0.5 0 0\n"
+        sub += f"seq1/frame_{n:05d}.jpg 1 0 0 0 {0.5 + 0.01 * n} 0 0 1\n"
+    (scene / "intrinsics.txt").write_text(k)
+    (scene / "poses.txt").write_text(gt)
+    import zipfile
+    zpath = tmp_path / "sub.zip"
+    with zipfile.ZipFile(zpath, "w") as z:
+        z.writestr("pose_s00007.txt", sub)
+    m = freeloc.evaluate(tmp_path, zpath, track="multi-frame")
+    # Independently: the evaluated frames are 10 and 21 (errors 0.10 and 0.21 m), their median 0.155.
+    assert m["counts"]["estimates"] == 2
+    assert abs(m["Average Median Translation Error"] - 0.155) < 1e-6
+    single = freeloc.evaluate(tmp_path, zpath, track="single-frame")
+    assert single["counts"]["estimates"] == 5
+    with pytest.raises(ValueError, match="track"):
+        freeloc.evaluate(tmp_path, zpath, track="multi")

@@ -16,7 +16,7 @@ namespace freeloc::cli {
 namespace {
 
 struct EvalOptions {
-  std::string data, split = "val", submission, json, report, scenes;
+  std::string data, split = "val", submission, json, report, scenes, track = "single-frame";
   std::vector<std::string> compare;
 };
 
@@ -25,8 +25,9 @@ int RunEval(const EvalOptions& o) {
   const std::vector<std::string> scenes = ResolveScenes(o.data, o.split, o.scenes, &split_dir);
   std::vector<std::string> subs = o.compare;
   if (!o.submission.empty()) subs.insert(subs.begin(), o.submission);
+  const Track track = ParseEnum<Track>(o.track, "--track");
   std::vector<eval::EvalRun> runs;
-  for (const auto& s : subs) runs.push_back(eval::RunEvaluation(split_dir, scenes, s));
+  for (const auto& s : subs) runs.push_back(eval::RunEvaluation(split_dir, scenes, s, track));
 
   const bool json_stdout = o.json == "-";
   if (!json_stdout) {
@@ -78,6 +79,9 @@ void RegisterEval(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
   sub->add_option("--json", o->json, "also write the metrics as JSON to this file ('-' for stdout only)");
   sub->add_option("--report", o->report, "write metrics.json, errors.csv and CDF plots (SVG) into this folder");
   sub->add_option("--scenes", o->scenes, "comma-separated scene names to evaluate (default: all in the split)");
+  sub->add_option("--track", o->track,
+                  "single-frame (default: every 5th frame, as the official evaluator) | multi-frame (the frames at "
+                  "linear positions 9, 19, … of each scene's sorted seq1 frames)");
   sub->callback([o, run, s, c] {
     if (s->count() == 0 && c->count() == 0) throw CLI::RequiredError("--submission or --compare");
     *run = [o] { return RunEval(*o); };

@@ -24,6 +24,7 @@ namespace {
 struct RunArgs {
   PipelineArgs pipeline;
   std::string data, split = "val", scenes, out, log, shard, save_matches, report;
+  std::string track, frames, device_poses;  // multi-frame (empty: the preset's)
   int report_worst = 20, report_per_scene = 1;
   bool resume = false;
 };
@@ -33,7 +34,12 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
   const std::unique_ptr<pipeline::RunComm> comm = pipeline::MpiCommFromEnvironment();
   const bool root = !comm || comm->rank() == 0;
   try {
-    const pipeline::PipelineOptions o = ResolvePipelineArgs(a.pipeline, g, "sift-essential");
+    const pipeline::PipelineOptions o =
+        ResolvePipelineArgs(a.pipeline, g, "sift-essential", [&a](pipeline::PipelineOptions* p) {
+          if (!a.track.empty()) pipeline::SetOption(p, "track", a.track);
+          if (!a.frames.empty()) pipeline::SetOption(p, "frames", a.frames);
+          if (!a.device_poses.empty()) pipeline::SetOption(p, "device_poses", a.device_poses);
+        });
     if (root) FREELOC_LOG(INFO) << o.Summary();
     pipeline::RunSpec spec;
     spec.data = a.data;
@@ -191,6 +197,14 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
             }
           },
           "I/N"));
+  sub->add_option("--track", a->track,
+                  "single-frame (default: every query alone) | multi-frame (each evaluated frame — linear positions "
+                  "9, 19, … — fused from its window of 9 frames; docs/pipeline.md \"Multi Frame\")");
+  sub->add_option("--frames", a->frames, "multi-frame: use the last K (1–9) frames of each window (default 9; 1 = "
+                                         "the single-frame answer on the same queries)");
+  sub->add_option("--device-poses", a->device_poses,
+                  "multi-frame: auto (default: the phone's poses_device.txt where it agrees with the images) | use "
+                  "(trust the documented convention) | ignore");
   AddPipelineArgs(sub, &a->pipeline, "sift-essential");
   sub->callback([a, run, &global] { *run = [a, &global] { return RunRun(*a, global); }; });
 }

@@ -241,6 +241,20 @@ Metrics Aggregate(const std::vector<SceneRecord>& scenes, const Thresholds& th) 
   return m;
 }
 
+std::vector<int64_t> EvaluatedKeys(const OfficialPoses& gt, Track track) {
+  std::vector<int64_t> out;
+  if (track == Track::kSingleFrame) {
+    for (size_t i = 0; i < gt.keys.size(); i += 5) out.push_back(gt.keys[i]);
+    return out;
+  }
+  std::vector<int64_t> seq1;
+  for (int64_t key : gt.keys)
+    if (gt.poses.at(key).name.rfind("seq1/", 0) == 0) seq1.push_back(key);
+  std::sort(seq1.begin(), seq1.end());
+  for (size_t i = 9; i < seq1.size(); i += 10) out.push_back(seq1[i]);
+  return out;
+}
+
 std::vector<SceneRecord> EvaluateScenes(const EvalInput& in) {
   FREELOC_CHECK(in.submission != nullptr, "EvaluateScenes: no submission");
   std::vector<SceneRecord> out;
@@ -257,8 +271,9 @@ std::vector<SceneRecord> EvaluateScenes(const EvalInput& in) {
     auto it = in.submission->files.find(member);
     if (it == in.submission->files.end()) {
       // Quirk: a missing scene counts every GT key (before the 1-in-5 subsampling) as a failure.
-      rec.failures = static_cast<int64_t>(gt.size());
-      for (int64_t key : gt.keys) rec.frames.push_back({scene, key, "scene-missing", {}, 0});
+      const std::vector<int64_t> keys = in.track == Track::kSingleFrame ? gt.keys : EvaluatedKeys(gt, in.track);
+      rec.failures = static_cast<int64_t>(keys.size());
+      for (int64_t key : keys) rec.frames.push_back({scene, key, "scene-missing", {}, 0});
       out.push_back(std::move(rec));
       continue;
     }
@@ -268,8 +283,7 @@ std::vector<SceneRecord> EvaluateScenes(const EvalInput& in) {
     const OfficialPoses est = ParseOfficialPoses(it->second, true);
     rec.dropped = est.dropped;
     rec.dropped_count = est.dropped_count;
-    for (size_t i = 0; i < gt.keys.size(); i += 5) {
-      const int64_t key = gt.keys[i];
+    for (const int64_t key : EvaluatedKeys(gt, in.track)) {
       FrameRecord f{scene, key, "missing", {}, 0};
       auto e = est.poses.find(key);
       if (e == est.poses.end()) {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/io/mapfree.h"
 #include "freeloc/io/submission.h"
 
 namespace freeloc::eval {
@@ -67,7 +68,14 @@ struct EvalInput {
   std::vector<std::string> scenes;  // scene names to evaluate
   std::string submission_path;      // for messages
   const ZipContents* submission = nullptr;
+  // single-frame: every 5th key of poses.txt (the official evaluator); multi-frame: the seq1 frames at linear
+  // positions 9, 19, … of the frames sorted by number (spec/mapfree-multiframe.md §2), a missing scene counting
+  // those frames only.
+  Track track = Track::kSingleFrame;
 };
+
+// The keys a track scores, from the ground truth of one scene.
+std::vector<int64_t> EvaluatedKeys(const OfficialPoses& gt, Track track);
 
 // Evaluates one submission. Throws freeloc::Error (clear message) where the official evaluator prints nothing:
 // missing GT files, unreadable intrinsics, non-UTF-8 pose files, negative confidence on an evaluated frame.

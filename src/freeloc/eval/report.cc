@@ -71,7 +71,7 @@ std::string FormatNumber(const char* fmt, double v) {
 }
 
 EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::string>& scenes,
-                      const std::string& submission_path) {
+                      const std::string& submission_path, Track track) {
   const ZipContents zip = ZipContents::Read(submission_path);
   EvalRun run;
   run.label = std::filesystem::path(submission_path).filename().string();
@@ -92,6 +92,7 @@ EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::strin
   in.scenes = scenes;
   in.submission_path = submission_path;
   in.submission = &zip;
+  in.track = track;
   run.scenes = EvaluateScenes(in);
   int64_t missing = 0, dropped = 0;
   for (const auto& s : run.scenes) {

@@ -16,9 +16,9 @@ struct EvalRun {
   std::vector<std::pair<std::string, Metrics>> per_scene;  // scenes with at least one estimate
 };
 
-// Evaluates and aggregates one submission (overall and per scene).
+// Evaluates and aggregates one submission (overall and per scene) on the frames `track` scores.
 EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::string>& scenes,
-                      const std::string& submission_path);
+                      const std::string& submission_path, Track track = Track::kSingleFrame);
 
 std::string MarkdownReport(const EvalRun& run);
 // One column per submission.

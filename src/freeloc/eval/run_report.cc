@@ -144,6 +144,20 @@ std::string Failures(const std::vector<ReportQuery>& queries) {
   return s;
 }
 
+// Multi-frame: the window's frames and how they voted.
+std::string WindowTable(const ReportQuery& q) {
+  if (q.window.empty()) return "";
+  std::string s = "<p>window: " + Escape(q.window) +
+                  "</p><table><tr><th>frame</th><th>status</th><th>tied by</th><th>used</th><th>rotation vote off "
+                  "(°)</th><th>depth distance (m)</th></tr>";
+  for (const auto& row : q.window_votes) {
+    s += "<tr>";
+    for (const auto& cell : row) s += "<td>" + Escape(cell) + "</td>";
+    s += "</tr>";
+  }
+  return s + "</table>";
+}
+
 std::string Details(const std::string& dir, const std::vector<ReportQuery>& queries) {
   std::vector<const ReportQuery*> shown;
   for (const auto& q : queries)
@@ -159,7 +173,8 @@ std::string Details(const std::string& dir, const std::vector<ReportQuery>& quer
          (q->has_errors ? " · t err " + Num(q->err.trans_err, "%.3f m") + " · R err " + Num(q->err.rot_err, "%.2f°") +
                               " · VCRE " + Num(q->err.vcre, "%.1f px")
                         : std::string()) +
-         (q->message.empty() ? "" : " · " + Escape(q->message)) + "</p><div class=\"row\"><img src=\"" +
+         (q->message.empty() ? "" : " · " + Escape(q->message)) + "</p>" + WindowTable(*q) +
+         "<div class=\"row\"><img src=\"" +
          Escape(q->visual) + "\" alt=\"matches and depth of " + Escape(q->frame) + "\">" + TopDownSvg(*q) +
          "</div>" +
          (std::filesystem::exists(dir + "/" + q->visual + ".3d.js")

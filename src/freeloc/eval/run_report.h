@@ -29,6 +29,10 @@ struct ReportQuery {
   FrameErrors err;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero(), gt_centre = Eigen::Vector3d::Zero();  // in the reference frame
   std::string visual;          // the detail image's file name in the report folder ("" = none)
+  // Multi-frame: how the window voted — a summary line, then one row per frame (frame, status, relation, used,
+  // rotation deviation, depth distance).
+  std::string window;
+  std::vector<std::vector<std::string>> window_votes;
 };
 
 // How much of a run gets a detail view (docs/report.md): the `worst` largest pose errors (max(t/0.25 m, R/5°)),
@@ -40,6 +44,7 @@ struct ReportOptions {
   int max_details = 200;
   int thumb_width = 640;  // width of a detail image (both photos side by side)
   int max_lines = 150;    // correspondences drawn per query (evenly subsampled)
+  Track track = Track::kSingleFrame;  // which frames the metrics score
 };
 
 // The score that orders queries from worst to best: failures first, then max(t/0.25 m, R/5°).

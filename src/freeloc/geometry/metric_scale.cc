@@ -151,31 +151,48 @@ void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) 
 }
 
 
-void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
-                   const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
-                   const Camera& ref, const Camera& query, const ScaleOptions& opt, ScaleResult* res) {
+// Per inlier, the log ratio of each map's depth to the unit-baseline triangulation's (lr: the reference map's, with
+// its parallax window; lq: the query map's), for the points whose triangulation is in front of both cameras.
+struct AnchorSamples {
+  std::vector<double> lr, lq, window;
+  double depth_sum = 0;
+};
+
+AnchorSamples CollectAnchors(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                             const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
+                             const Camera& ref, const Camera& query) {
   const PoseRt unit{query_from_ref.R(), query_from_ref.translation.normalized()};
   // What one point's log ratio may differ by on a right pose: the depth map's own error (10 %) plus the
   // triangulation's, ~ angular noise ÷ parallax (1 px of noise).
   const double sigma = 2.0 / (ref.fx + ref.fy + query.fx + query.fy) * 2.0;  // 1 px in radians
-  std::vector<double> lr, lq, window;
-  double depth_sum = 0;
+  AnchorSamples a;
   for (size_t i = 0; i < px_ref.size(); ++i) {
     const Eigen::Vector3d x1 = ref.Unproject(px_ref[i].x(), px_ref[i].y());
     const Eigen::Vector3d x2 = query.Unproject(px_query[i].x(), px_query[i].y());
     double l1, l2;
     if (!TriangulateDepths(unit, x1, x2, &l1, &l2) || !(l1 > 0) || !(l2 > 0)) continue;
-    const double dr = BilinearDepth(depth_ref, px_ref[i].x(), px_ref[i].y());
-    const double dq = BilinearDepth(depth_query, px_query[i].x(), px_query[i].y());
+    const double dr = depth_ref.empty() ? 0.0 : BilinearDepth(depth_ref, px_ref[i].x(), px_ref[i].y());
+    const double dq = depth_query.empty() ? 0.0 : BilinearDepth(depth_query, px_query[i].x(), px_query[i].y());
     if (dr > 0) {
-      lr.push_back(std::log(dr / l1));
-      depth_sum += dr;
+      a.lr.push_back(std::log(dr / l1));
+      a.depth_sum += dr;
       const double parallax = std::max(1e-6, std::abs(std::asin(std::min(
                                                  1.0, (unit.R * x1).normalized().cross(x2.normalized()).norm()))));
-      window.push_back(0.1 + 3 * sigma / parallax);
+      a.window.push_back(0.1 + 3 * sigma / parallax);
     }
-    if (dq > 0) lq.push_back(std::log(dq / l2));
+    if (dq > 0) a.lq.push_back(std::log(dq / l2));
   }
+  return a;
+}
+
+void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                   const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
+                   const Camera& ref, const Camera& query, const ScaleOptions& opt, ScaleResult* res) {
+  const AnchorSamples a = CollectAnchors(px_ref, px_query, query_from_ref, depth_ref, depth_query, ref, query);
+  const std::vector<double>& lr = a.lr;
+  const std::vector<double>& lq = a.lq;
+  const std::vector<double>& window = a.window;
+  const double depth_sum = a.depth_sum;
   res->num_candidates = static_cast<int>(lr.size());
   if (lr.empty()) {
     res->reason = "no-valid-depth";
@@ -219,6 +236,23 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
 }
 
 }  // namespace
+
+ScaleAnchors AnchorScales(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                          const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
+                          const Camera& ref, const Camera& query) {
+  FREELOC_CHECK(px_ref.size() == px_query.size(), "metric scale: point lists differ in length");
+  const AnchorSamples a = CollectAnchors(px_ref, px_query, query_from_ref, depth_ref, depth_query, ref, query);
+  ScaleAnchors out;
+  if (!a.lr.empty()) {
+    const TrimmedMeanResult t = TrimmedMean(a.lr, 0.01);
+    out.log_ref = t.mean, out.se_ref = t.std_error, out.kept_ref = t.kept;
+  }
+  if (!a.lq.empty()) {
+    const TrimmedMeanResult t = TrimmedMean(a.lq, 0.01);
+    out.log_query = t.mean, out.se_query = t.std_error, out.kept_query = t.kept;
+  }
+  return out;
+}
 
 TrimmedMeanResult TrimmedMean(const std::vector<double>& v, double min_window) {
   std::vector<double> w = v;

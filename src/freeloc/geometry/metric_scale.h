@@ -69,6 +69,17 @@ ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
                                 const DepthMap& depth_ref, const DepthMap& depth_query, const Camera& ref,
                                 const Camera& query, const ScaleOptions& options = {});
 
+// The anchored scale's two halves apart: log |t| as the reference depth map alone and as the query depth map alone
+// anchor it (median/MAD-trimmed means of the inliers' log ratios, their standard errors and the points kept; kept 0:
+// that map gave none). `query_from_ref`'s translation only gives the direction. Either map may be empty.
+struct ScaleAnchors {
+  double log_ref = 0, se_ref = 0, log_query = 0, se_query = 0;
+  int kept_ref = 0, kept_query = 0;
+};
+ScaleAnchors AnchorScales(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
+                          const Rigid3d& query_from_ref, const DepthMap& depth_ref, const DepthMap& depth_query,
+                          const Camera& ref, const Camera& query);
+
 // Depth at a sub-pixel location by bilinear interpolation of the 4 neighbours (pixel centres at integers); 0 when
 // any neighbour is invalid or the location is outside the map.
 float BilinearDepth(const DepthMap& d, double x, double y);

@@ -200,6 +200,61 @@ MapfreeScene MapfreeScene::Load(const std::string& dir) {
   return s;
 }
 
+int64_t FrameNumber(const std::string& name) {
+  const std::string file = fs::path(name).filename().string();
+  if (file.compare(0, 6, "frame_") != 0) return -1;
+  size_t k = 6;
+  int64_t v = 0;
+  while (k < file.size() && std::isdigit(static_cast<unsigned char>(file[k])) && k < 6 + 15)
+    v = 10 * v + (file[k++] - '0');
+  if (k == 6 || k >= file.size() || file[k] != '.') return -1;
+  return v;
+}
+
+std::vector<QueryWindow> MultiFrameWindows(const MapfreeScene& scene, int frames) {
+  FREELOC_CHECK(frames >= 1 && frames <= 9, "frames: " << frames << " is not in 1..9 (the window holds 9 frames)");
+  std::vector<size_t> order;
+  for (size_t i = 0; i < scene.queries.size(); ++i) {
+    FREELOC_CHECK(FrameNumber(scene.queries[i].name) >= 0,
+                  scene.dir << ": query '" << SafeText(scene.queries[i].name, 200)
+                            << "' is not named frame_<number>.<ext>; the Multi Frame track orders frames by number");
+    order.push_back(i);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return FrameNumber(scene.queries[a].name) < FrameNumber(scene.queries[b].name);
+  });
+  std::vector<QueryWindow> out;
+  for (size_t pos = 9; pos < order.size(); pos += 10) {
+    QueryWindow w;
+    w.evaluated = order[pos];
+    for (size_t k = pos + 1 - static_cast<size_t>(frames); k <= pos; ++k) w.frames.push_back(order[k]);
+    out.push_back(std::move(w));
+  }
+  return out;
+}
+
+std::map<std::string, Rigid3d> ReadDevicePoses(const std::string& path) {
+  std::map<std::string, Rigid3d> out;
+  const auto lines = py::SplitLines(ReadText(path));
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const std::string where = path + " line " + std::to_string(i + 1);
+    const std::string text = py::Strip(lines[i]);
+    if (text.empty()) continue;
+    const auto parts = py::SplitSpace(text);
+    FREELOC_CHECK(parts.size() == 8, where << ": expected 8 fields 'path qw qx qy qz tx ty tz', got " << parts.size());
+    CheckFrameName(parts[0], where);
+    double v[7];
+    for (int k = 0; k < 7; ++k)
+      FREELOC_CHECK(py::ParseFloat(parts[k + 1], &v[k]) && std::isfinite(v[k]),
+                    where << ": '" << SafeText(parts[k + 1], 40) << "' is not a finite number");
+    const double qn = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
+    FREELOC_CHECK(std::abs(qn - 1) < 1e-3, where << ": the quaternion has norm " << qn << ", not 1");
+    FREELOC_CHECK(!out.count(parts[0]), where << ": frame " << SafeText(parts[0], 200) << " is listed twice");
+    out[parts[0]] = Rigid3d::FromWxyz({v[0], v[1], v[2], v[3]}, Eigen::Vector3d(v[4], v[5], v[6]));
+  }
+  return out;
+}
+
 std::string ResolveSplitDir(const std::string& root, const std::string& split) {
   std::error_code ec;
   FREELOC_CHECK(fs::is_directory(root, ec), root << ": dataset folder not found; give the map-free root "

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "freeloc/core/camera.h"
+#include "freeloc/core/enum_table.h"
 #include "freeloc/core/depth_map.h"
 #include "freeloc/core/image.h"
 #include "freeloc/core/rigid3d.h"
@@ -47,6 +48,8 @@ struct MapfreeScene {
   // Precomputed correspondences (x_ref, y_ref, x_query, y_query) per query, rows in `queries` order, NaN padding
   // dropped. `name` is SIFT, SG, LoFTR or any other suffix of correspondences_<name>.npz.
   std::vector<std::vector<Eigen::Vector4d>> LoadCorrespondences(const std::string& name) const;
+  // The Multi Frame track's device tracking poses (spec/mapfree-multiframe.md §3).
+  std::string DevicePosesPath() const { return dir + "/poses_device.txt"; }
 
   // Reads intrinsics.txt and poses.txt of one scene folder. Throws freeloc::Error naming the file and line.
   static MapfreeScene Load(const std::string& dir);
@@ -56,6 +59,35 @@ struct MapfreeScene {
 std::string ResolveSplitDir(const std::string& root, const std::string& split);
 // Scene folder names (sNNNNN…) in sorted order; `only` restricts to the listed names (error if one is absent).
 std::vector<std::string> ListScenes(const std::string& split_dir, const std::vector<std::string>& only = {});
+
+// The benchmark's tracks (spec/mapfree-multiframe.md): single-frame — every query alone, scored on every 5th frame;
+// multi-frame — each evaluated frame (linear positions 9, 19, … of the sorted seq1 frames) with the 8 frames before it.
+enum class Track { kSingleFrame, kMultiFrame };
+template <>
+struct EnumTable<Track> {
+  static constexpr const char* kField = "track";
+  static constexpr EnumEntry<Track> kEntries[] = {{Track::kSingleFrame, "single-frame"},
+                                                  {Track::kMultiFrame, "multi-frame"}};
+};
+
+// The Multi Frame track (spec/mapfree-multiframe.md §2): the frame number of "seq1/frame_00011.jpg" (11); -1 when
+// the file name is not frame_<digits>.<ext>.
+int64_t FrameNumber(const std::string& name);
+
+// One evaluated frame of the Multi Frame track and the frames it may use: indices into MapfreeScene::queries.
+struct QueryWindow {
+  size_t evaluated = 0;
+  std::vector<size_t> frames;  // oldest first, the evaluated frame last
+};
+// The scene's seq1 frames sorted by frame number; the evaluated frames at linear positions 9, 19, 29, …, each with
+// the `frames` (1–9) frames ending at it. Frame numbers may skip: the position decides, not the number.
+std::vector<QueryWindow> MultiFrameWindows(const MapfreeScene& scene, int frames = 9);
+
+// poses_device.txt: one `seq1/frame_XXXXX.jpg qw qx qy qz tx ty tz` line per window frame, read in the documented
+// convention as frame_from_query (x_frame = R·x_query + t). Tolerates a missing final newline, blank lines and
+// signed zeros; throws freeloc::Error naming the file and line for anything else (a bad number, a non-unit
+// quaternion, a frame named twice).
+std::map<std::string, Rigid3d> ReadDevicePoses(const std::string& path);
 
 // Provided-depth PNG I/O in the map-free convention (uint16 millimetres, 0 invalid).
 DepthMap ReadDepthPng(const std::string& path);

@@ -146,3 +146,75 @@ TEST(Mapfree, PrecomputedCorrespondences) {
 
 }  // namespace
 }  // namespace freeloc
+
+namespace freeloc {
+namespace {
+
+TEST(MultiFrame, FrameNumbersAndWindowsByLinearPosition) {
+  EXPECT_EQ(FrameNumber("seq1/frame_00011.jpg"), 11);
+  EXPECT_EQ(FrameNumber("seq1/frame_00000.png"), 0);
+  EXPECT_EQ(FrameNumber("seq1/img_00011.jpg"), -1);
+  EXPECT_EQ(FrameNumber("seq1/frame_.jpg"), -1);
+  EXPECT_EQ(FrameNumber("seq1/frame_12"), -1);
+  // 25 frames whose numbers skip (as val s00470: the first evaluated frame is frame_00011), listed out of order.
+  testing::TempDir tmp;
+  const std::string dir = tmp.path() + "/s00470";
+  std::vector<int> numbers = {0, 1, 3, 5, 6, 7, 8, 9, 10, 11, 12, 14, 15, 16, 17, 18, 19, 20, 21, 22, 30, 31, 32, 33, 34};
+  std::string k = "seq0/frame_00000.jpg 500 500 270 360 540 720\n", p;
+  for (auto it = numbers.rbegin(); it != numbers.rend(); ++it) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "seq1/frame_%05d.jpg", *it);
+    k += std::string(name) + " 500 500 270 360 540 720\n";
+    p += std::string(name) + " 1 0 0 0 0 0 0\n";
+  }
+  MakeScene(dir, k, p);
+  const MapfreeScene s = MapfreeScene::Load(dir);
+  const auto windows = MultiFrameWindows(s, 9);
+  ASSERT_EQ(windows.size(), 2u);  // linear positions 9 and 19 of 25
+  EXPECT_EQ(s.queries[windows[0].evaluated].name, "seq1/frame_00011.jpg");
+  std::vector<int64_t> got;
+  for (size_t i : windows[0].frames) got.push_back(FrameNumber(s.queries[i].name));
+  EXPECT_EQ(got, (std::vector<int64_t>{1, 3, 5, 6, 7, 8, 9, 10, 11}));
+  EXPECT_EQ(s.queries[windows[1].evaluated].name, "seq1/frame_00022.jpg");
+  const auto three = MultiFrameWindows(s, 3);
+  ASSERT_EQ(three.size(), 2u);
+  got.clear();
+  for (size_t i : three[1].frames) got.push_back(FrameNumber(s.queries[i].name));
+  EXPECT_EQ(got, (std::vector<int64_t>{20, 21, 22}));
+  EXPECT_THROW(MultiFrameWindows(s, 0), Error);
+  EXPECT_THROW(MultiFrameWindows(s, 10), Error);
+}
+
+TEST(MultiFrame, DevicePosesFile) {
+  testing::TempDir tmp;
+  const std::string path = tmp.path() + "/poses_device.txt";
+  // Signed zeros, no final newline, a blank line.
+  testing::WriteText(path,
+                     "seq1/frame_00001.jpg 0.9999500004166653 0.0099998333341667 0.0 0.0 0.01 -0.02 0.03\n\n"
+                     "seq1/frame_00009.jpg 1.0000000000000000 -0.0000000000000000 0.0000000000000000 "
+                     "-0.0000000000000000 0.0000000000000000 -0.0000000000000000 0.0000000000000000");
+  const auto poses = ReadDevicePoses(path);
+  ASSERT_EQ(poses.size(), 2u);
+  EXPECT_NEAR(poses.at("seq1/frame_00001.jpg").translation.y(), -0.02, 1e-15);
+  EXPECT_NEAR(RotationAngleDeg(poses.at("seq1/frame_00001.jpg").rotation, Eigen::Quaterniond::Identity()),
+              2 * std::asin(0.0099998333341667) * 180 / M_PI, 1e-9);
+  EXPECT_EQ(poses.at("seq1/frame_00009.jpg").translation.norm(), 0.0);
+  auto refused = [&](const std::string& text, const std::string& needle) {
+    testing::WriteText(path, text);
+    try {
+      ReadDevicePoses(path);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("poses_device.txt line"), std::string::npos) << e.what();
+    }
+  };
+  refused("seq1/frame_00001.jpg 1 0 0 0 0 0\n", "expected 8 fields");
+  refused("seq1/frame_00001.jpg 1 0 0 0 0 nan 0\n", "not a finite number");
+  refused("seq1/frame_00001.jpg 2 0 0 0 0 0 0\n", "norm");
+  refused("seq1/frame_00001.jpg 1 0 0 0 0 0 0\nseq1/frame_00001.jpg 1 0 0 0 0 0 0\n", "twice");
+  refused("../s00002/seq1/frame_00001.jpg 1 0 0 0 0 0 0\n", "not a path inside the scene");
+}
+
+}  // namespace
+}  // namespace freeloc

@@ -108,6 +108,9 @@ const std::vector<Row>& Rows() {
       FREELOC_ENUM("device", "--device", runtime.device, "cpu | cuda"),
       FREELOC_ENUM("precision", "--precision", runtime.precision, "fp32 | bf16"),
       FREELOC_INT("threads", "--threads", runtime.threads, "CPU threads of the networks; 0: library default"),
+      FREELOC_ENUM("track", "--track", track, "single-frame | multi-frame: the benchmark track a run answers"),
+      FREELOC_INT("frames", "--frames", frames, "multi-frame: use the last K (1–9) frames of each window; 1 = the single-frame answer"),
+      FREELOC_ENUM("device_poses", "--device-poses", device_poses, "multi-frame: auto (used where they agree with the images) | use | ignore the phone's tracking poses"),
   };
   return rows;
 }

@@ -96,6 +96,7 @@ void PipelineOptions::Validate() const {
   FREELOC_CHECK(min_instance_matches >= 0, "min_instance_matches: " << min_instance_matches << " is negative");
   FREELOC_CHECK(solver == SolverKind::kEssential || solver == SolverKind::kHybrid || depth.kind != DepthKind::kNone,
                 "solver: " << ToString(solver) << " needs depth (depth provided:<suffix> or metric3d)");
+  FREELOC_CHECK(frames >= 1 && frames <= 9, "frames: " << frames << " is not in 1..9 (a window holds 9 frames)");
   proposals.Validate();
   runtime.Validate();
   const auto dirs = ModelDirs(models_dir);
@@ -120,6 +121,8 @@ std::string PipelineOptions::Summary() const {
   if (UsesInstances())
     s += ", instances " + ToString(instance_source) + ", instance-mode " + ToString(instance_mode);
   if (UsesSegGpt()) s += ", seggpt " + seggpt_model;
+  if (track == Track::kMultiFrame)
+    s += ", track multi-frame (" + std::to_string(frames) + " frames, device poses " + ToString(device_poses) + ")";
   if (UsesMetric3d()) s += ", metric3d " + metric3d_model;
   if (UsesPointmapModel() || UsesMetric3d()) s += ", " + ToString(runtime.device) + " " + ToString(runtime.precision);
   return s;

@@ -10,6 +10,7 @@
 #include "freeloc/core/enum_table.h"
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/geometry/metric_scale.h"
+#include "freeloc/io/mapfree.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/matching/proposals.h"
 #include "freeloc/nn/instance_segmenter.h"
@@ -34,6 +35,11 @@ enum class SolverKind { kEssential, kPnp, kProcrustes, kHybrid };
 // proposals from its own pointmap, propagated into each query by SegGPT; kGiven — label images given for both frames
 // (no SegGPT).
 enum class InstanceSource { kPropagate, kGiven };
+// The benchmark track (io/mapfree.h): multi-frame answers each evaluated frame from its window (multi_frame.h).
+using freeloc::Track;
+// Multi-frame: the phone's tracking poses (poses_device.txt). auto — used where they agree with the images, per
+// window; use — trusted in the documented convention; ignore — never read.
+enum class DevicePoseUse { kAuto, kUse, kIgnore };
 
 // A name that becomes part of a file name (precomputed:<name>, provided:<suffix>): letters, digits, '_', '-', '.', '+',
 // at most 64, not starting with '.' and without "..": never a path.
@@ -98,6 +104,9 @@ struct PipelineOptions {
   matching::ProposalOptions proposals;     // reference instances from the reference pointmap
   nn::InstanceSegmenterOptions segmenter;  // SegGPT propagation and its filters
   nn::RuntimeOptions runtime;              // device, precision, threads of every network stage
+  Track track = Track::kSingleFrame;       // run/eval: which queries are answered and how
+  int frames = 9;                          // multi-frame: the last `frames` (1–9) frames of each window
+  DevicePoseUse device_poses = DevicePoseUse::kAuto;
 
   bool UsesDust3r() const {
     return matcher.kind == MatcherKind::kDust3r || matcher.kind == MatcherKind::kDust3rInstances;
@@ -149,6 +158,25 @@ struct FrameIntrinsics {
   bool known() const { return source != IntrinsicsSource::kNone; }
 };
 
+// Multi-frame (pipeline/multi_frame.h): what each frame of an evaluated frame's window contributed.
+struct WindowVote {
+  std::string frame;                        // e.g. "seq1/frame_00011.jpg"
+  QueryStatus status = QueryStatus::kError; // its own relocalization against the reference
+  std::string relation = "none";            // how it is tied to the evaluated frame: self | device | images | none
+  bool used = false;                        // its rotation and its ray entered the fused pose
+  double rotation_dev_deg = -1;             // its rotation vote's distance from the fused rotation (-1: no vote)
+  double distance_m = 0;                    // its depth-based distance to the reference camera (0: none)
+};
+struct WindowSummary {
+  int frames = 0, used = 0;
+  // The device poses' fate in this window: used | ignored (<why>) | absent | off
+  std::string device;
+  std::string scale;  // where the metric distance came from: depth | tracker | images | depth+tracker | depth+images
+  double depth_distance_m = 0, rig_distance_m = 0;  // the depth maps' and the rig's triangulated distance (0: none)
+  std::vector<WindowVote> votes;  // oldest first, the evaluated frame last
+  bool empty() const { return frames == 0; }
+};
+
 struct QueryResult {
   std::string frame;
   QueryStatus status = QueryStatus::kError;
@@ -180,6 +208,7 @@ struct QueryResult {
   double pair_ms = 0, segment_ms = 0, instance_pass_ms = 0;
   int instance_pairs = 0;
   FrameIntrinsics ref_intrinsics, query_intrinsics;  // what the solver used, and where it came from
+  WindowSummary window;                               // multi-frame only: how the window voted
 };
 
 // What the per-scene caches did (for logs and tests).
@@ -234,6 +263,13 @@ struct EnumTable<pipeline::InstanceSource> {
   static constexpr const char* kField = "instance_source";
   static constexpr EnumEntry<pipeline::InstanceSource> kEntries[] = {
       {pipeline::InstanceSource::kPropagate, "propagate"}, {pipeline::InstanceSource::kGiven, "given"}};
+};
+template <>
+struct EnumTable<pipeline::DevicePoseUse> {
+  static constexpr const char* kField = "device_poses";
+  static constexpr EnumEntry<pipeline::DevicePoseUse> kEntries[] = {{pipeline::DevicePoseUse::kAuto, "auto"},
+                                                                    {pipeline::DevicePoseUse::kUse, "use"},
+                                                                    {pipeline::DevicePoseUse::kIgnore, "ignore"}};
 };
 template <>
 struct EnumTable<pipeline::QueryStatus> {

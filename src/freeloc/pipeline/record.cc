@@ -124,6 +124,16 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["instance_pairs"] = r.instance_pairs;
   if (r.ref_intrinsics.known() || r.query_intrinsics.known())
     j["intrinsics"] = {{"ref", IntrinsicsObject(r.ref_intrinsics)}, {"query", IntrinsicsObject(r.query_intrinsics)}};
+  if (!r.window.empty()) {
+    const WindowSummary& w = r.window;
+    Json votes = Json::array();
+    for (const WindowVote& v : w.votes)
+      votes.push_back({{"frame", v.frame}, {"status", ToString(v.status)}, {"relation", v.relation}, {"used", v.used},
+                       {"rotation_dev_deg", v.rotation_dev_deg}, {"distance_m", v.distance_m}});
+    j["window"] = {{"frames", w.frames}, {"used", w.used}, {"device", w.device}, {"scale", w.scale},
+                   {"depth_distance_m", w.depth_distance_m}, {"rig_distance_m", w.rig_distance_m},
+                   {"votes", votes}};
+  }
   if (options) j["options"] = OptionsObject(*options);
   return j.dump(indent);
 }
@@ -159,6 +169,25 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.segment_ms = j.value("segment_ms", 0.0);
     r.instance_pass_ms = j.value("instance_pass_ms", 0.0);
     r.instance_pairs = j.value("instance_pairs", 0);
+    if (j.contains("window")) {
+      const Json& w = j.at("window");
+      r.window.frames = w.at("frames").get<int>();
+      r.window.used = w.at("used").get<int>();
+      r.window.device = w.at("device").get<std::string>();
+      r.window.scale = w.at("scale").get<std::string>();
+      r.window.depth_distance_m = w.at("depth_distance_m").get<double>();
+      r.window.rig_distance_m = w.at("rig_distance_m").get<double>();
+      for (const Json& v : w.at("votes")) {
+        WindowVote vote;
+        vote.frame = v.at("frame").get<std::string>();
+        vote.status = ParseEnum<QueryStatus>(v.at("status").get<std::string>());
+        vote.relation = v.at("relation").get<std::string>();
+        vote.used = v.at("used").get<bool>();
+        vote.rotation_dev_deg = v.at("rotation_dev_deg").get<double>();
+        vote.distance_m = v.at("distance_m").get<double>();
+        r.window.votes.push_back(vote);
+      }
+    }
     const auto q = j.at("qvec").get<std::array<double, 4>>();
     const auto t = j.at("tvec").get<std::array<double, 3>>();
     r.query_from_ref = Rigid3d::FromWxyz(q, Eigen::Vector3d(t[0], t[1], t[2]));  // validated, normalised

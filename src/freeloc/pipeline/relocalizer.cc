@@ -9,6 +9,7 @@
 #include "freeloc/core/logging.h"
 #include "freeloc/core/timing.h"
 #include "freeloc/pipeline/models.h"
+#include "freeloc/pipeline/multi_frame.h"
 
 namespace freeloc::pipeline {
 
@@ -228,9 +229,9 @@ std::vector<QueryResult> FailScene(const MapfreeScene& scene, const PipelineOpti
                                    const std::function<void(const QueryResult&)>& on_query) {
   FREELOC_LOG(WARNING) << scene.name << ": " << message;
   std::vector<QueryResult> out;
-  for (const MapfreeFrame& q : scene.queries) {
+  for (size_t i : AnsweredQueries(scene, o)) {
     QueryResult r;
-    r.frame = q.name;
+    r.frame = scene.queries[i].name;
     r.status = QueryStatus::kError;
     r.message = message;
     AnswerUnsolved(o, &r);
@@ -249,7 +250,106 @@ DepthMap ProvidedDepthOf(const MapfreeScene& scene, const MapfreeFrame& f, const
   return scene.LoadDepth(f, o.depth.suffix);
 }
 
+// The scene's device poses for the Multi Frame track: empty when off, absent or unreadable (said once per scene).
+std::map<std::string, Rigid3d> SceneDevicePoses(const MapfreeScene& scene, const PipelineOptions& o) {
+  if (o.device_poses == DevicePoseUse::kIgnore) return {};
+  const std::string path = scene.DevicePosesPath();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    FREELOC_LOG(INFO) << scene.name << ": no poses_device.txt; the windows are tied together by the images alone";
+    return {};
+  }
+  try {
+    return ReadDevicePoses(path);
+  } catch (const std::exception& e) {
+    FREELOC_LOG(WARNING) << scene.name << ": " << e.what() << "; the device poses are ignored for this scene";
+    return {};
+  }
+}
+
+// The Multi Frame track: one result per evaluated frame (linear positions 9, 19, …), each from its window. Only
+// the window's frames are read for it.
+std::vector<QueryResult> RelocalizeWindows(const MapfreeScene& scene, Relocalizer& reloc,
+                                           const std::vector<std::vector<Eigen::Vector4d>>& pre,
+                                           const std::function<void(const QueryResult&)>& on_query,
+                                           const MatchesCallback& on_matches) {
+  const PipelineOptions& o = reloc.options();
+  const std::map<std::string, Rigid3d> device = SceneDevicePoses(scene, o);
+  std::vector<QueryResult> out;
+  for (const QueryWindow& win : MultiFrameWindows(scene, o.frames)) {
+    const MapfreeFrame& q = scene.queries[win.evaluated];
+    std::vector<WindowFrame> frames;
+    for (size_t i : win.frames) {
+      const MapfreeFrame& f = scene.queries[i];
+      WindowFrame wf;
+      wf.name = f.name;
+      wf.camera = f.camera;
+      wf.inputs.intrinsics_source = IntrinsicsSource::kFile;
+      wf.inputs.correspondences = pre.empty() ? nullptr : &pre[i];
+      auto it = device.find(f.name);
+      if (it != device.end()) {
+        wf.has_device = true;
+        wf.device_from_query = it->second;
+      }
+      try {
+        wf.image = scene.LoadImage(f);
+        wf.inputs.depth = ProvidedDepthOf(scene, f, o);
+      } catch (const std::exception& e) {
+        // A damaged window frame loses its vote; a damaged evaluated frame is the query's error.
+        if (i == win.evaluated) {
+          QueryResult r;
+          r.status = QueryStatus::kError;
+          r.message = ErrorMessage(e, scene.FramePath(f));
+          r.frame = q.name;
+          FREELOC_LOG(WARNING) << scene.name << "/" << q.name << ": " << r.message;
+          AnswerUnsolved(o, &r);
+          frames.clear();
+          out.push_back(r);
+          break;
+        }
+        FREELOC_LOG(WARNING) << scene.name << "/" << f.name << ": " << ErrorMessage(e, scene.FramePath(f))
+                             << " (left out of the window of " << q.name << ")";
+        wf.image = Image();
+      }
+      frames.push_back(std::move(wf));
+    }
+    if (frames.empty()) {
+      if (on_matches) on_matches(out.back(), {});
+      if (on_query) on_query(out.back());
+      continue;
+    }
+    QueryResult r;
+    matching::Correspondences c;
+    try {
+      r = RelocalizeWindow(reloc, std::move(frames), on_matches ? &c : nullptr);
+    } catch (const std::exception& e) {
+      r = QueryResult();
+      r.status = QueryStatus::kError;
+      r.message = ErrorMessage(e, scene.FramePath(q));
+      FREELOC_LOG(WARNING) << scene.name << "/" << q.name << ": " << r.message;
+      AnswerUnsolved(o, &r);
+    }
+    r.frame = q.name;
+    if (!r.window.empty() && r.window.device.rfind("ignored", 0) == 0)
+      FREELOC_LOG(INFO) << scene.name << "/" << q.name << ": device poses " << r.window.device;
+    if (on_matches) on_matches(r, c);
+    out.push_back(r);
+    if (on_query) on_query(r);
+  }
+  return out;
+}
+
 }  // namespace
+
+std::vector<size_t> AnsweredQueries(const MapfreeScene& scene, const PipelineOptions& o) {
+  std::vector<size_t> out;
+  if (o.track == Track::kMultiFrame) {
+    for (const QueryWindow& w : MultiFrameWindows(scene, o.frames)) out.push_back(w.evaluated);
+  } else {
+    for (size_t i = 0; i < scene.queries.size(); ++i) out.push_back(i);
+  }
+  return out;
+}
 
 std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer& reloc,
                                          const std::function<void(const QueryResult&)>& on_query,
@@ -270,6 +370,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
     // A missing or damaged reference (or correspondence file) fails the scene's queries; the run goes on.
     return FailScene(scene, o, "reference: " + ErrorMessage(e, scene.FramePath(scene.reference)), on_query);
   }
+  if (o.track == Track::kMultiFrame) return RelocalizeWindows(scene, reloc, pre, on_query, on_matches);
   std::vector<QueryResult> out;
   for (size_t i = 0; i < scene.queries.size(); ++i) {
     const MapfreeFrame& q = scene.queries[i];

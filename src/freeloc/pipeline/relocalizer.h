@@ -87,7 +87,13 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
 // one error before any work starts rather than a failure of every query. Throws freeloc::Error naming the file.
 void LoadModels(const PipelineOptions& options);
 
-// Every query of a map-free scene through `reloc`; the reference's image, depth, encodings and instances are
+// The queries (indices into scene.queries) a run answers: every one (track single-frame), or the evaluated frames
+// of the Multi Frame track (linear positions 9, 19, …; io/mapfree.h MultiFrameWindows). Throws naming a frame that
+// the Multi Frame track cannot order.
+std::vector<size_t> AnsweredQueries(const MapfreeScene& scene, const PipelineOptions& options);
+
+// Every query of a map-free scene through `reloc` (multi-frame: every evaluated frame, fused from its window,
+// pipeline/multi_frame.h); the reference's image, depth, encodings and instances are
 // computed once. A failing reference fails every query of the scene; a failing query fails alone (status kError,
 // `message` naming the file and the cause) — any exception, LibTorch's included. `on_query` (optional) is called
 // after each query.

@@ -81,6 +81,7 @@ std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, con
   std::map<std::string, MapfreeScene> loaded;
   for (const auto& name : scenes) {
     const MapfreeScene& scene = loaded[name] = MapfreeScene::Load(split_dir + "/" + name);
+    AnsweredQueries(scene, o);  // multi-frame: every query must be orderable by its frame number
     if (!o.UsesProvidedDepth()) continue;
     const std::string p = scene.DepthPath(scene.reference, o.depth.suffix);
     if (example.empty()) example = p;
@@ -275,7 +276,8 @@ class SceneRunner {
   SceneRunner(const RunSpec& spec, Relocalizer& reloc, Journal* journal, RunComm* comm, ReportRecorder* report,
               RunResult* res)
       : spec_(spec), reloc_(reloc), journal_(journal), comm_(comm), report_(report), res_(res) {
-    for (const auto& name : res->scenes) total_ += static_cast<int64_t>(res->loaded.at(name).queries.size());
+    for (const auto& name : res->scenes)
+      total_ += static_cast<int64_t>(AnsweredQueries(res->loaded.at(name), reloc.options()).size());
   }
 
   void Run(const std::vector<std::string>& mine) {
@@ -453,7 +455,11 @@ RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const 
     if (spec.on_assigned) spec.on_assigned(*comm);
   }
   std::unique_ptr<ReportRecorder> report;
-  if (!spec.report.empty()) report = std::make_unique<ReportRecorder>(spec.report, spec.report_options);
+  if (!spec.report.empty()) {
+    eval::ReportOptions ro = spec.report_options;
+    ro.track = options.track;
+    report = std::make_unique<ReportRecorder>(spec.report, ro);
+  }
   SceneRunner(spec, *reloc, root ? &journal : nullptr, comm, report.get(), &res).Run(mine);
   if (!root) return res;
   WriteOutputs(spec, header, &res);

@@ -45,6 +45,20 @@ eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r)
   q.instances_used = r.instances_used;
   q.has_pose = r.ok() || r.weak();
   q.centre = r.query_from_ref.Center();
+  if (!r.window.empty()) {
+    const WindowSummary& w = r.window;
+    char line[256];
+    std::snprintf(line, sizeof(line), "%d of %d frames used; distance from %s (depth maps %.3f m, rig %.3f m); device poses %s",
+                  w.used, w.frames, w.scale.empty() ? "the evaluated frame" : w.scale.c_str(), w.depth_distance_m,
+                  w.rig_distance_m, w.device.c_str());
+    q.window = line;
+    for (const WindowVote& v : w.votes) {
+      char dev[32], dist[32];
+      std::snprintf(dev, sizeof(dev), v.rotation_dev_deg < 0 ? "–" : "%.3f", v.rotation_dev_deg);
+      std::snprintf(dist, sizeof(dist), v.distance_m > 0 ? "%.3f" : "–", v.distance_m);
+      q.window_votes.push_back({v.frame, ToString(v.status), v.relation, v.used ? "yes" : "no", dev, dist});
+    }
+  }
   const auto gt = scene.gt.find(r.frame);
   if (gt == scene.gt.end()) return q;
   q.gt_centre = gt->second.Center();
@@ -167,7 +181,7 @@ void ReportRecorder::Write(const std::string& split_dir, const std::vector<std::
   std::unique_ptr<eval::EvalRun> run;
   if (any_gt) {
     try {
-      run = std::make_unique<eval::EvalRun>(eval::RunEvaluation(split_dir, scenes, submission));
+      run = std::make_unique<eval::EvalRun>(eval::RunEvaluation(split_dir, scenes, submission, o_.track));
     } catch (const Error& e) {
       FREELOC_LOG(WARNING) << "report: no metrics (" << e.what() << ")";
     }

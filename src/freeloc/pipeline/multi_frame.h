@@ -1,0 +1,66 @@
+// The Map-free Multi Frame track (spec/mapfree-multiframe.md, docs/pipeline.md "Multi Frame"): an evaluated query
+// frame with the 8 frames before it and the phone's tracking poses of those frames, fused into one pose.
+//
+// Each frame of the window is relocalized against the reference as a single query would be. The frames are tied to
+// the evaluated frame by a rigid relation — from the images (the evaluated frame as a local reference: matches and
+// both depth maps make it metric) or from the device poses where they agree with the images — which turns every
+// frame's answer into a vote for the evaluated frame's pose:
+//   rotation   a robust average of the votes (medoid, then the mean of the votes near it);
+//   direction  the reference camera's centre seen along nine rays from nine known places;
+//   distance   two independent sources in log space: the depth maps' (each frame's metric answer) and the rig's
+//              (the rays triangulated over the window's metric baseline: the tracker's, or the images'). Their
+//              weights come from the geometry, and a disagreement larger than the rig's own uncertainty is charged
+//              to the depth maps (a monocular map's scale error is shared by every frame of the window and shows
+//              only against an independent baseline).
+// Frames whose rotation or ray disagrees are left out; the confidence comes from the agreement that remains.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "freeloc/core/camera.h"
+#include "freeloc/core/image.h"
+#include "freeloc/core/rigid3d.h"
+#include "freeloc/geometry/metric_scale.h"
+#include "freeloc/pipeline/options.h"
+#include "freeloc/pipeline/stages.h"
+
+namespace freeloc::pipeline {
+
+class Relocalizer;
+
+// One frame of a window, oldest first; the evaluated frame last.
+struct WindowFrame {
+  std::string name;  // e.g. "seq1/frame_00011.jpg"
+  Image image;
+  Camera camera;
+  FrameInputs inputs;
+  bool has_device = false;
+  Rigid3d device_from_query;  // the tracker's frame_from_query (the documented convention of poses_device.txt)
+};
+
+// What the fusion gets per frame (the evaluated frame last).
+struct FrameEvidence {
+  std::string name;
+  QueryResult to_ref;                // the frame against the reference
+  bool has_image_relation = false;   // the frame against the evaluated frame, from the images
+  bool image_relation_metric = false;
+  Rigid3d image_relation;            // frame_from_query
+  double image_relation_rot_sigma_deg = 0, image_relation_position_sigma_m = 0;  // its predicted errors
+  bool has_device = false;
+  Rigid3d device;                    // frame_from_query by the tracker
+  geometry::ScaleAnchors anchors;    // metric to_ref: its |t| as each depth map alone anchors it
+};
+
+// Fuses a window's evidence into the evaluated frame's result (its own to_ref when nothing else is usable). Pure
+// geometry: tests drive it with synthetic evidence.
+QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse use);
+
+// Relocalizes `frames` (oldest first, the evaluated frame last; 1–9 of them) against `reloc`'s reference and fuses
+// them. One frame: exactly the single-frame answer. A frame that fails (a bad file) only loses its vote; the
+// evaluated frame's error is the result when no other frame answers. `matches` (optional) receives the evaluated
+// frame's correspondences against the reference.
+QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames,
+                             matching::Correspondences* matches = nullptr);
+
+}  // namespace freeloc::pipeline

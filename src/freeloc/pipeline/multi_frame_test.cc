@@ -1,0 +1,416 @@
+// The Multi Frame track: the fusion on synthetic evidence (seeded; every device-pose variant), then whole runs on
+// rendered hand-held sequences (testing/sequence_scene.h) through the run controller and the evaluator.
+#include "freeloc/pipeline/multi_frame.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+#include "freeloc/eval/report.h"
+#include "freeloc/io/image_io.h"
+#include "freeloc/io/submission.h"
+#include "freeloc/pipeline/record.h"
+#include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/run_controller.h"
+#include "testing/sequence_scene.h"
+#include "testing/testing.h"
+
+namespace freeloc::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------------------------------------------
+// The fusion on synthetic evidence: a true pose, a 9-frame path, per-frame answers with noise and a depth-made
+// range error (`ref_scale`: shared by every frame, as a reference depth map's; `frame_sigma`: each frame's own),
+// image relations whose lengths carry the evaluated frame's depth scale (`query_scale`), device relations from a
+// tracker with 1 % scale error.
+
+struct Truth {
+  Rigid3d q_from_ref;
+  std::vector<Rigid3d> j_from_q;  // the evaluated frame's own last (identity)
+};
+
+Eigen::Vector3d RandomUnit(std::mt19937& rng) {
+  std::normal_distribution<double> g(0, 1);
+  return Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+}
+
+Rigid3d Perturb(const Rigid3d& p, double rot_deg, double t_sigma, std::mt19937& rng) {
+  std::normal_distribution<double> g(0, 1);
+  const Eigen::Quaterniond dq(Eigen::AngleAxisd(rot_deg * M_PI / 180 * g(rng), RandomUnit(rng)));
+  return Rigid3d(dq * p.rotation, p.translation + t_sigma * Eigen::Vector3d(g(rng), g(rng), g(rng)));
+}
+
+Truth MakeTruth(uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  Truth t;
+  const Eigen::Quaterniond r(Eigen::AngleAxisd(0.2 * (u(rng) - 0.5), RandomUnit(rng)));
+  const Eigen::Vector3d centre = (0.5 + 0.6 * u(rng)) * RandomUnit(rng);  // the query's centre in the reference
+  t.q_from_ref = Rigid3d(r, -(r * centre));
+  const Eigen::Vector3d v = (0.02 + 0.05 * u(rng)) * RandomUnit(rng);
+  const Eigen::Vector3d axis = RandomUnit(rng);
+  for (int k = -8; k <= 0; ++k) {
+    const Eigen::Quaterniond rk(Eigen::AngleAxisd(0.005 * k, axis));  // ≈ 0.3° per frame
+    const Eigen::Vector3d ck = v * k;                                 // frame k's centre in the query frame
+    t.j_from_q.push_back(k == 0 ? Rigid3d() : Rigid3d(rk, -(rk * ck)));
+  }
+  return t;
+}
+
+struct EvidenceOptions {
+  double ref_scale = 1, query_scale = 1, frame_sigma = 0;
+  double rot_noise_deg = 0.05, dir_noise = 0.002;  // per frame answer
+  enum Device { kNone, kDocumented, kOther, kGarbage } device = kNone;
+};
+
+std::vector<FrameEvidence> MakeEvidence(const Truth& t, const EvidenceOptions& o, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0, 1);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::mt19937 dev_rng(seed ^ 0x9e3779b9u);  // the device poses' own draws: the images' evidence stays the same
+  const Rigid3d tracker_from_ref(Eigen::Quaterniond(Eigen::AngleAxisd(6.28 * u(dev_rng), Eigen::Vector3d::UnitY())),
+                                 Eigen::Vector3d(1, 0.2, -2));
+  std::vector<FrameEvidence> ev(t.j_from_q.size());
+  for (size_t k = 0; k < ev.size(); ++k) {
+    FrameEvidence& e = ev[k];
+    e.name = "seq1/frame_0000" + std::to_string(k + 1) + ".png";
+    const Rigid3d j_from_ref = t.j_from_q[k] * t.q_from_ref;
+    Rigid3d est = Perturb(j_from_ref, o.rot_noise_deg, 0, rng);
+    const double range = j_from_ref.translation.norm() * o.ref_scale * (1 + o.frame_sigma * g(rng));
+    est.translation = range * (j_from_ref.translation.normalized() + o.dir_noise * RandomUnit(rng)).normalized();
+    e.to_ref.status = QueryStatus::kOk;
+    e.to_ref.query_from_ref = est;
+    e.to_ref.predicted_translation_m = 0.02 * range;
+    e.to_ref.predicted_rotation_deg = 0.1;
+    e.to_ref.confidence = 5;
+    const bool self = k + 1 == ev.size();
+    if (!self) {
+      e.has_image_relation = true;
+      e.image_relation_metric = true;
+      e.image_relation = Perturb(t.j_from_q[k], 0.05, 0.002, rng);
+      e.image_relation.translation *= o.query_scale;
+      e.image_relation_rot_sigma_deg = 0.05;
+      e.image_relation_position_sigma_m = 0.003 + 0.05 * t.j_from_q[k].translation.norm();
+    }
+    if (o.device != EvidenceOptions::kNone) {
+      e.has_device = true;
+      if (self) continue;  // the identity
+      if (o.device == EvidenceOptions::kDocumented) {
+        e.device = Perturb(t.j_from_q[k], 0.03, 0.002, dev_rng);
+        e.device.translation *= 1.01;
+      } else if (o.device == EvidenceOptions::kOther) {
+        const Rigid3d Pq = t.q_from_ref * tracker_from_ref.Inverse(), Pj = j_from_ref * tracker_from_ref.Inverse();
+        e.device = Pq.Inverse() * Pj;
+      } else {
+        e.device = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.3 * u(dev_rng), RandomUnit(dev_rng))),
+                           0.4 * u(dev_rng) * RandomUnit(dev_rng));
+      }
+    }
+  }
+  return ev;
+}
+
+double CentreError(const QueryResult& r, const Truth& t) {
+  return (r.query_from_ref.Center() - t.q_from_ref.Center()).norm();
+}
+
+// Medians over held-out seeds of the single frame's and the fused answer's camera-centre errors.
+struct Study {
+  double single = 0, fused = 0;
+  int device_used = 0;
+};
+
+Study RunStudy(const EvidenceOptions& base, DevicePoseUse use, uint32_t first_seed, int n = 40) {
+  std::vector<double> single, fused;
+  Study s;
+  std::mt19937 rng(first_seed);
+  std::normal_distribution<double> g(0, 1);
+  for (int i = 0; i < n; ++i) {
+    const uint32_t seed = first_seed + 101u * static_cast<uint32_t>(i);
+    const Truth t = MakeTruth(seed);
+    EvidenceOptions o = base;
+    // A monocular-like study draws each window's map scales (the reference's and the evaluated frame's).
+    if (base.ref_scale != 1) o.ref_scale = std::exp(0.2 * g(rng)), o.query_scale = std::exp(0.2 * g(rng));
+    const auto ev = MakeEvidence(t, o, seed + 7);
+    const QueryResult r = FuseWindow(ev, use);
+    EXPECT_TRUE(r.ok()) << seed;
+    EXPECT_TRUE(std::isfinite(r.confidence) && r.confidence > 0) << seed;
+    single.push_back(CentreError(ev.back().to_ref, t));
+    fused.push_back(CentreError(r, t));
+    s.device_used += r.window.device.rfind("used", 0) == 0;
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  s.single = median(single);
+  s.fused = median(fused);
+  return s;
+}
+
+TEST(FuseWindow, MonocularDepthWithTrustworthyDevicePosesHalvesTheError) {
+  EvidenceOptions o;
+  o.ref_scale = 1.2;  // drawn per window by RunStudy
+  o.frame_sigma = 0.1;
+  o.device = EvidenceOptions::kDocumented;
+  const Study s = RunStudy(o, DevicePoseUse::kAuto, 5001);
+  EXPECT_EQ(s.device_used, 40);
+  EXPECT_LE(s.fused, 0.5 * s.single) << s.fused << " vs " << s.single;
+}
+
+TEST(FuseWindow, MonocularDepthWithoutDevicePosesStillGains) {
+  EvidenceOptions o;
+  o.ref_scale = 1.2;
+  o.frame_sigma = 0.1;
+  const Study s = RunStudy(o, DevicePoseUse::kAuto, 6001);
+  EXPECT_LE(s.fused, 0.9 * s.single) << s.fused << " vs " << s.single;
+}
+
+TEST(FuseWindow, DevicePosesInAnotherConventionOrGarbageAreIgnored) {
+  for (auto kind : {EvidenceOptions::kOther, EvidenceOptions::kGarbage}) {
+    EvidenceOptions o;
+    o.ref_scale = 1.2;
+    o.frame_sigma = 0.1;
+    o.device = kind;
+    const Study s = RunStudy(o, DevicePoseUse::kAuto, 7001);
+    EvidenceOptions without = o;
+    without.device = EvidenceOptions::kNone;
+    const Study images = RunStudy(without, DevicePoseUse::kAuto, 7001);
+    // A tracker world whose heading happens to match the cameras' (within ~10°: 3 of these 40 windows) makes the
+    // other convention nearly the documented one, and the check lets it through; otherwise it is refused. The
+    // answers stay as good as the images' alone (within 2 %).
+    EXPECT_LE(s.device_used, kind == EvidenceOptions::kGarbage ? 0 : 4) << kind;
+    EXPECT_LE(s.fused, images.fused * 1.02) << kind;
+    // The same windows without device poses: identical answers.
+    EvidenceOptions none = o;
+    none.device = EvidenceOptions::kNone;
+    for (uint32_t seed : {7001u, 7102u, 7203u}) {
+      const Truth t = MakeTruth(seed);
+      const QueryResult a = FuseWindow(MakeEvidence(t, o, seed + 7), DevicePoseUse::kAuto);
+      const QueryResult b = FuseWindow(MakeEvidence(t, none, seed + 7), DevicePoseUse::kAuto);
+      EXPECT_EQ(a.query_from_ref.translation, b.query_from_ref.translation) << kind << " " << seed;
+      EXPECT_EQ(a.window.device.rfind("ignored", 0), 0u) << a.window.device;
+    }
+  }
+}
+
+TEST(FuseWindow, ExactDepthKeepsTheSingleFramesAccuracy) {
+  EvidenceOptions o;  // no scale error anywhere: the per-frame noise only
+  o.frame_sigma = 0.01;
+  for (auto device : {EvidenceOptions::kNone, EvidenceOptions::kDocumented}) {
+    o.device = device;
+    const Study s = RunStudy(o, DevicePoseUse::kAuto, 8001);
+    EXPECT_LE(s.fused, 1.05 * s.single) << device << ": " << s.fused << " vs " << s.single;
+  }
+}
+
+TEST(FuseWindow, AFrameThatDisagreesLosesItsVote) {
+  const Truth t = MakeTruth(9001);
+  EvidenceOptions o;
+  auto ev = MakeEvidence(t, o, 9008);
+  const QueryResult clean = FuseWindow(ev, DevicePoseUse::kAuto);
+  // Frame 2 answers with a rotation 20° off, frame 5 with a ray 30° off.
+  ev[2].to_ref.query_from_ref.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(20 * M_PI / 180, Eigen::Vector3d::UnitY())) * ev[2].to_ref.query_from_ref.rotation;
+  ev[5].to_ref.query_from_ref.translation =
+      Eigen::AngleAxisd(30 * M_PI / 180, Eigen::Vector3d::UnitX()) * ev[5].to_ref.query_from_ref.translation;
+  const QueryResult r = FuseWindow(ev, DevicePoseUse::kAuto);
+  EXPECT_FALSE(r.window.votes[2].used);
+  EXPECT_FALSE(r.window.votes[5].used);
+  EXPECT_EQ(r.window.used, 7);
+  EXPECT_LT(CentreError(r, t), CentreError(clean, t) + 0.01);
+  EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, t.q_from_ref.rotation), 0.2);
+}
+
+TEST(FuseWindow, TheEvaluatedFrameFailsButItsWindowAnswers) {
+  const Truth t = MakeTruth(9101);
+  auto ev = MakeEvidence(t, EvidenceOptions{}, 9108);
+  ev.back().to_ref = QueryResult();
+  ev.back().to_ref.status = QueryStatus::kNoConsensus;
+  const QueryResult r = FuseWindow(ev, DevicePoseUse::kAuto);
+  EXPECT_EQ(r.status, QueryStatus::kOk);
+  EXPECT_LT(CentreError(r, t), 0.05);
+  EXPECT_EQ(r.window.used, 8);
+  // Nothing answered: the evaluated frame's own failure.
+  for (auto& e : ev) e.to_ref.status = QueryStatus::kNoConsensus;
+  EXPECT_EQ(FuseWindow(ev, DevicePoseUse::kAuto).status, QueryStatus::kNoConsensus);
+}
+
+TEST(FuseWindow, DevicePosesNotAnchoredAtTheEvaluatedFrameAreRefused) {
+  const Truth t = MakeTruth(9201);
+  EvidenceOptions o;
+  o.device = EvidenceOptions::kDocumented;
+  auto ev = MakeEvidence(t, o, 9208);
+  EXPECT_EQ(FuseWindow(ev, DevicePoseUse::kUse).window.device, "used");
+  ev.back().device.translation = Eigen::Vector3d(0.1, 0, 0);
+  const QueryResult r = FuseWindow(ev, DevicePoseUse::kUse);
+  EXPECT_NE(r.window.device.find("not the identity"), std::string::npos) << r.window.device;
+  EXPECT_EQ(FuseWindow(ev, DevicePoseUse::kIgnore).window.device, "off");
+}
+
+TEST(FuseWindow, TheWindowsAccountSurvivesTheRecord) {
+  const Truth t = MakeTruth(9301);
+  EvidenceOptions o;
+  o.device = EvidenceOptions::kGarbage;
+  const QueryResult r = FuseWindow(MakeEvidence(t, o, 9308), DevicePoseUse::kAuto);
+  ASSERT_EQ(r.window.votes.size(), 9u);
+  const QueryResult back = QueryResultFromJson(QueryRecordJson("s00000", r));
+  EXPECT_EQ(back.window.frames, 9);
+  EXPECT_EQ(back.window.used, r.window.used);
+  EXPECT_EQ(back.window.device, r.window.device);
+  EXPECT_EQ(back.window.scale, r.window.scale);
+  EXPECT_EQ(back.window.rig_distance_m, r.window.rig_distance_m);
+  for (size_t k = 0; k < 9; ++k) {
+    EXPECT_EQ(back.window.votes[k].frame, r.window.votes[k].frame);
+    EXPECT_EQ(back.window.votes[k].relation, r.window.votes[k].relation);
+    EXPECT_EQ(back.window.votes[k].used, r.window.votes[k].used);
+    EXPECT_EQ(back.window.votes[k].rotation_dev_deg, r.window.votes[k].rotation_dev_deg);
+  }
+  EXPECT_EQ(back.query_from_ref.translation, r.query_from_ref.translation);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Whole runs on rendered sequences.
+
+std::vector<Image> Photos() {
+  std::vector<Image> photos;
+  for (const char* p : {"s00001/seq0/frame_00000.png", "s00002/seq0/frame_00000.png", "s00003/seq0/frame_00000.png",
+                        "s00003/seq1/frame_00000.png"})
+    photos.push_back(ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
+  return photos;
+}
+
+// Two scenes of two windows (+ 2 trailing frames), 240×320.
+std::vector<std::vector<std::string>> WriteSequences(const std::string& split, uint32_t seed) {
+  testing::SequenceOptions so;
+  so.windows = 2;
+  so.width = 240;
+  so.height = 320;
+  std::vector<std::vector<std::string>> names;
+  const auto photos = Photos();
+  for (int s = 0; s < 2; ++s)
+    names.push_back(testing::WriteSequenceScene(split + "/s0000" + std::to_string(s), seed + 17u * s, photos, so));
+  return names;
+}
+
+PipelineOptions MultiFrameOptions(const std::string& depth, int frames, const std::string& device) {
+  PipelineOptions o = ResolvePreset("sift-essential");
+  o.depth = DepthSpec::FromString("provided:" + depth);
+  SetOption(&o, "track", "multi-frame");
+  SetOption(&o, "frames", std::to_string(frames));
+  SetOption(&o, "device_poses", device);
+  return o;
+}
+
+RunResult RunSplit(const std::string& split, const std::string& out, const PipelineOptions& o) {
+  RunSpec spec;
+  spec.data = split;
+  spec.out = out;
+  spec.progress_bar = false;
+  return ExecuteRun(spec, o);
+}
+
+TEST(MultiFrameRun, OneLinePerEvaluatedFrameAndNothingOutsideTheWindowsIsRead) {
+  testing::TempDir tmp;
+  const std::string split = tmp.path() + "/val";
+  const auto names = WriteSequences(split, 424242);
+  const PipelineOptions o = MultiFrameOptions("exact", 9, "auto");
+  const RunResult a = RunSplit(split, tmp.File("a.zip"), o);
+  for (int s = 0; s < 2; ++s) {
+    const std::string scene = "s0000" + std::to_string(s);
+    const auto& res = a.results.at(scene);
+    ASSERT_EQ(res.size(), 2u);
+    EXPECT_EQ(res[0].frame, names[s][9]);
+    EXPECT_EQ(res[1].frame, names[s][19]);
+    for (const auto& r : res) {
+      EXPECT_TRUE(r.ok()) << r.frame;
+      EXPECT_EQ(r.window.frames, 9);
+      EXPECT_EQ(r.window.votes.front().frame, names[s][r.frame == names[s][9] ? 1 : 11]);
+    }
+  }
+  const ZipContents za = ZipContents::Read(tmp.File("a.zip"));
+  // Frames at linear positions 0, 10 and the trailing ones replaced by noise (images and depth maps): the same bytes.
+  std::mt19937 rng(5);
+  for (int s = 0; s < 2; ++s)
+    for (size_t pos : {size_t{0}, size_t{10}, size_t{20}, size_t{21}}) {
+      const std::string dir = split + "/s0000" + std::to_string(s) + "/";
+      Image noise(240, 320);
+      for (auto& v : noise.data) v = static_cast<uint8_t>(rng());
+      WriteImagePng(dir + names[s][pos], noise);
+      const std::string stem = dir + names[s][pos].substr(0, names[s][pos].size() - 4);
+      testing::WriteText(stem + ".exact.png", "not a png");
+    }
+  RunSplit(split, tmp.File("b.zip"), o);
+  const ZipContents zb = ZipContents::Read(tmp.File("b.zip"));
+  EXPECT_EQ(za.files, zb.files);
+  // Interrupted after the first scene and resumed: the same bytes (the window records go through the journal).
+  {
+    RunSpec spec;
+    spec.data = split;
+    spec.out = tmp.File("r.zip");
+    spec.progress_bar = false;
+    spec.on_progress = [](int64_t done, int64_t) {
+      if (done == 3) throw std::runtime_error("interrupted");
+    };
+    EXPECT_THROW(ExecuteRun(spec, o), std::runtime_error);
+    ASSERT_TRUE(fs::exists(tmp.File("r.zip.progress.jsonl")));
+    spec.on_progress = nullptr;
+    spec.resume = true;
+    const RunResult resumed = ExecuteRun(spec, o);
+    EXPECT_EQ(resumed.resumed_scenes, 1u);
+    EXPECT_EQ(ZipContents::Read(tmp.File("r.zip")).files, zb.files);
+    EXPECT_EQ(resumed.results.at("s00000")[1].window.votes.size(), 9u);
+  }
+  // --frames 1 is the single-frame answer on the same frames.
+  const RunResult one = RunSplit(split, tmp.File("one.zip"), MultiFrameOptions("exact", 1, "auto"));
+  PipelineOptions single = ResolvePreset("sift-essential");
+  single.depth = DepthSpec::FromString("provided:exact");
+  Relocalizer reloc(single);
+  const MapfreeScene sc = MapfreeScene::Load(split + "/s00000");
+  reloc.SetReference(sc.LoadImage(sc.reference), sc.reference.camera, sc.LoadDepth(sc.reference, "exact"));
+  for (const auto& r : one.results.at("s00000")) {
+    const MapfreeFrame* f = nullptr;
+    for (const auto& q : sc.queries)
+      if (q.name == r.frame) f = &q;
+    ASSERT_NE(f, nullptr);
+    const QueryResult s = reloc.Relocalize(sc.LoadImage(*f), f->camera, sc.LoadDepth(*f, "exact"));
+    EXPECT_EQ(s.query_from_ref.translation, r.query_from_ref.translation) << r.frame;
+    EXPECT_EQ(s.confidence, r.confidence);
+  }
+}
+
+TEST(MultiFrameRun, EvalScoresTheEvaluatedFramesAsAnIndependentComputation) {
+  testing::TempDir tmp;
+  const std::string split = tmp.path() + "/val";
+  const auto names = WriteSequences(split, 515151);
+  const RunResult r = RunSplit(split, tmp.File("m.zip"), MultiFrameOptions("degraded8", 9, "ignore"));
+  const eval::EvalRun run = eval::RunEvaluation(split, r.scenes, tmp.File("m.zip"), Track::kMultiFrame);
+  // Independently: the camera-centre and rotation errors of the frames at linear positions 9 and 19, the median per
+  // scene, the average of the medians (two frames per scene: the mean of the two).
+  double sum_t = 0, sum_r = 0;
+  int ok = 0;
+  for (int s = 0; s < 2; ++s) {
+    const std::string scene = "s0000" + std::to_string(s);
+    const MapfreeScene& sc = r.loaded.at(scene);
+    std::vector<double> te, re;
+    for (const auto& q : r.results.at(scene)) {
+      const Rigid3d& gt = sc.gt.at(q.frame);
+      te.push_back((q.query_from_ref.Center() - gt.Center()).norm());
+      re.push_back(RotationAngleDeg(q.query_from_ref.rotation, gt.rotation));
+      ok += te.back() < 0.25 && re.back() < 5;
+    }
+    ASSERT_EQ(te.size(), 2u);
+    sum_t += 0.5 * (te[0] + te[1]);
+    sum_r += 0.5 * (re[0] + re[1]);
+  }
+  EXPECT_NEAR(run.overall.avg_median_trans, sum_t / 2, 1e-5);
+  EXPECT_NEAR(run.overall.avg_median_rot, sum_r / 2, 1e-4);
+  EXPECT_NEAR(run.overall.precision_pose, ok / 4.0, 1e-12);
+  EXPECT_EQ(run.overall.estimates + run.overall.failures, 4);
+}
+
+}  // namespace
+}  // namespace freeloc::pipeline
