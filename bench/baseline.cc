@@ -80,13 +80,6 @@ struct AllQueries {
   }
 };
 
-std::vector<std::string> Split(const std::string& s) {
-  std::vector<std::string> v;
-  std::stringstream ss(s);
-  for (std::string x; std::getline(ss, x, ',');)
-    if (!x.empty()) v.push_back(x);
-  return v;
-}
 
 }  // namespace
 
@@ -113,9 +106,7 @@ int main(int argc, char** argv) {
   if (split.empty()) {
     split = keep.empty() ? tmp + "/val" : keep;
     std::vector<Image> photos;
-    for (const char* p : {"s00001/seq0/frame_00000.png", "s00001/seq1/frame_00002.png", "s00001/seq1/frame_00004.png",
-                          "s00002/seq0/frame_00000.png", "s00003/seq0/frame_00000.png", "s00003/seq1/frame_00000.png",
-                          "s00001/seq1/frame_00000.png"})
+    for (const std::string& p : bench::DemoTexturePhotos())
       photos.push_back(ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
     const double t0 = bench::NowSeconds();
     for (int s = 0; s < n_scenes; ++s) {
@@ -155,7 +146,7 @@ int main(int argc, char** argv) {
   bench::MarkdownTable speed({"depth", "method", "queries", "median ms / query", "mean ms / query"});
   bench::MarkdownTable every({"depth", "method", "median t err (m)", "p90 t err (m)", "median R err (°)",
                               "precision (25 cm, 5°)", "AUC (25 cm, 5°)", "failures", "answered (conf 0)"});
-  for (const std::string& depth : Split(depths)) {
+  for (const std::string& depth : bench::SplitList(depths)) {
     const size_t nm = methods.size();
     std::map<std::string, std::vector<SubmissionEntry>> sub_official;
     std::vector<std::map<std::string, std::vector<SubmissionEntry>>> sub_freeloc(nm);

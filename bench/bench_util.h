@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,24 @@ inline std::string MachineLine() {
   }
   return "CPU: " + model + " (" + std::to_string(n) + " threads; " + isa + ") · BLAS: " +
          (blas.empty() ? "none loaded by this program" : blas);
+}
+
+// "a,b,,c" → {"a", "b", "c"} (the benchmarks' comma-separated flags).
+inline std::vector<std::string> SplitList(const std::string& s) {
+  std::vector<std::string> v;
+  std::stringstream ss(s);
+  for (std::string x; std::getline(ss, x, ',');)
+    if (!x.empty()) v.push_back(x);
+  return v;
+}
+
+// The bundled TUM photos (data/demo/val/…) that texture the synthetic rooms of bench/baseline and bench/multiframe.
+inline const std::vector<std::string>& DemoTexturePhotos() {
+  static const std::vector<std::string> paths = {
+      "s00001/seq0/frame_00000.png", "s00001/seq1/frame_00002.png", "s00001/seq1/frame_00004.png",
+      "s00002/seq0/frame_00000.png", "s00003/seq0/frame_00000.png", "s00003/seq1/frame_00000.png",
+      "s00001/seq1/frame_00000.png"};
+  return paths;
 }
 
 inline double NowSeconds() {

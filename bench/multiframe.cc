@@ -27,13 +27,6 @@ using freeloc::bench::Fmt;
 
 namespace {
 
-std::vector<std::string> Split(const std::string& s) {
-  std::vector<std::string> v;
-  std::stringstream ss(s);
-  for (std::string x; std::getline(ss, x, ',');)
-    if (!x.empty()) v.push_back(x);
-  return v;
-}
 
 struct Variant {
   const char* name;
@@ -71,9 +64,7 @@ int main(int argc, char** argv) {
   std::printf("## bench/multiframe — the Multi Frame track: window fusion vs the single-frame answer\n\n");
   std::printf("%s\n\n", bench::MachineLine().c_str());
   std::vector<Image> photos;
-  for (const char* p : {"s00001/seq0/frame_00000.png", "s00001/seq1/frame_00002.png", "s00001/seq1/frame_00004.png",
-                        "s00002/seq0/frame_00000.png", "s00003/seq0/frame_00000.png", "s00003/seq1/frame_00000.png",
-                        "s00001/seq1/frame_00000.png"})
+  for (const std::string& p : bench::DemoTexturePhotos())
     photos.push_back(ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
   testing::SequenceOptions so;
   so.windows = windows;
@@ -111,7 +102,7 @@ int main(int argc, char** argv) {
   };
   bench::MarkdownTable table({"depth", "variant", "median t err (m)", "× single", "p90 t err (m)", "median R err (°)",
                               "precision (25 cm, 5°)", "evaluated", "device used (windows)", "s / evaluated query"});
-  for (const std::string& depth : Split(depths)) {
+  for (const std::string& depth : bench::SplitList(depths)) {
     std::vector<eval::EvalRun> reports;
     double single_median = 0;
     for (const Variant& v : variants) {

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -253,20 +254,10 @@ class PyRelocalizer {
     in_ref.depth = DepthOf(depth_ref, "depth_ref");
     in_query.depth = DepthOf(depth_query, "depth_query");
     // As `freeloc relocalize`: no depth given and none overridden → the provided-depth presets answer without depth.
-    const bool no_depth = in_ref.depth.empty() && in_query.depth.empty() && !depth_overridden_ &&
-                          options_.UsesProvidedDepth();
-    PoseResult p;
-    p.options = options_;
-    if (no_depth) p.options.depth = pipeline::DepthSpec::FromString("none");
-    pipeline::Relocalizer& reloc = Get(no_depth);
-    matching::Correspondences c;
-    {
-      py::gil_scoped_release nogil;
-      if (!SameReference(no_depth, ri, kr, in_ref)) reloc.SetReference(ri, kr, std::move(in_ref));
-      p.r = reloc.Relocalize(qi, kq, std::move(in_query), &c);
-    }
-    p.n = c.size();
-    return p;
+    const bool any_depth = !in_ref.depth.empty() || !in_query.depth.empty();
+    return Answer(any_depth, ri, kr, std::move(in_ref), [&](pipeline::Relocalizer& reloc, matching::Correspondences* c) {
+      return reloc.Relocalize(qi, kq, std::move(in_query), c);
+    });
   }
 
   // The Multi Frame track's query: `frames` oldest first, the evaluated frame last (1–9); per frame its K (or one
@@ -324,19 +315,9 @@ class PyRelocalizer {
         f.device_from_query = Rigid3d(R, t);
       }
     }
-    const bool no_depth = !any_depth && !depth_overridden_ && options_.UsesProvidedDepth();
-    PoseResult p;
-    p.options = options_;
-    if (no_depth) p.options.depth = pipeline::DepthSpec::FromString("none");
-    pipeline::Relocalizer& reloc = Get(no_depth);
-    matching::Correspondences c;
-    {
-      py::gil_scoped_release nogil;
-      if (!SameReference(no_depth, ri, kr, in_ref)) reloc.SetReference(ri, kr, std::move(in_ref));
-      p.r = pipeline::RelocalizeWindow(reloc, std::move(window), &c);
-    }
-    p.n = c.size();
-    return p;
+    return Answer(any_depth, ri, kr, std::move(in_ref), [&](pipeline::Relocalizer& reloc, matching::Correspondences* c) {
+      return pipeline::RelocalizeWindow(reloc, std::move(window), c);
+    });
   }
 
   const pipeline::PipelineOptions& options() const { return options_; }
@@ -359,6 +340,26 @@ class PyRelocalizer {
                "); pass " + k_name + " (3x3) or use a dust3r or mast3r preset (they estimate the focal from the "
                "pointmap)");
     return pipeline::ApplyIntrinsics(c, in);
+  }
+
+  // The reference set (its work redone only when it changed), then `query` on the relocalizer, without the GIL.
+  // Without any depth given and none overridden the provided-depth presets answer without depth, as `freeloc
+  // relocalize` does.
+  PoseResult Answer(bool any_depth, const Image& ri, const Camera& kr, pipeline::FrameInputs in_ref,
+                    const std::function<pipeline::QueryResult(pipeline::Relocalizer&, matching::Correspondences*)>& query) {
+    const bool no_depth = !any_depth && !depth_overridden_ && options_.UsesProvidedDepth();
+    PoseResult p;
+    p.options = options_;
+    if (no_depth) p.options.depth = pipeline::DepthSpec::FromString("none");
+    pipeline::Relocalizer& reloc = Get(no_depth);
+    matching::Correspondences c;
+    {
+      py::gil_scoped_release nogil;
+      if (!SameReference(no_depth, ri, kr, in_ref)) reloc.SetReference(ri, kr, std::move(in_ref));
+      p.r = query(reloc, &c);
+    }
+    p.n = c.size();
+    return p;
   }
 
   struct Slot {

@@ -250,6 +250,19 @@ DepthMap ProvidedDepthOf(const MapfreeScene& scene, const MapfreeFrame& f, const
   return scene.LoadDepth(f, o.depth.suffix);
 }
 
+// A query that failed on an exception (a damaged image or depth map, a network error): status error naming the
+// file, logged, answered as an unsolved query is.
+QueryResult FailedQuery(const MapfreeScene& scene, const MapfreeFrame& f, const std::exception& e,
+                        const PipelineOptions& o) {
+  QueryResult r;
+  r.status = QueryStatus::kError;
+  r.message = ErrorMessage(e, scene.FramePath(f));
+  r.frame = f.name;
+  FREELOC_LOG(WARNING) << scene.name << "/" << f.name << ": " << r.message;
+  AnswerUnsolved(o, &r);
+  return r;
+}
+
 // The scene's device poses for the Multi Frame track: empty when off, absent or unreadable (said once per scene).
 std::map<std::string, Rigid3d> SceneDevicePoses(const MapfreeScene& scene, const PipelineOptions& o) {
   if (o.device_poses == DevicePoseUse::kIgnore) return {};
@@ -297,14 +310,8 @@ std::vector<QueryResult> RelocalizeWindows(const MapfreeScene& scene, Relocalize
       } catch (const std::exception& e) {
         // A damaged window frame loses its vote; a damaged evaluated frame is the query's error.
         if (i == win.evaluated) {
-          QueryResult r;
-          r.status = QueryStatus::kError;
-          r.message = ErrorMessage(e, scene.FramePath(f));
-          r.frame = q.name;
-          FREELOC_LOG(WARNING) << scene.name << "/" << q.name << ": " << r.message;
-          AnswerUnsolved(o, &r);
           frames.clear();
-          out.push_back(r);
+          out.push_back(FailedQuery(scene, q, e, o));
           break;
         }
         FREELOC_LOG(WARNING) << scene.name << "/" << f.name << ": " << ErrorMessage(e, scene.FramePath(f))
@@ -323,11 +330,7 @@ std::vector<QueryResult> RelocalizeWindows(const MapfreeScene& scene, Relocalize
     try {
       r = RelocalizeWindow(reloc, std::move(frames), on_matches ? &c : nullptr);
     } catch (const std::exception& e) {
-      r = QueryResult();
-      r.status = QueryStatus::kError;
-      r.message = ErrorMessage(e, scene.FramePath(q));
-      FREELOC_LOG(WARNING) << scene.name << "/" << q.name << ": " << r.message;
-      AnswerUnsolved(o, &r);
+      r = FailedQuery(scene, q, e, o);
     }
     r.frame = q.name;
     if (!r.window.empty() && r.window.device.rfind("ignored", 0) == 0)
@@ -383,12 +386,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
       in.correspondences = pre.empty() ? nullptr : &pre[i];
       r = reloc.Relocalize(scene.LoadImage(q), q.camera, std::move(in), on_matches ? &c : nullptr);
     } catch (const std::exception& e) {
-      // A bad query (corrupt image or depth, a network error) fails alone; the run goes on.
-      r = QueryResult();
-      r.status = QueryStatus::kError;
-      r.message = ErrorMessage(e, scene.FramePath(q));
-      FREELOC_LOG(WARNING) << scene.name << "/" << q.name << ": " << r.message;
-      AnswerUnsolved(o, &r);
+      r = FailedQuery(scene, q, e, o);  // a bad query fails alone; the run goes on
     }
     r.frame = q.name;
     if (on_matches) on_matches(r, c);
