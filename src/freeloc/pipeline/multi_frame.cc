@@ -340,21 +340,32 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
     // alone. Their spread measures how good a map of this kind is; when they scatter beyond what good maps do (a
     // monocular map's scale is off by its own amount in every frame), their mean — an error shrinking with the
     // number of frames — is weighed against the reference map's anchoring (assumed as good as one query map).
-    std::vector<double> lq;
+    std::vector<double> lq, lever;  // lever: how much of a relation's scale error reaches the distance (|c|/ρ)
     for (const Vote& v : kept)
-      if (v.metric_relation && v.query_anchor > 0) lq.push_back(std::log((v.c + v.query_anchor * v.d).norm()));
+      if (v.metric_relation && v.query_anchor > 0) {
+        const double rho = (v.c + v.query_anchor * v.d).norm();
+        lq.push_back(std::log(rho));
+        lever.push_back(v.c.norm() / rho);
+      }
     if (lq.size() >= 3) {
-      const geometry::TrimmedMeanResult tq = geometry::TrimmedMean(lq, 0.01);
       std::vector<double> dq;
       const double mq = Median(lq);
       for (double l : lq) dq.push_back(std::abs(l - mq));
       const double per_map = 1.4826 * Median(dq);
       if (per_map > kConsistentMapSpread) {
+        // Each frame's own-map distance: its map's error, plus its relation's scale error (a depth map's too) times
+        // its lever; frames far off the median are left out.
+        double sw = 0, swl = 0;
+        for (size_t i = 0; i < lq.size(); ++i) {
+          if (dq[i] > 3 * per_map) continue;
+          const double var = per_map * per_map * (1 + lever[i] * lever[i]);
+          sw += 1 / var, swl += lq[i] / var;
+        }
         const Vote* self = !kept.empty() && kept.back().k == qi ? &kept.back() : nullptr;
         const double lr = self && self->ref_anchor > 0 ? std::log(self->ref_anchor) : dep_log;
-        const double vr = per_map * per_map, vq = per_map * per_map / tq.kept;
-        dep_log = (lr / vr + tq.mean / vq) / (1 / vr + 1 / vq);
-        dep_sigma0 = std::max(kMinRelSigma, 1 / std::sqrt(1 / vr + 1 / vq));
+        const double vr = per_map * per_map;
+        dep_log = (lr / vr + swl) / (1 / vr + sw);
+        dep_sigma0 = std::max(kMinRelSigma, 1 / std::sqrt(1 / vr + sw));
       }
     }
     w.depth_distance_m = std::exp(dep_log);

@@ -64,6 +64,11 @@ struct EvidenceOptions {
   double ref_scale = 1, query_scale = 1, frame_sigma = 0;
   double rot_noise_deg = 0.05, dir_noise = 0.002;  // per frame answer
   enum Device { kNone, kDocumented, kOther, kGarbage } device = kNone;
+  // The anchored scale's two halves per frame (geometry::AnchorScales): the reference map's anchoring off by
+  // log(ref_scale), each frame's own map by its own N(0, map_sigma); the answer is their geometric mean.
+  bool anchors = false;
+  double map_sigma = 0.2;
+  double relation_position_sigma = -1;  // ≥ 0: the image relations' predicted position error (else 3 mm + 5 %)
 };
 
 std::vector<FrameEvidence> MakeEvidence(const Truth& t, const EvidenceOptions& o, uint32_t seed) {
@@ -79,7 +84,14 @@ std::vector<FrameEvidence> MakeEvidence(const Truth& t, const EvidenceOptions& o
     e.name = "seq1/frame_0000" + std::to_string(k + 1) + ".png";
     const Rigid3d j_from_ref = t.j_from_q[k] * t.q_from_ref;
     Rigid3d est = Perturb(j_from_ref, o.rot_noise_deg, 0, rng);
-    const double range = j_from_ref.translation.norm() * o.ref_scale * (1 + o.frame_sigma * g(rng));
+    double range = j_from_ref.translation.norm() * o.ref_scale * (1 + o.frame_sigma * g(rng));
+    if (o.anchors) {
+      const double truth = j_from_ref.translation.norm(), e_q = o.map_sigma * g(rng);
+      e.anchors.log_ref = std::log(truth * o.ref_scale);
+      e.anchors.log_query = std::log(truth) + e_q;
+      e.anchors.kept_ref = e.anchors.kept_query = 50;
+      range = std::exp(0.5 * (e.anchors.log_ref + e.anchors.log_query));
+    }
     est.translation = range * (j_from_ref.translation.normalized() + o.dir_noise * RandomUnit(rng)).normalized();
     e.to_ref.status = QueryStatus::kOk;
     e.to_ref.query_from_ref = est;
@@ -93,7 +105,9 @@ std::vector<FrameEvidence> MakeEvidence(const Truth& t, const EvidenceOptions& o
       e.image_relation = Perturb(t.j_from_q[k], 0.05, 0.002, rng);
       e.image_relation.translation *= o.query_scale;
       e.image_relation_rot_sigma_deg = 0.05;
-      e.image_relation_position_sigma_m = 0.003 + 0.05 * t.j_from_q[k].translation.norm();
+      e.image_relation_position_sigma_m = o.relation_position_sigma >= 0
+                                              ? o.relation_position_sigma
+                                              : 0.003 + 0.05 * t.j_from_q[k].translation.norm();
     }
     if (o.device != EvidenceOptions::kNone) {
       e.has_device = true;
@@ -167,6 +181,22 @@ TEST(FuseWindow, MonocularDepthWithoutDevicePosesStillGains) {
   o.frame_sigma = 0.1;
   const Study s = RunStudy(o, DevicePoseUse::kAuto, 6001);
   EXPECT_LE(s.fused, 0.9 * s.single) << s.fused << " vs " << s.single;
+}
+
+TEST(FuseWindow, EachFramesOwnDepthMapIsIndependentEvidence) {
+  // Monocular-like maps, every one off by its own amount (the reference's too): the frames' own-map anchorings
+  // average out what the reference map alone cannot.
+  EvidenceOptions o;
+  o.ref_scale = 1.2;  // drawn per window by RunStudy (σ 0.2 in log)
+  o.anchors = true;
+  o.relation_position_sigma = 0.5;  // relations too loose for a rig: the maps alone must make the gain
+  const Study s = RunStudy(o, DevicePoseUse::kAuto, 6501);
+  EXPECT_LE(s.fused, 0.8 * s.single) << s.fused << " vs " << s.single;
+  // Good maps (1 % each): the single frame's answer is kept to within its noise.
+  o.ref_scale = 1;
+  o.map_sigma = 0.005;
+  const Study good = RunStudy(o, DevicePoseUse::kAuto, 6501);
+  EXPECT_LE(good.fused, 1.05 * good.single + 1e-3) << good.fused << " vs " << good.single;
 }
 
 TEST(FuseWindow, DevicePosesInAnotherConventionOrGarbageAreIgnored) {
