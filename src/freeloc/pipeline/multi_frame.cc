@@ -26,7 +26,7 @@ constexpr double kTrustFraction = 0.6;
 // Relative scale uncertainty of a tracker's metric baseline (visual-inertial odometry drifts by a few per cent), and
 // the rotation and position uncertainty of one of its relations within a window.
 constexpr double kTrackerScaleSigma = 0.02;
-constexpr double kDeviceRotationSigmaDeg = 0.1, kDevicePositionSigmaM = 0.005;
+constexpr double kDeviceRotationSigmaDeg = 0.3, kDevicePositionSigmaM = 0.005;
 // Floor of a frame's own predicted rotation error (a vote is never taken as exact).
 constexpr double kMinRotationSigmaDeg = 0.01;
 // The frames' own-map distances of good depth maps scatter by the relations' noise (about 1 %); beyond 3 % the maps
