@@ -66,9 +66,9 @@ int main(int argc, char** argv) {
   std::vector<Image> photos;
   for (const std::string& p : bench::DemoTexturePhotos())
     photos.push_back(ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
-  testing::SequenceOptions so;
+  freeloc::testing::SequenceOptions so;
   so.windows = windows;
-  if (hard) so.difficulty = testing::SceneDifficulty::Hard();
+  if (hard) so.difficulty = freeloc::testing::SceneDifficulty::Hard();
   const double t0 = bench::NowSeconds();
   std::vector<std::string> scenes;
   for (int s = 0; s < n_scenes; ++s) {
@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
     scenes.push_back(name);
     const std::string dir = split + "/" + name;
     if (!fs::exists(dir + "/poses.txt"))
-      testing::WriteSequenceScene(dir, seed + 17u * static_cast<uint32_t>(s), photos, so);
+      freeloc::testing::WriteSequenceScene(dir, seed + 17u * static_cast<uint32_t>(s), photos, so);
     if (!fs::exists(dir + "/poses_device.documented.txt"))
       fs::copy_file(dir + "/poses_device.txt", dir + "/poses_device.documented.txt");
   }

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "testing/mapfree_writer.h"
 #include "testing/textured_scene.h"
 
 namespace freeloc::testing {
@@ -30,7 +31,9 @@ struct SequenceOptions {
   SceneDifficulty difficulty;                   // the evaluated frames' placement, texture and noise
 };
 
-inline std::string PoseLine(const std::string& name, const Rigid3d& p) {
+// A poses_device.txt line as the dataset writes them (16 decimals; poses.txt and intrinsics.txt use the writer's
+// own lines, testing/mapfree_writer.h).
+inline std::string DeviceLine(const std::string& name, const Rigid3d& p) {
   const auto q = p.QuaternionWxyz();
   char line[320];
   std::snprintf(line, sizeof(line), "%s %.16f %.16f %.16f %.16f %.16f %.16f %.16f\n", name.c_str(), q[0], q[1], q[2],
@@ -51,19 +54,13 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
   const SceneDifficulty& hard = so.difficulty;
   const SyntheticScene base = MakeRoomScene(seed, 0.5, so.width, so.height);
   std::string intrinsics, poses, dev_doc, dev_other, dev_garbage;
-  auto k_line = [&](const std::string& name, const Camera& k) {
-    char line[256];
-    std::snprintf(line, sizeof(line), "%s %.6f %.6f %.6f %.6f %d %d\n", name.c_str(), k.fx, k.fy, k.cx, k.cy, k.width,
-                  k.height);
-    intrinsics += line;
-  };
   Image ref_img = RenderTextured(base, base.ref, Rigid3d(), photos, hard.px_per_m);
   AddImageNoise(&ref_img, hard.noise_grey, seed ^ 0x5bd1e995u);
   WriteImagePng(dir + "/seq0/frame_00000.png", ref_img);
   WriteDepthMm(dir + "/seq0/frame_00000.exact.png", base.depth_ref);
   WriteDepthVariants(dir + "/seq0/frame_00000", base.depth_ref, seed, -1);
-  k_line("seq0/frame_00000.png", base.ref);
-  poses += PoseLine("seq0/frame_00000.png", Rigid3d());
+  intrinsics += internal::IntrinsicsLine("seq0/frame_00000.png", base.ref);
+  poses += internal::PoseLine("seq0/frame_00000.png", Rigid3d());
 
   // The tracker's world: gravity-aligned, arbitrary heading and origin (for the other convention).
   const Rigid3d tracker_from_ref(Eigen::Quaterniond(Eigen::AngleAxisd(6.28 * u01(rng), Eigen::Vector3d::UnitY()) *
@@ -106,8 +103,8 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
     const DepthMap d = sc.Render(sc.query, T);
     WriteDepthMm(dir + "/" + name + ".exact.png", d);
     WriteDepthVariants(dir + "/" + name, d, seed, pos);
-    k_line(file, sc.query);
-    poses += PoseLine(file, T);
+    intrinsics += internal::IntrinsicsLine(file, sc.query);
+    poses += internal::PoseLine(file, T);
   }
   // Device poses of the window frames (linear positions 10w+1 … 10w+9), relative to each window's evaluated frame.
   for (int w = 0; w < so.windows; ++w) {
@@ -137,12 +134,12 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
       Rigid3d rel = Tj * Tq.Inverse();  // frame_from_query, the truth
       rel.translation *= scale;
       const Rigid3d noisy = drift[static_cast<size_t>(k)] * rel;
-      dev_doc += PoseLine(name, noisy);
+      dev_doc += DeviceLine(name, noisy);
       // P = cam_from_tracker; the lines as the public sample seems to write them: P_q⁻¹ ∘ P_j.
       const Rigid3d Pq = Tq * tracker_from_ref.Inverse();
-      const Rigid3d Pj = drift[static_cast<size_t>(k)] * Rigid3d(Tj.rotation, Tj.translation) * tracker_from_ref.Inverse();
-      dev_other += PoseLine(name, Pq.Inverse() * Pj);
-      dev_garbage += PoseLine(name, Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.35 * u01(rng), unit())),
+      const Rigid3d Pj = drift[static_cast<size_t>(k)] * Tj * tracker_from_ref.Inverse();
+      dev_other += DeviceLine(name, Pq.Inverse() * Pj);
+      dev_garbage += DeviceLine(name, Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.35 * u01(rng), unit())),
                                             0.5 * u01(rng) * unit()));
     }
   }
