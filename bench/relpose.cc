@@ -72,11 +72,11 @@ struct Outcome {
 
 Outcome RunFreeloc(const Problem& p, uint64_t seed) {
   geometry::RelativePoseOptions o;
-  o.seed = seed;
+  o.ransac.seed = seed;
   const double t0 = bench::NowSeconds();
   const auto r = geometry::EstimateRelativePose(p.p1, p.p2, p.ref, p.query, o);
   const double ms = (bench::NowSeconds() - t0) * 1e3;
-  if (!r.status.success) return {ms, 180, 180};
+  if (!r.status.success()) return {ms, 180, 180};
   return {ms, RotationAngleDeg(r.query_from_ref.rotation, p.truth.rotation),
           TransAngle(r.query_from_ref.translation, p.truth.translation)};
 }

@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
         const double t0 = bench::NowSeconds();
         const auto r = geometry::EstimateMetricScale(p1, p2, unit, dr, dq, sc.ref, sc.query, o);
         ms.push_back((bench::NowSeconds() - t0) * 1e3);
-        if (!r.success) {
+        if (!r.success()) {
           ++fail;
           continue;
         }

@@ -53,7 +53,7 @@ inline bool OfficialEssentialScale(const matching::Correspondences& c, const Cam
   geometry::ScaleOptions so;
   so.method = geometry::ScaleMethod::kOfficial;
   const auto s = geometry::EstimateMetricScale(r, q, Rigid3d(Re, te), d0, d1, k0, k1, so);
-  if (!s.success) return false;
+  if (!s.success()) return false;
   *out = Rigid3d(Re, te.normalized() * s.scale);
   if (confidence) *confidence = s.confidence;
   return true;

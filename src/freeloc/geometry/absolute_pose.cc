@@ -7,31 +7,26 @@
 #include <random>
 
 #include "freeloc/core/error.h"
+#include "freeloc/geometry/levenberg_marquardt.h"
+#include "freeloc/geometry/lie.h"
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/p3p.h"
 #include "freeloc/geometry/ransac.h"
+#include "freeloc/geometry/robust_loss.h"
 
 namespace freeloc::geometry {
 
 void PnPOptions::Validate() const {
   FREELOC_CHECK(threshold_px > 0, "PnP: the reprojection threshold must be positive");
-  FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && success_prob > 0 && success_prob < 1,
-                "PnP: invalid RANSAC settings");
+  ransac.Validate("PnP");
 }
 
 void ProcrustesOptions::Validate() const {
   FREELOC_CHECK(threshold_m > 0, "Procrustes: the inlier distance must be positive");
-  FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && success_prob > 0 && success_prob < 1,
-                "Procrustes: invalid RANSAC settings");
+  ransac.Validate("Procrustes");
 }
 
 namespace {
-
-Eigen::Matrix3d Exp(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-12) return Eigen::Matrix3d::Identity() + Skew(w);
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
 
 double ReprojSq(const PoseRt& p, const Camera& cam, const Eigen::Vector3d& X, const Eigen::Vector2d& x) {
   const Eigen::Vector3d Y = p.R * X + p.t;
@@ -101,19 +96,8 @@ class ProcrustesEstimator {
   const std::vector<Eigen::Vector3d>& b_;
 };
 
-RansacOptions MakeRansac(double threshold_sq, double p, int min_it, int max_it, uint64_t seed) {
-  RansacOptions r;
-  r.threshold_sq = threshold_sq;
-  r.success_prob = p;
-  r.min_iterations = min_it;
-  r.max_iterations = max_it;
-  r.seed = seed;
-  return r;
-}
-
-void Finish(MetricPoseResult* r, const char* reason, std::chrono::steady_clock::time_point t0) {
-  r->status.reason = reason;
-  r->status.success = std::string(reason) == "ok";
+void Finish(MetricPoseResult* r, EstimatorOutcome outcome, std::chrono::steady_clock::time_point t0) {
+  r->status.outcome = outcome;
   r->status.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
@@ -123,73 +107,77 @@ void Accept(const PoseRt& best, const std::vector<int>& in, const std::vector<in
   for (int i : in) res->inliers[orig[i]] = 1;
   res->query_from_ref = Rigid3d(best.R, best.t);
   res->confidence = static_cast<double>(in.size());
-  Finish(res, "ok", t0);
+  Finish(res, EstimatorOutcome::kOk, t0);
 }
 
 void CopyStats(const RansacStats& st, MetricPoseResult* res) {
   res->status.iterations = st.iterations;
   res->status.local_optimizations = st.local_optimizations;
-  res->status.stop_reason = st.stop_reason;
+  res->status.stop = st.stop;
 }
+
+}  // namespace
+
+namespace {
+
+// camera_from_world refined on the reprojection errors of the correspondences `idx` under a Cauchy loss: a left
+// rotation increment and a translation step. A point behind the camera costs a fixed 50 loss scales².
+class ReprojectionRefinement {
+ public:
+  using Params = PoseRt;
+  static constexpr int kNumParams = 6;
+  ReprojectionRefinement(const std::vector<Eigen::Vector3d>& X, const std::vector<Eigen::Vector2d>& px,
+                         const Camera& cam, const std::vector<int>& idx, double loss_scale_px)
+      : X_(X), px_(px), cam_(cam), idx_(idx), loss_(loss_scale_px) {}
+  int num_params() const { return kNumParams; }
+  double Cost(const PoseRt& p) const {
+    double c = 0;
+    for (int i : idx_) {
+      const double e = ReprojSq(p, cam_, X_[i], px_[i]);
+      c += std::isfinite(e) ? loss_.Cost(e) : loss_.c2 * 50;
+    }
+    return c;
+  }
+  void Linearize(const PoseRt& p, Eigen::Matrix<double, 6, 6>* H, Eigen::Matrix<double, 6, 1>* g) const {
+    for (int i : idx_) {
+      const Eigen::Vector3d RX = p.R * X_[i];
+      const Eigen::Vector3d Y = RX + p.t;
+      if (Y.z() <= 1e-9) continue;
+      const double iz = 1.0 / Y.z();
+      const Eigen::Vector2d r(cam_.fx * Y.x() * iz + cam_.cx - px_[i].x(), cam_.fy * Y.y() * iz + cam_.cy - px_[i].y());
+      Eigen::Matrix<double, 2, 3> dpi;
+      dpi << cam_.fx * iz, 0, -cam_.fx * Y.x() * iz * iz, 0, cam_.fy * iz, -cam_.fy * Y.y() * iz * iz;
+      Eigen::Matrix<double, 3, 6> dY;
+      dY.leftCols<3>() = -Skew(RX);
+      dY.rightCols<3>().setIdentity();
+      const Eigen::Matrix<double, 2, 6> J = dpi * dY;
+      const double w = loss_.Weight(r.squaredNorm());
+      H->noalias() += w * J.transpose() * J;
+      g->noalias() += w * J.transpose() * r;
+    }
+  }
+  bool Step(const PoseRt& p, const Eigen::Matrix<double, 6, 1>& d, PoseRt* out) const {
+    out->R = ExpSO3(d.head<3>()) * p.R;
+    out->t = p.t + d.tail<3>();
+    return true;
+  }
+
+ private:
+  const std::vector<Eigen::Vector3d>& X_;
+  const std::vector<Eigen::Vector2d>& px_;
+  const Camera& cam_;
+  const std::vector<int>& idx_;
+  CauchyLoss loss_;
+};
 
 }  // namespace
 
 void RefineAbsolutePose(const std::vector<Eigen::Vector3d>& X, const std::vector<Eigen::Vector2d>& px,
                         const Camera& cam, const std::vector<int>& idx, double loss_scale_px, int iterations,
                         PoseRt* pose) {
-  const double c2 = loss_scale_px * loss_scale_px;
-  auto cost = [&](const PoseRt& p) {
-    double c = 0;
-    for (int i : idx) {
-      const double e = ReprojSq(p, cam, X[i], px[i]);
-      c += std::isfinite(e) ? c2 * std::log1p(e / c2) : c2 * 50;
-    }
-    return c;
-  };
-  double cur = cost(*pose);
-  double lambda = 1e-4;
-  for (int it = 0; it < iterations; ++it) {
-    Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
-    for (int i : idx) {
-      const Eigen::Vector3d RX = pose->R * X[i];
-      const Eigen::Vector3d Y = RX + pose->t;
-      if (Y.z() <= 1e-9) continue;
-      const double iz = 1.0 / Y.z();
-      const Eigen::Vector2d r(cam.fx * Y.x() * iz + cam.cx - px[i].x(), cam.fy * Y.y() * iz + cam.cy - px[i].y());
-      Eigen::Matrix<double, 2, 3> dpi;
-      dpi << cam.fx * iz, 0, -cam.fx * Y.x() * iz * iz, 0, cam.fy * iz, -cam.fy * Y.y() * iz * iz;
-      Eigen::Matrix<double, 3, 6> dY;
-      dY.leftCols<3>() = -Skew(RX);
-      dY.rightCols<3>().setIdentity();
-      const Eigen::Matrix<double, 2, 6> J = dpi * dY;
-      const double w = 1.0 / (1.0 + r.squaredNorm() / c2);
-      H.noalias() += w * J.transpose() * J;
-      g.noalias() += w * J.transpose() * r;
-    }
-    bool improved = false;
-    for (int tries = 0; tries < 6 && !improved; ++tries) {
-      Eigen::Matrix<double, 6, 6> A = H;
-      for (int k = 0; k < 6; ++k) A(k, k) += lambda * std::max(H(k, k), 1e-12);
-      const Eigen::Matrix<double, 6, 1> d = A.ldlt().solve(-g);
-      if (!d.allFinite()) break;
-      PoseRt cand;
-      cand.R = Exp(d.head<3>()) * pose->R;
-      cand.t = pose->t + d.tail<3>();
-      const double c = cost(cand);
-      if (c < cur) {
-        const double rel = (cur - c) / std::max(cur, 1e-300);
-        *pose = cand;
-        cur = c;
-        lambda = std::max(lambda * 0.1, 1e-10);
-        improved = true;
-        if (rel < 1e-10) return;
-      } else {
-        lambda *= 10;
-      }
-    }
-    if (!improved) return;
-  }
+  LMOptions lm;
+  lm.max_iterations = iterations;
+  MinimizeLM(ReprojectionRefinement(X, px, cam, idx, loss_scale_px), pose, lm);
 }
 
 MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,
@@ -214,23 +202,22 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
     orig.push_back(static_cast<int>(i));
   }
   if (X.size() < 4) {
-    Finish(&res, "too-few-matches", t0);
+    Finish(&res, EstimatorOutcome::kTooFewMatches, t0);
     return res;
   }
   PnPEstimator est(X, x, query, o.threshold_px);
-  const RansacOptions ro =
-      MakeRansac(o.threshold_px * o.threshold_px, o.success_prob, o.min_iterations, o.max_iterations, o.seed);
+  const double threshold_sq = o.threshold_px * o.threshold_px;
   PoseRt best;
-  const RansacStats st = Ransac(est, ro, &best);
+  const RansacStats st = Ransac(est, o.ransac, threshold_sq, &best);
   CopyStats(st, &res);
   std::vector<int> in;
   auto collect = [&] {
     in.clear();
     for (size_t i = 0; i < X.size(); ++i)
-      if (est.SquaredError(best, i) < ro.threshold_sq) in.push_back(static_cast<int>(i));
+      if (est.SquaredError(best, i) < threshold_sq) in.push_back(static_cast<int>(i));
   };
-  if (st.stop_reason == "no-model") {
-    Finish(&res, "no-consensus", t0);
+  if (st.stop == RansacStop::kNoModel) {
+    Finish(&res, EstimatorOutcome::kNoConsensus, t0);
     return res;
   }
   collect();
@@ -240,7 +227,7 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
   }
   res.status.num_inliers = static_cast<int>(in.size());
   if (static_cast<int>(in.size()) < o.min_inliers) {
-    Finish(&res, "no-consensus", t0);
+    Finish(&res, EstimatorOutcome::kNoConsensus, t0);
     return res;
   }
   // Never a confident wrong answer: with a low inlier ratio the support may be what the search finds in any set of
@@ -250,7 +237,7 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
   if (in.size() * 4 < X.size()) {
     std::vector<int> pick(X.size());
     for (size_t i = 0; i < pick.size(); ++i) pick[i] = static_cast<int>(i);
-    std::mt19937 rng(static_cast<uint32_t>(o.seed) + 0x5eed);
+    std::mt19937 rng(static_cast<uint32_t>(o.ransac.seed) + 0x5eed);
     std::shuffle(pick.begin(), pick.end(), rng);
     const size_t m = std::min<size_t>(X.size(), 2000);
     std::vector<Eigen::Vector3d> Xs(m);
@@ -261,19 +248,19 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
     }
     PnPEstimator shuffled(Xs, xs, query, o.threshold_px);
     PoseRt chance_model;
-    const RansacStats sst = Ransac(shuffled, ro, &chance_model);
+    const RansacStats sst = Ransac(shuffled, o.ransac, threshold_sq, &chance_model);
     int chance = 0;
-    if (sst.stop_reason != "no-model")
-      for (size_t i = 0; i < m; ++i) chance += shuffled.SquaredError(chance_model, i) < ro.threshold_sq;
+    if (sst.stop != RansacStop::kNoModel)
+      for (size_t i = 0; i < m; ++i) chance += shuffled.SquaredError(chance_model, i) < threshold_sq;
     const double scaled = chance * static_cast<double>(X.size()) / static_cast<double>(m);
     res.status.shuffled_best = static_cast<int>(std::lround(scaled));
     if (static_cast<double>(in.size()) < 1.5 * scaled + 3) {
-      Finish(&res, "no-consensus", t0);
+      Finish(&res, EstimatorOutcome::kNoConsensus, t0);
       return res;
     }
   }
   if (best.t.norm() > o.max_translation) {
-    Finish(&res, "degenerate", t0);
+    Finish(&res, EstimatorOutcome::kDegenerate, t0);
     return res;
   }
   Accept(best, in, orig, &res, t0);
@@ -305,26 +292,25 @@ MetricPoseResult EstimateProcrustes(const std::vector<Eigen::Vector2d>& px_ref,
     orig.push_back(static_cast<int>(i));
   }
   if (a.size() < 3) {
-    Finish(&res, "too-few-matches", t0);
+    Finish(&res, EstimatorOutcome::kTooFewMatches, t0);
     return res;
   }
   ProcrustesEstimator est(a, b);
-  const RansacOptions ro =
-      MakeRansac(o.threshold_m * o.threshold_m, o.success_prob, o.min_iterations, o.max_iterations, o.seed);
+  const double threshold_sq = o.threshold_m * o.threshold_m;
   PoseRt best;
-  const RansacStats st = Ransac(est, ro, &best);
+  const RansacStats st = Ransac(est, o.ransac, threshold_sq, &best);
   CopyStats(st, &res);
-  if (st.stop_reason == "no-model") {
-    Finish(&res, "no-consensus", t0);
+  if (st.stop == RansacStop::kNoModel) {
+    Finish(&res, EstimatorOutcome::kNoConsensus, t0);
     return res;
   }
-  est.LocalOptimize(&best, ro.threshold_sq);  // final refit on all inliers
+  est.LocalOptimize(&best, threshold_sq);  // final refit on all inliers
   std::vector<int> in;
   for (size_t i = 0; i < a.size(); ++i)
-    if (est.SquaredError(best, i) < ro.threshold_sq) in.push_back(static_cast<int>(i));
+    if (est.SquaredError(best, i) < threshold_sq) in.push_back(static_cast<int>(i));
   res.status.num_inliers = static_cast<int>(in.size());
   if (static_cast<int>(in.size()) < o.min_inliers) {
-    Finish(&res, "no-consensus", t0);
+    Finish(&res, EstimatorOutcome::kNoConsensus, t0);
     return res;
   }
   Accept(best, in, orig, &res, t0);

@@ -20,10 +20,7 @@ namespace freeloc::geometry {
 
 struct PnPOptions {
   double threshold_px = 3.0;  // official REPROJECTION_INLIER_THRESHOLD
-  double success_prob = 0.9999;
-  int min_iterations = 50;
-  int max_iterations = 10000;
-  uint64_t seed = 0;
+  RansacOptions ransac{/*success_prob=*/0.9999, /*min_iterations=*/50, /*max_iterations=*/10000, /*max_seconds=*/0};
   int min_inliers = 6;
   double max_translation = 1000.0;
   void Validate() const;
@@ -31,10 +28,7 @@ struct PnPOptions {
 
 struct ProcrustesOptions {
   double threshold_m = 0.05;  // official MAX_CORR_DIST
-  double success_prob = 0.999;
-  int min_iterations = 50;
-  int max_iterations = 100000;
-  uint64_t seed = 0;
+  RansacOptions ransac{/*success_prob=*/0.999, /*min_iterations=*/50, /*max_iterations=*/100000, /*max_seconds=*/0};
   int min_inliers = 3;
   void Validate() const;
 };
@@ -55,7 +49,7 @@ MetricPoseResult EstimateProcrustes(const std::vector<Eigen::Vector2d>& px_ref,
                                     const DepthMap& depth_query, const Camera& ref, const Camera& query,
                                     const ProcrustesOptions& options = {});
 
-// Robust (Cauchy, scale in pixels) Gauss–Newton refinement of camera_from_world on reprojection errors.
+// Robust (Cauchy, scale in pixels) Levenberg–Marquardt refinement of camera_from_world on reprojection errors.
 void RefineAbsolutePose(const std::vector<Eigen::Vector3d>& X, const std::vector<Eigen::Vector2d>& px,
                         const Camera& cam, const std::vector<int>& idx, double loss_scale_px, int iterations,
                         PoseRt* pose);

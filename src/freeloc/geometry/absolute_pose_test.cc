@@ -70,7 +70,7 @@ TEST(PnP, RecoversMetricPoseWithOutliers) {
   for (uint32_t seed = 1; seed <= 5; ++seed) {
     const Case c = MakeCase(seed, 0.5);
     const MetricPoseResult r = EstimatePnP(c.p1, c.p2, c.s.depth_ref, c.s.ref, c.s.query);
-    ASSERT_TRUE(r.status.success) << r.status.reason;
+    ASSERT_TRUE(r.status.success()) << ToString(r.status.outcome);
     EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, c.s.query_from_ref.rotation), 0.5);
     EXPECT_LT((r.query_from_ref.Center() - c.s.query_from_ref.Center()).norm(), 0.03);
     EXPECT_EQ(r.confidence, r.status.num_inliers);
@@ -82,7 +82,7 @@ TEST(Procrustes, RecoversMetricPoseWithOutliers) {
   for (uint32_t seed = 1; seed <= 5; ++seed) {
     const Case c = MakeCase(seed, 0.5);
     const MetricPoseResult r = EstimateProcrustes(c.p1, c.p2, c.s.depth_ref, c.s.depth_query, c.s.ref, c.s.query);
-    ASSERT_TRUE(r.status.success) << r.status.reason;
+    ASSERT_TRUE(r.status.success()) << ToString(r.status.outcome);
     EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, c.s.query_from_ref.rotation), 0.5);
     EXPECT_LT((r.query_from_ref.Center() - c.s.query_from_ref.Center()).norm(), 0.03);
   }
@@ -93,10 +93,10 @@ TEST(PnP, FailureRules) {
   // Only 5 points: fewer than the 6 inliers the official rules require.
   std::vector<Eigen::Vector2d> a(c.p1.begin(), c.p1.begin() + 5), b(c.p2.begin(), c.p2.begin() + 5);
   const MetricPoseResult r = EstimatePnP(a, b, c.s.depth_ref, c.s.ref, c.s.query);
-  EXPECT_FALSE(r.status.success);
+  EXPECT_FALSE(r.status.success());
   DepthMap none(320, 240);
-  EXPECT_EQ(EstimatePnP(c.p1, c.p2, none, c.s.ref, c.s.query).status.reason, "too-few-matches");
-  EXPECT_EQ(EstimateProcrustes(c.p1, c.p2, none, none, c.s.ref, c.s.query).status.reason, "too-few-matches");
+  EXPECT_EQ(EstimatePnP(c.p1, c.p2, none, c.s.ref, c.s.query).status.outcome, EstimatorOutcome::kTooFewMatches);
+  EXPECT_EQ(EstimateProcrustes(c.p1, c.p2, none, none, c.s.ref, c.s.query).status.outcome, EstimatorOutcome::kTooFewMatches);
   EXPECT_THROW(EstimatePnP(c.p1, a, c.s.depth_ref, c.s.ref, c.s.query), Error);
 }
 

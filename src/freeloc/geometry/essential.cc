@@ -5,12 +5,6 @@
 
 namespace freeloc::geometry {
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d s;
-  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return s;
-}
-
 Eigen::Matrix3d EssentialFromPose(const PoseRt& p) { return Skew(p.t) * p.R; }
 
 // Hartley & Zisserman, Multiple View Geometry, 2nd ed., Result 9.19: E = U·diag(1,1,0)·Vᵀ gives

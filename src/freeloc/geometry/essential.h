@@ -5,6 +5,8 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "freeloc/geometry/lie.h"
+
 namespace freeloc::geometry {
 
 // A relative pose x2 = R·x1 + t (t of unit norm when it comes from an essential matrix).
@@ -13,7 +15,6 @@ struct PoseRt {
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
 };
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v);
 Eigen::Matrix3d EssentialFromPose(const PoseRt& p);
 
 // The four (R, t) factorisations of E (t unit norm).

@@ -10,9 +10,12 @@
 #include "freeloc/core/error.h"
 #include "freeloc/geometry/essential.h"
 #include "freeloc/geometry/five_point.h"
+#include "freeloc/geometry/levenberg_marquardt.h"
+#include "freeloc/geometry/lie.h"
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/ransac.h"
 #include "freeloc/geometry/relpose_depth_shift_3pt.h"
+#include "freeloc/geometry/robust_loss.h"
 
 namespace freeloc::geometry {
 
@@ -20,23 +23,14 @@ void HybridPoseOptions::Validate() const {
   FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px), "hybrid pose: threshold_px must be a positive number of pixels");
   FREELOC_CHECK(reprojection_px > 0 && std::isfinite(reprojection_px),
                 "hybrid pose: the reprojection threshold must be positive pixels");
-  FREELOC_CHECK(success_prob > 0 && success_prob < 1, "hybrid pose: success probability must be in (0, 1)");
-  FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && min_iterations <= max_iterations,
-                "hybrid pose: need 0 <= min_iterations <= max_iterations");
+  ransac.Validate("hybrid pose");
   FREELOC_CHECK(min_inliers >= 5, "hybrid pose: min_inliers must be at least 5");
   FREELOC_CHECK(refinement_iterations >= 0, "hybrid pose: refinement_iterations must be >= 0");
-  FREELOC_CHECK(max_seconds >= 0 && std::isfinite(max_seconds), "hybrid pose: max_seconds must be >= 0");
 }
 
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-Eigen::Matrix3d Exp(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-12) return Eigen::Matrix3d::Identity() + Skew(w);
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
 
 struct Model {
   DepthRelPose p;
@@ -134,120 +128,7 @@ class Problem {
   // the Sampson residual of the Sampson inliers and the two reprojections of the depth inliers of `m`.
   // Returns the ratio of the reprojection residuals' variance to the Sampson residuals' at the start (how much
   // noisier the depths are than the matches; −1: no refinement, too few inliers).
-  double Refine(Model* m, bool shifts, int iterations) const {
-    std::vector<int> S, D;
-    for (size_t i = 0; i < x_.size(); ++i) {
-      if (SampsonInlier(*m, i)) S.push_back(static_cast<int>(i));
-      if (dr_[i] > 0 && dq_[i] > 0 && DepthInlier(*m, i)) D.push_back(static_cast<int>(i));
-    }
-    if (D.size() < 3 || S.size() + D.size() < 8) return -1;
-    // Weigh the two kinds of residual by their observed noise: depth maps that are a few % off give reprojection
-    // errors of many pixels, which would otherwise bend the rotation the matches fix to a fraction of a pixel. With
-    // exact depth the reprojection noise is the matches' own and both count fully (the factor is capped at 1).
-    double ss = 0, sr = 0;
-    for (int i : S) ss += Sampson(*m, i);
-    for (int i : D) sr += 0.25 * (RefToQuery(*m, i) + QueryToRef(*m, i));  // per coordinate
-    const double var_s = std::max(ss / S.size(), 1e-4 * the2_), var_r = std::max(sr / D.size(), 1e-12);
-    const double rw = std::sqrt(std::min(1.0, (var_s / var_r) * (thr2_ / the2_)));
-    const double noise_ratio = var_r / var_s;
-    const double inv_thr = rw / th_r_;
-    const int P = shifts ? 9 : 7;
-    const int rows = static_cast<int>(S.size() + 4 * D.size());
-    auto residuals = [&](const Model& mm, Eigen::VectorXd* r) {
-      r->resize(rows);
-      int k = 0;
-      for (int i : S) {
-        const Eigen::Vector3d Ea = mm.E * x_[i], Etb = mm.E.transpose() * y_[i];
-        const double C = y_[i].dot(Ea);
-        const double Sd = Ea(0) * Ea(0) + Ea(1) * Ea(1) + Etb(0) * Etb(0) + Etb(1) * Etb(1);
-        (*r)(k++) = Sd > 1e-30 ? C / std::sqrt(Sd) / th_e_ : 0.0;
-      }
-      for (int i : D) {
-        Eigen::Vector3d X = mm.p.R * ((dr_[i] + mm.p.shift_ref) * x_[i]) + mm.p.t;
-        double z = std::max(X.z(), 1e-6);
-        (*r)(k++) = (X.x() / z - y_[i].x()) * inv_thr;
-        (*r)(k++) = (X.y() / z - y_[i].y()) * inv_thr;
-        X = mm.p.R.transpose() * (mm.p.scale * (dq_[i] + mm.p.shift_query) * y_[i] - mm.p.t);
-        z = std::max(X.z(), 1e-6);
-        (*r)(k++) = (X.x() / z - x_[i].x()) * inv_thr;
-        (*r)(k++) = (X.y() / z - x_[i].y()) * inv_thr;
-      }
-    };
-    auto apply = [&](const Model& base, const Eigen::VectorXd& d) {
-      DepthRelPose p = base.p;
-      p.R = Exp(d.head<3>()) * p.R;
-      p.t += d.segment<3>(3);
-      p.scale *= std::exp(d(6));
-      if (shifts) {
-        p.shift_ref += d(7);
-        p.shift_query += d(8);
-      }
-      return Complete(p);
-    };
-    // Block weights and the robust cost: blocks are [1 Sampson residual]… then [2 + 2 reprojection residuals]….
-    auto cost_and_weights = [&](const Eigen::VectorXd& r, Eigen::VectorXd* w) {
-      double c = 0;
-      w->resize(rows);
-      const int ns = static_cast<int>(S.size());
-      for (int k = 0; k < ns; ++k) {
-        const double e2 = r(k) * r(k);
-        c += std::log1p(e2);
-        (*w)(k) = 1.0 / (1.0 + e2);
-      }
-      for (int k = ns; k < rows; k += 2) {
-        const double e2 = r(k) * r(k) + r(k + 1) * r(k + 1);
-        c += std::log1p(e2);
-        (*w)(k) = (*w)(k + 1) = 1.0 / (1.0 + e2);
-      }
-      return c;
-    };
-    Eigen::VectorXd r, w, r2, w2;
-    residuals(*m, &r);
-    double cost = cost_and_weights(r, &w);
-    double lambda = 1e-3;
-    Eigen::MatrixXd J(rows, P);
-    for (int it = 0; it < iterations; ++it) {
-      for (int k = 0; k < P; ++k) {
-        Eigen::VectorXd d = Eigen::VectorXd::Zero(P);
-        const double h = 1e-7;
-        d(k) = h;
-        residuals(apply(*m, d), &r2);
-        J.col(k) = (r2 - r) / h;
-      }
-      const Eigen::MatrixXd Jw = w.asDiagonal() * J;
-      const Eigen::MatrixXd H = J.transpose() * Jw;
-      const Eigen::VectorXd g = Jw.transpose() * r;
-      bool improved = false;
-      for (int tries = 0; tries < 6 && !improved; ++tries) {
-        Eigen::MatrixXd A = H;
-        for (int k = 0; k < P; ++k) A(k, k) += lambda * std::max(H(k, k), 1e-12);
-        const Eigen::VectorXd d = A.ldlt().solve(-g);
-        if (!d.allFinite()) break;
-        const Model cand = apply(*m, d);
-        if (!(cand.p.scale > 0) || !cand.p.R.allFinite()) {
-          lambda *= 10;
-          continue;
-        }
-        residuals(cand, &r2);
-        const double c2 = cost_and_weights(r2, &w2);
-        if (c2 < cost) {
-          const double rel = (cost - c2) / std::max(cost, 1e-300);
-          *m = cand;
-          r = r2;
-          w = w2;
-          cost = c2;
-          lambda = std::max(lambda * 0.1, 1e-10);
-          improved = true;
-          if (rel < 1e-9) return noise_ratio;
-        } else {
-          lambda *= 10;
-        }
-      }
-      if (!improved) return noise_ratio;
-    }
-    return noise_ratio;
-  }
-
+  double Refine(Model* m, bool shifts, int iterations) const;
   // (R, t̂) refined on the Sampson inliers alone; |t| = the trimmed mean of what the depth inliers' reference depths
   // say (depth ÷ triangulated depth at unit baseline, in logs), the query scale likewise.
   void Polish(Model* m) const {
@@ -324,6 +205,7 @@ class Problem {
     return Problem(x_, ys, dr_, dqs, th_e_, th_r_);
   }
   double the2() const { return the2_; }
+  double th_e() const { return th_e_; }
 
  private:
   static double Median(std::vector<double>* v) {
@@ -338,6 +220,128 @@ class Problem {
   mutable std::vector<DepthRelPose> sols_;
   mutable std::vector<PoseRt> rts_;
 };
+
+// (R, t, log s [, shifts]) refined on the Sampson residuals of `S` (one block each) and the two-way reprojections of
+// `D` (one block of 2 + 2 each) under a unit Cauchy loss per block, residuals in threshold units; the Jacobian by
+// forward differences. A step to a non-positive scale or a non-finite rotation is rejected.
+class HybridRefinement {
+ public:
+  using Params = Model;
+  static constexpr int kNumParams = Eigen::Dynamic;
+  HybridRefinement(const Problem& pb, const std::vector<int>& S, const std::vector<int>& D, bool shifts,
+                   double inv_thr)
+      : pb_(pb), S_(S), D_(D), shifts_(shifts), inv_thr_(inv_thr), rows_(static_cast<int>(S.size() + 4 * D.size())) {}
+  int num_params() const { return shifts_ ? 9 : 7; }
+  double Cost(const Model& m) const {
+    Eigen::VectorXd r, w;
+    Residuals(m, &r);
+    return CostAndWeights(r, &w);
+  }
+  void Linearize(const Model& m, Eigen::MatrixXd* H, Eigen::VectorXd* g) const {
+    const int P = num_params();
+    Eigen::VectorXd r, w, r2;
+    Residuals(m, &r);
+    CostAndWeights(r, &w);
+    Eigen::MatrixXd J(rows_, P);
+    for (int k = 0; k < P; ++k) {
+      Eigen::VectorXd d = Eigen::VectorXd::Zero(P);
+      const double h = 1e-7;
+      d(k) = h;
+      Residuals(Apply(m, d), &r2);
+      J.col(k) = (r2 - r) / h;
+    }
+    const Eigen::MatrixXd Jw = w.asDiagonal() * J;
+    *H = J.transpose() * Jw;
+    *g = Jw.transpose() * r;
+  }
+  bool Step(const Model& m, const Eigen::VectorXd& d, Model* out) const {
+    *out = Apply(m, d);
+    return out->p.scale > 0 && out->p.R.allFinite();
+  }
+
+ private:
+  Model Apply(const Model& base, const Eigen::VectorXd& d) const {
+    DepthRelPose p = base.p;
+    p.R = ExpSO3(d.head<3>()) * p.R;
+    p.t += d.segment<3>(3);
+    p.scale *= std::exp(d(6));
+    if (shifts_) {
+      p.shift_ref += d(7);
+      p.shift_query += d(8);
+    }
+    return Complete(p);
+  }
+  void Residuals(const Model& mm, Eigen::VectorXd* r) const {
+    r->resize(rows_);
+    int k = 0;
+    for (int i : S_) {
+      const Eigen::Vector3d Ea = mm.E * pb_.x()[i], Etb = mm.E.transpose() * pb_.y()[i];
+      const double C = pb_.y()[i].dot(Ea);
+      const double Sd = Ea(0) * Ea(0) + Ea(1) * Ea(1) + Etb(0) * Etb(0) + Etb(1) * Etb(1);
+      (*r)(k++) = Sd > 1e-30 ? C / std::sqrt(Sd) / pb_.th_e() : 0.0;
+    }
+    for (int i : D_) {
+      const Eigen::Vector3d& x = pb_.x()[i];
+      const Eigen::Vector3d& y = pb_.y()[i];
+      Eigen::Vector3d X = mm.p.R * ((pb_.dr(i) + mm.p.shift_ref) * x) + mm.p.t;
+      double z = std::max(X.z(), 1e-6);
+      (*r)(k++) = (X.x() / z - y.x()) * inv_thr_;
+      (*r)(k++) = (X.y() / z - y.y()) * inv_thr_;
+      X = mm.p.R.transpose() * (mm.p.scale * (pb_.dq(i) + mm.p.shift_query) * y - mm.p.t);
+      z = std::max(X.z(), 1e-6);
+      (*r)(k++) = (X.x() / z - x.x()) * inv_thr_;
+      (*r)(k++) = (X.y() / z - x.y()) * inv_thr_;
+    }
+  }
+  // Blocks are [1 Sampson residual]… then [2 + 2 reprojection residuals]…, each under the loss with its own weight.
+  double CostAndWeights(const Eigen::VectorXd& r, Eigen::VectorXd* w) const {
+    double c = 0;
+    w->resize(rows_);
+    const int ns = static_cast<int>(S_.size());
+    for (int k = 0; k < ns; ++k) {
+      const double e2 = r(k) * r(k);
+      c += loss_.Cost(e2);
+      (*w)(k) = loss_.Weight(e2);
+    }
+    for (int k = ns; k < rows_; k += 2) {
+      const double e2 = r(k) * r(k) + r(k + 1) * r(k + 1);
+      c += loss_.Cost(e2);
+      (*w)(k) = (*w)(k + 1) = loss_.Weight(e2);
+    }
+    return c;
+  }
+  const Problem& pb_;
+  const std::vector<int>& S_;
+  const std::vector<int>& D_;
+  bool shifts_;
+  double inv_thr_;
+  int rows_;
+  CauchyLoss loss_{1.0};
+};
+
+double Problem::Refine(Model* m, bool shifts, int iterations) const {
+  std::vector<int> S, D;
+  for (size_t i = 0; i < x_.size(); ++i) {
+    if (SampsonInlier(*m, i)) S.push_back(static_cast<int>(i));
+    if (dr_[i] > 0 && dq_[i] > 0 && DepthInlier(*m, i)) D.push_back(static_cast<int>(i));
+  }
+  if (D.size() < 3 || S.size() + D.size() < 8) return -1;
+  // Weigh the two kinds of residual by their observed noise: depth maps that are a few % off give reprojection
+  // errors of many pixels, which would otherwise bend the rotation the matches fix to a fraction of a pixel. With
+  // exact depth the reprojection noise is the matches' own and both count fully (the factor is capped at 1).
+  double ss = 0, sr = 0;
+  for (int i : S) ss += Sampson(*m, i);
+  for (int i : D) sr += 0.25 * (RefToQuery(*m, i) + QueryToRef(*m, i));  // per coordinate
+  const double var_s = std::max(ss / S.size(), 1e-4 * the2_), var_r = std::max(sr / D.size(), 1e-12);
+  const double rw = std::sqrt(std::min(1.0, (var_s / var_r) * (thr2_ / the2_)));
+  const double noise_ratio = var_r / var_s;
+  LMOptions lm;
+  lm.max_iterations = iterations;
+  lm.initial_lambda = 1e-3;
+  lm.min_relative_decrease = 1e-9;
+  MinimizeLM(HybridRefinement(*this, S, D, shifts, rw / th_r_), m, lm);
+  return noise_ratio;
+}
 
 // Draws k distinct entries of `pool` into `out`.
 void DrawDistinct(SplitMix64* rng, const std::vector<int>& pool, int k, int* out) {
@@ -356,7 +360,7 @@ struct SearchResult {
   double score = kInf;
   int num_sampson = 0, num_depth = 0;
   int iterations = 0, local_optimizations = 0, samples_3pt = 0, samples_5pt = 0;
-  std::string stop_reason;
+  RansacStop stop = RansacStop::kNoModel;  // kNoModel until the search ends
 };
 
 // The hybrid LO-RANSAC search: adaptive mix of 5-point and 3-point samples, hybrid MSAC score, local refinement of
@@ -368,17 +372,17 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
   std::vector<int> all(n);
   for (size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
   const bool can3 = pb.both().size() >= 3;
-  SplitMix64 rng(opt.seed);
+  SplitMix64 rng(opt.ransac.seed);
   double used5 = 0, used3 = 0;  // Σ over iterations of 1 / required(·) for each family (stop when ≥ 1)
   double need5 = kInf, need3 = kInf;
   std::vector<Model> models;
   int sample[5];
   int iter = 0;
   for (; iter < max_iterations; ++iter) {
-    if (iter >= opt.min_iterations && used5 + used3 >= 1.0) break;
-    if (opt.max_seconds > 0 && iter % 16 == 15 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.max_seconds) {
-      res.stop_reason = "time-budget";
+    if (iter >= opt.ransac.min_iterations && used5 + used3 >= 1.0) break;
+    if (opt.ransac.max_seconds > 0 && iter % 16 == 15 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.ransac.max_seconds) {
+      res.stop = RansacStop::kTimeBudget;
       break;
     }
     // Adaptive mix: the family expected to need fewer samples is drawn more often (even odds before any model).
@@ -421,16 +425,16 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
         res.num_sampson = ls;
         res.num_depth = ld;
       }
-      need5 = RequiredIterations(static_cast<size_t>(res.num_sampson), n, 5, opt.success_prob);
-      need3 = can3 ? RequiredIterations(static_cast<size_t>(res.num_depth), pb.both().size(), 3, opt.success_prob) : kInf;
+      need5 = RequiredIterations(static_cast<size_t>(res.num_sampson), n, 5, opt.ransac.success_prob);
+      need3 = can3 ? RequiredIterations(static_cast<size_t>(res.num_depth), pb.both().size(), 3, opt.ransac.success_prob) : kInf;
       // What has been drawn so far counts against the new requirements.
       used5 = std::isfinite(need5) ? res.samples_5pt / std::max(need5, 1.0) : 0.0;
       used3 = std::isfinite(need3) ? res.samples_3pt / std::max(need3, 1.0) : 0.0;
     }
   }
   res.iterations = iter;
-  if (res.stop_reason.empty())
-    res.stop_reason = iter >= max_iterations ? "max-iterations" : "confidence";
+  if (res.stop != RansacStop::kTimeBudget)
+    res.stop = iter >= max_iterations ? RansacStop::kMaxIterations : RansacStop::kConfidence;
   return res;
 }
 
@@ -453,13 +457,12 @@ HybridPoseResult EstimateHybridPose(const std::vector<Eigen::Vector2d>& px_ref,
   HybridPoseResult res;
   res.status.num_matches = static_cast<int>(n);
   res.inliers.assign(n, 0);
-  auto finish = [&](const char* reason) {
-    res.status.reason = reason;
-    res.status.success = std::string(reason) == "ok";
+  auto finish = [&](EstimatorOutcome outcome) {
+    res.status.outcome = outcome;
     res.status.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return res;
   };
-  if (n < static_cast<size_t>(opt.min_inliers)) return finish("too-few-matches");
+  if (n < static_cast<size_t>(opt.min_inliers)) return finish(EstimatorOutcome::kTooFewMatches);
   std::vector<Eigen::Vector3d> x(n), y(n);
   std::vector<double> dr(n), dq(n);
   for (size_t i = 0; i < n; ++i) {
@@ -471,16 +474,16 @@ HybridPoseResult EstimateHybridPose(const std::vector<Eigen::Vector2d>& px_ref,
   const double focal = 0.25 * (ref.fx + ref.fy + query.fx + query.fy);
   const Problem pb(std::move(x), std::move(y), std::move(dr), std::move(dq), opt.threshold_px / focal,
                    opt.reprojection_px / focal);
-  SearchResult found = Search(pb, opt, opt.max_iterations, t0);
+  SearchResult found = Search(pb, opt, opt.ransac.max_iterations, t0);
   Model best = found.best;
   res.samples_3pt = found.samples_3pt;
   res.samples_5pt = found.samples_5pt;
   res.status.iterations = found.iterations;
   res.status.local_optimizations = found.local_optimizations;
-  res.status.stop_reason = found.stop_reason;
+  res.status.stop = found.stop;
   const double best_score = found.score;
   const int best_ns = found.num_sampson;
-  if (!std::isfinite(best_score) || best_ns < 5) return finish("no-consensus");
+  if (!std::isfinite(best_score) || best_ns < 5) return finish(EstimatorOutcome::kNoConsensus);
   // Final refinement: twice, re-selecting the inliers in between.
   double noise_ratio = -1;
   for (int round = 0; round < 2; ++round) noise_ratio = pb.Refine(&best, opt.shifts, opt.refinement_iterations);
@@ -533,34 +536,34 @@ HybridPoseResult EstimateHybridPose(const std::vector<Eigen::Vector2d>& px_ref,
   if (n_in < opt.min_inliers || n_in < 2 * chance + 8 * std::sqrt(chance) || !best.p.R.allFinite() ||
       !best.p.t.allFinite()) {
     res.inliers.assign(n, 0);
-    return finish("no-consensus");
+    return finish(EstimatorOutcome::kNoConsensus);
   }
   // A metric model needs correspondences whose depths agree with it (else the depth-free estimators answer).
   if (res.depth_inliers < 3) {
     res.inliers.assign(n, 0);
-    return finish("no-consensus");
+    return finish(EstimatorOutcome::kNoConsensus);
   }
   // Weak support: the same search on the matches with the query side shuffled must find clearly fewer inliers —
   // RANSAC's search over thousands of hypotheses finds a dozen chance inliers in unrelated matches.
   if (n_in < std::max(3 * opt.min_inliers, static_cast<int>(0.25 * static_cast<double>(n)))) {
     HybridPoseOptions so = opt;
-    if (opt.max_seconds > 0)
-      so.max_seconds = std::max(
-          0.1, opt.max_seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    if (opt.ransac.max_seconds > 0)
+      so.ransac.max_seconds = std::max(0.1, opt.ransac.max_seconds -
+                                                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     const SearchResult ss =
-        Search(pb.Shuffled(n / 2 + 1), so, std::max(found.iterations, opt.min_iterations), std::chrono::steady_clock::now());
+        Search(pb.Shuffled(n / 2 + 1), so, std::max(found.iterations, opt.ransac.min_iterations), std::chrono::steady_clock::now());
     res.status.shuffled_best = std::isfinite(ss.score) ? ss.num_sampson : 0;
     if (n_in < 1.5 * res.status.shuffled_best + 4) {
       res.inliers.assign(n, 0);
-      return finish("no-consensus");
+      return finish(EstimatorOutcome::kNoConsensus);
     }
   }
   if (InliersDegenerate(px_ref, px_query, res.inliers)) {
     res.inliers.assign(n, 0);
     res.status.num_inliers = 0;
-    return finish("degenerate");
+    return finish(EstimatorOutcome::kDegenerate);
   }
-  return finish("ok");
+  return finish(EstimatorOutcome::kOk);
 }
 
 }  // namespace freeloc::geometry

@@ -27,13 +27,11 @@ struct HybridPoseOptions {
   double threshold_px = 1.0;       // Sampson inlier threshold, pixels (÷ mean focal)
   double reprojection_px = 16.0;   // two-way reprojection threshold, pixels: depth maps are a few % off
   bool shifts = false;             // also estimate the two depth shifts (3-point scale+shift solver, refinement)
-  double success_prob = 0.9999;
-  int min_iterations = 100;
-  int max_iterations = 10000;
-  uint64_t seed = 0;
+  // The search (its own sampler mixes the two solver families; local optimisation always runs).
+  RansacOptions ransac{/*success_prob=*/0.9999, /*min_iterations=*/100, /*max_iterations=*/10000,
+                       /*max_seconds=*/10.0};
   int refinement_iterations = 30;
   int min_inliers = 10;            // as RelativePoseOptions: fewer Sampson inliers is no consensus
-  double max_seconds = 10.0;
   void Validate() const;           // throws freeloc::Error
 };
 

@@ -58,7 +58,7 @@ double RotErrDeg(const Eigen::Matrix3d& R, const Rigid3d& truth) {
 TEST(HybridPose, ExactDataGiveTheExactMetricPose) {
   const DepthView v = MakeDepthView(1, 150, 0.0, 0.0);
   const HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
-  ASSERT_TRUE(r.status.success) << r.status.reason;
+  ASSERT_TRUE(r.status.success()) << ToString(r.status.outcome);
   EXPECT_LT(RotErrDeg(r.model.R, v.truth), 1e-5);
   EXPECT_LT((r.model.t - v.truth.translation).norm(), 1e-6);
   EXPECT_NEAR(r.model.scale, 1.0, 1e-6);
@@ -72,7 +72,7 @@ TEST(HybridPose, ReferenceDepthAnchorsTheScaleWhenTheQueryDepthIsOff) {
     DepthView v = MakeDepthView(seed, 300, 0.3, 0.5);
     for (double& d : v.d2) d *= 1.4;  // the query's depth map is 40 % too far
     const HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
-    ASSERT_TRUE(r.status.success) << seed << " " << r.status.reason;
+    ASSERT_TRUE(r.status.success()) << seed << " " << ToString(r.status.outcome);
     EXPECT_LT(RotErrDeg(r.model.R, v.truth), 0.3) << seed;
     EXPECT_LT((r.model.t - v.truth.translation).norm(), 0.02) << seed;  // metres, |t| = 0.8 m
     EXPECT_NEAR(r.model.scale, 1 / 1.4, 0.02) << seed;
@@ -90,7 +90,7 @@ TEST(HybridPose, FinalRefinementReducesTheError) {
     const HybridPoseResult r0 = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query, o);
     o.refinement_iterations = 30;
     const HybridPoseResult r1 = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query, o);
-    ASSERT_TRUE(r0.status.success && r1.status.success) << seed;
+    ASSERT_TRUE(r0.status.success() && r1.status.success()) << seed;
     before += (r0.model.t - v.truth.translation).norm() + 0.01 * RotErrDeg(r0.model.R, v.truth);
     after += (r1.model.t - v.truth.translation).norm() + 0.01 * RotErrDeg(r1.model.R, v.truth);
     EXPECT_LT(RotErrDeg(r1.model.R, v.truth), 0.3) << seed;
@@ -105,7 +105,7 @@ TEST(HybridPose, ShiftedDepthsWithTheShiftSolver) {
   HybridPoseOptions o;
   o.shifts = true;
   const HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query, o);
-  ASSERT_TRUE(r.status.success) << r.status.reason;
+  ASSERT_TRUE(r.status.success()) << ToString(r.status.outcome);
   EXPECT_LT(RotErrDeg(r.model.R, v.truth), 0.2);
   EXPECT_LT((r.model.t - v.truth.translation).norm(), 0.02);
   EXPECT_NEAR(r.model.shift_ref, 0.3, 0.03);
@@ -132,7 +132,7 @@ TEST(HybridPose, PointsBehindTheCamerasAreNotInliers) {
     ++added;
   }
   const HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
-  ASSERT_TRUE(r.status.success) << r.status.reason;
+  ASSERT_TRUE(r.status.success()) << ToString(r.status.outcome);
   EXPECT_LT((r.model.t - v.truth.translation).norm(), 1e-4);
   for (size_t i = 200; i < v.p1.size(); ++i) EXPECT_FALSE(r.inliers[i]) << i;
   EXPECT_EQ(r.status.num_inliers, 200);
@@ -151,15 +151,15 @@ TEST(HybridPose, RandomMatchesAreNoConsensus) {
   }
   const Camera k{600, 600, 320, 240, 640, 480};
   const HybridPoseResult r = EstimateHybridPose(a, b, da, db, k, k);
-  EXPECT_FALSE(r.status.success);
-  EXPECT_EQ(r.status.reason, "no-consensus");
+  EXPECT_FALSE(r.status.success());
+  EXPECT_EQ(r.status.outcome, EstimatorOutcome::kNoConsensus);
 }
 
 TEST(HybridPose, WithoutDepthThereIsNoMetricModel) {
   const DepthView v = MakeDepthView(10, 100, 0.0, 0.3);
   const std::vector<double> none(v.p1.size(), 0.0);
   const HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, none, none, v.ref, v.query);
-  EXPECT_FALSE(r.status.success);
+  EXPECT_FALSE(r.status.success());
   EXPECT_EQ(r.depth_candidates, 0);
   EXPECT_EQ(r.depth_inliers, 0);
   EXPECT_EQ(r.samples_3pt, 0);
@@ -174,24 +174,24 @@ TEST(HybridPose, HostileDepthsAndDuplicatesStayFiniteAndSafe) {
   for (size_t i = 0; i < v.d1.size(); i += 3) v.d1[i] = bad[i % 7];
   for (size_t i = 1; i < v.d2.size(); i += 3) v.d2[i] = bad[(i + 2) % 7];
   HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
-  ASSERT_TRUE(r.status.success) << r.status.reason;  // a third of each map broken: still a metric pose
+  ASSERT_TRUE(r.status.success()) << ToString(r.status.outcome);  // a third of each map broken: still a metric pose
   EXPECT_TRUE(r.model.R.allFinite() && r.model.t.allFinite() && std::isfinite(r.model.scale));
   EXPECT_LT((r.model.t - v.truth.translation).norm(), 0.05);
   // One match repeated 50 times: no geometry.
   std::vector<Eigen::Vector2d> a(50, v.p1[0]), b(50, v.p2[0]);
   std::vector<double> da(50, 3.0), db(50, 3.0);
   r = EstimateHybridPose(a, b, da, db, v.ref, v.query);
-  EXPECT_FALSE(r.status.success);
+  EXPECT_FALSE(r.status.success());
   // Every depth broken.
   std::vector<double> nan(v.p1.size(), std::nan(""));
   r = EstimateHybridPose(v.p1, v.p2, nan, nan, v.ref, v.query);
-  EXPECT_FALSE(r.status.success);
+  EXPECT_FALSE(r.status.success());
   EXPECT_EQ(r.depth_candidates, 0);
 }
 
 TEST(HybridPose, TooFewMatchesAndBadInputs) {
   const DepthView v = MakeDepthView(11, 8, 0.0, 0.0);
-  EXPECT_EQ(EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query).status.reason, "too-few-matches");
+  EXPECT_EQ(EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query).status.outcome, EstimatorOutcome::kTooFewMatches);
   std::vector<double> short_depth(3, 1.0);
   EXPECT_ANY_THROW(EstimateHybridPose(v.p1, v.p2, short_depth, v.d2, v.ref, v.query));
   HybridPoseOptions o;

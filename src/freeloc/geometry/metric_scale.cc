@@ -80,8 +80,7 @@ void OfficialVote(const std::vector<double>& s, const ScaleOptions& opt, ScaleRe
       best_s = h;
     }
   }
-  res->success = true;
-  res->reason = "ok";
+  res->outcome = ScaleOutcome::kOk;
   res->scale = best_s;
   res->num_inliers = best;
   res->confidence = best;
@@ -125,7 +124,7 @@ void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) 
     est = swx / sw;
   }
   if (in < std::max(1, opt.min_inliers)) {
-    res->reason = "no-consensus";
+    res->outcome = ScaleOutcome::kNoConsensus;
     return;
   }
   // Standard error of the weighted mean from the residual scatter (in units of the windows).
@@ -139,8 +138,7 @@ void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) 
   const double dof = std::max(1, in - 1);
   const double se = std::sqrt(std::max(chi2 / dof, 1.0 / 12.0) / sw);  // ≥ the uniform-window floor
   const double inlier_ratio = static_cast<double>(in) / static_cast<double>(n);
-  res->success = true;
-  res->reason = "ok";
+  res->outcome = ScaleOutcome::kOk;
   res->scale = est;
   res->num_inliers = in;
   res->relative_std_error = se / std::max(std::abs(est), 1e-9);
@@ -195,7 +193,7 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
   const double depth_sum = a.depth_sum;
   res->num_candidates = static_cast<int>(lr.size());
   if (lr.empty()) {
-    res->reason = "no-valid-depth";
+    res->outcome = ScaleOutcome::kNoValidDepth;
     return;
   }
   const TrimmedMeanResult tr = TrimmedMean(lr, 0.01);
@@ -203,7 +201,7 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
   double ser = tr.std_error;
   const int kr = tr.kept;
   if (kr < std::max(1, opt.min_inliers)) {
-    res->reason = "no-consensus";
+    res->outcome = ScaleOutcome::kNoConsensus;
     return;
   }
   double log_scale = mr, anchor = 0;
@@ -221,8 +219,7 @@ void AnchoredScale(const std::vector<Eigen::Vector2d>& px_ref, const std::vector
       common = std::clamp(2 * anchor, 0.01, kCommonDepthScaleError);
     }
   }
-  res->success = true;
-  res->reason = "ok";
+  res->outcome = ScaleOutcome::kOk;
   res->scale = std::exp(log_scale);
   // The consensus: points whose depth agrees with the pose's triangulation within what their parallax allows — a
   // wrong pose (a wrong rotation's triangulation) leaves many outside, a right one few (the confidence uses it).
@@ -292,7 +289,7 @@ ScaleResult EstimateMetricScale(const std::vector<Eigen::Vector2d>& px_ref,
   const Candidates c = ScaleCandidates(px_ref, px_query, query_from_ref, depth_ref, depth_query, ref, query, opt);
   res.num_candidates = static_cast<int>(c.s.size());
   if (c.s.empty()) {
-    res.reason = "no-valid-depth";
+    res.outcome = ScaleOutcome::kNoValidDepth;
   } else if (opt.method == ScaleMethod::kOfficial) {
     OfficialVote(c.s, opt, &res);
   } else {

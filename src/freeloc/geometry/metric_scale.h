@@ -39,9 +39,16 @@ struct ScaleOptions {
   void Validate() const;
 };
 
+// What the scale estimate found (EnumTable<geometry::ScaleOutcome> below).
+enum class ScaleOutcome {
+  kOk,
+  kNoValidDepth,  // no correspondence has depth in both frames
+  kNoConsensus,   // the depths disagree on the scale
+};
+
 struct ScaleResult {
-  bool success = false;
-  std::string reason;             // "ok", "no-valid-depth", "no-consensus"
+  ScaleOutcome outcome = ScaleOutcome::kNoConsensus;
+  bool success() const { return outcome == ScaleOutcome::kOk; }
   double scale = 0;               // metric length of t (signed, along t̂)
   double confidence = 0;          // kOfficial: support count; kRobust: predicted accuracy, higher is better
   int num_candidates = 0;         // correspondences with valid depth in both frames
@@ -87,6 +94,14 @@ float BilinearDepth(const DepthMap& d, double x, double y);
 }  // namespace freeloc::geometry
 
 namespace freeloc {
+template <>
+struct EnumTable<geometry::ScaleOutcome> {
+  static constexpr const char* kField = "scale outcome";
+  static constexpr EnumEntry<geometry::ScaleOutcome> kEntries[] = {
+      {geometry::ScaleOutcome::kOk, "ok"},
+      {geometry::ScaleOutcome::kNoValidDepth, "no-valid-depth"},
+      {geometry::ScaleOutcome::kNoConsensus, "no-consensus"}};
+};
 template <>
 struct EnumTable<geometry::ScaleMethod> {
   static constexpr const char* kField = "scale";

@@ -32,13 +32,13 @@ TEST(MetricScale, ExactDepthBothMethods) {
     o.method = ScaleMethod::kRobust;
     const ScaleResult r =
         EstimateMetricScale(c.p1, c.p2, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref, c.scene.query, o);
-    ASSERT_TRUE(r.success);
+    ASSERT_TRUE(r.success());
     EXPECT_NEAR(r.scale / c.true_scale, 1.0, 0.02) << seed;
     EXPECT_GT(r.num_inliers, 0.8 * r.num_candidates);
     o.method = ScaleMethod::kOfficial;
     const ScaleResult off =
         EstimateMetricScale(c.p1, c.p2, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref, c.scene.query, o);
-    ASSERT_TRUE(off.success);
+    ASSERT_TRUE(off.success());
     EXPECT_NEAR(off.scale / c.true_scale, 1.0, 0.2) << seed;  // int-truncated pixels cost accuracy
     EXPECT_EQ(off.confidence, off.num_inliers);
   }
@@ -51,7 +51,7 @@ TEST(MetricScale, RobustToDegradedDepthWithOutliersAndHoles) {
     const DepthMap dr = testing::DegradeDepth(c.scene.depth_ref, seed * 3, 0.0, 0.03, 0.2, 0.05);
     const DepthMap dq = testing::DegradeDepth(c.scene.depth_query, seed * 7, 0.0, 0.03, 0.2, 0.05);
     const ScaleResult r = EstimateMetricScale(c.p1, c.p2, c.unit, dr, dq, c.scene.ref, c.scene.query);
-    ASSERT_TRUE(r.success);
+    ASSERT_TRUE(r.success());
     good += std::abs(r.scale / c.true_scale - 1) < 0.15;
   }
   EXPECT_GE(good, 9);
@@ -69,7 +69,7 @@ TEST(MetricScale, OfficialTieBreakKeepsFirstHypothesis) {
   o.method = ScaleMethod::kOfficial;
   const ScaleResult r =
       EstimateMetricScale(p, p, Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d::UnitZ()), dr, dq, cam, cam, o);
-  EXPECT_TRUE(r.success);
+  EXPECT_TRUE(r.success());
   EXPECT_EQ(r.scale, 0.0);
   EXPECT_EQ(r.num_inliers, 3);
 }
@@ -79,8 +79,8 @@ TEST(MetricScale, NoValidDepthIsAStatus) {
   DepthMap zero(100, 100);
   std::vector<Eigen::Vector2d> p = {{10, 10}, {20, 20}};
   const ScaleResult r = EstimateMetricScale(p, p, Rigid3d(), zero, zero, cam, cam);
-  EXPECT_FALSE(r.success);
-  EXPECT_EQ(r.reason, "no-valid-depth");
+  EXPECT_FALSE(r.success());
+  EXPECT_EQ(r.outcome, ScaleOutcome::kNoValidDepth);
   EXPECT_THROW(EstimateMetricScale(p, {p[0]}, Rigid3d(), zero, zero, cam, cam), Error);
   EXPECT_THROW(ParseEnum<ScaleMethod>("median"), Error);
 }
@@ -95,13 +95,13 @@ TEST(MetricScale, RobustScaleNeedsThreeAgreeingCorrespondences) {
     ScaleOptions o;
     const ScaleResult r = EstimateMetricScale(a, b, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref,
                                               c.scene.query, o);
-    EXPECT_EQ(r.success, n == 3) << n << ": " << r.reason;
+    EXPECT_EQ(r.success(), n == 3) << n << ": " << ToString(r.outcome);
     if (n == 2) {
-      EXPECT_EQ(r.reason, "no-consensus");
+      EXPECT_EQ(r.outcome, ScaleOutcome::kNoConsensus);
     }
     o.method = ScaleMethod::kOfficial;
     EXPECT_TRUE(EstimateMetricScale(a, b, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref, c.scene.query, o)
-                    .success);
+                    .success());
   }
 }
 

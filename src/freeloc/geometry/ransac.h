@@ -21,25 +21,37 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/core/enum_table.h"
+
 namespace freeloc::geometry {
 
+// The search settings every robust estimator of geometry/ shares (relative, hybrid, PnP, Procrustes): each
+// estimator's options hold one, with its own defaults, and validate it once through Validate(). The inlier
+// threshold is the estimator's own (pixels, metres), handed to Ransac() in its error unit.
 struct RansacOptions {
-  double threshold_sq = 1.0;     // squared inlier threshold in the estimator's error unit
+  RansacOptions() = default;
+  RansacOptions(double success_prob, int min_iterations, int max_iterations, double max_seconds)
+      : success_prob(success_prob), min_iterations(min_iterations), max_iterations(max_iterations),
+        max_seconds(max_seconds) {}
   double success_prob = 0.9999;  // probability of drawing at least one all-inlier sample
   int min_iterations = 50;
   int max_iterations = 100000;
   uint64_t seed = 0;
   bool local_optimization = true;
-  double max_seconds = 0;  // wall-clock budget (0: none); hit → stop_reason "time-budget"
+  double max_seconds = 0;  // wall-clock budget (0: none); hit → RansacStop::kTimeBudget
+  // Throws freeloc::Error "<estimator>: …" naming the field that is out of range.
+  void Validate(const char* estimator) const;
 };
+
+// Why the search stopped (EnumTable<RansacStop> below).
+enum class RansacStop { kConfidence, kMaxIterations, kTimeBudget, kTooFewData, kNoModel };
 
 struct RansacStats {
   int iterations = 0;
   int num_inliers = 0;
   int local_optimizations = 0;
   double score = std::numeric_limits<double>::infinity();  // MSAC score of the best model (lower is better)
-  // "confidence" (stopping rule met), "max-iterations", "time-budget", "too-few-data", "no-model"
-  std::string stop_reason;
+  RansacStop stop = RansacStop::kNoModel;
 };
 
 // splitmix64 — small, fast and seedable; sampling needs no more.
@@ -94,14 +106,16 @@ double MsacScore(const Estimator& est, const typename Estimator::Model& m, doubl
   return score;
 }
 
+// `threshold_sq`: the squared inlier threshold in the estimator's error unit.
 template <class Estimator>
-RansacStats Ransac(const Estimator& est, const RansacOptions& opt, typename Estimator::Model* best_model) {
+RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double threshold_sq,
+                   typename Estimator::Model* best_model) {
   using Model = typename Estimator::Model;
   constexpr int k = Estimator::kSampleSize;
   RansacStats st;
   const size_t n = est.num_data();
   if (n < static_cast<size_t>(k)) {
-    st.stop_reason = "too-few-data";
+    st.stop = RansacStop::kTooFewData;
     return st;
   }
   SplitMix64 rng(opt.seed);
@@ -132,7 +146,7 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, typename Esti
     est.MinimalSolve(sample, &models);
     for (Model& m : models) {
       int n_in = 0;
-      const double score = MsacScore(est, m, opt.threshold_sq, st.score, &n_in);
+      const double score = MsacScore(est, m, threshold_sq, st.score, &n_in);
       if (!(score < st.score)) continue;
       st.score = score;
       st.num_inliers = n_in;
@@ -140,10 +154,10 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, typename Esti
       have = true;
       if (opt.local_optimization) {
         Model lo = m;
-        est.LocalOptimize(&lo, opt.threshold_sq);
+        est.LocalOptimize(&lo, threshold_sq);
         ++st.local_optimizations;
         int lo_in = 0;
-        const double lo_score = MsacScore(est, lo, opt.threshold_sq, st.score, &lo_in);
+        const double lo_score = MsacScore(est, lo, threshold_sq, st.score, &lo_in);
         if (lo_score < st.score) {
           st.score = lo_score;
           st.num_inliers = lo_in;
@@ -156,13 +170,24 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, typename Esti
   }
   st.iterations = iter;
   if (!have) {
-    st.stop_reason = "no-model";
+    st.stop = RansacStop::kNoModel;
   } else {
-    st.stop_reason = out_of_time ? "time-budget"
-                     : iter >= opt.max_iterations && needed >= opt.max_iterations ? "max-iterations"
-                                                                                  : "confidence";
+    st.stop = out_of_time                                                   ? RansacStop::kTimeBudget
+              : iter >= opt.max_iterations && needed >= opt.max_iterations ? RansacStop::kMaxIterations
+                                                                           : RansacStop::kConfidence;
   }
   return st;
 }
 
 }  // namespace freeloc::geometry
+
+namespace freeloc {
+template <>
+struct EnumTable<geometry::RansacStop> {
+  static constexpr const char* kField = "ransac stop";
+  static constexpr EnumEntry<geometry::RansacStop> kEntries[] = {
+      {geometry::RansacStop::kConfidence, "confidence"},   {geometry::RansacStop::kMaxIterations, "max-iterations"},
+      {geometry::RansacStop::kTimeBudget, "time-budget"}, {geometry::RansacStop::kTooFewData, "too-few-data"},
+      {geometry::RansacStop::kNoModel, "no-model"}};
+};
+}  // namespace freeloc

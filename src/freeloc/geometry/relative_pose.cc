@@ -7,19 +7,19 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/geometry/five_point.h"
+#include "freeloc/geometry/levenberg_marquardt.h"
+#include "freeloc/geometry/lie.h"
+#include "freeloc/geometry/robust_loss.h"
 
 namespace freeloc::geometry {
 
 void RelativePoseOptions::Validate() const {
   FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px),
                 "relative pose: threshold_px must be a positive number of pixels");
-  FREELOC_CHECK(success_prob > 0 && success_prob < 1, "relative pose: success probability must be in (0, 1)");
-  FREELOC_CHECK(min_iterations >= 0 && max_iterations >= 1 && min_iterations <= max_iterations,
-                "relative pose: need 0 <= min_iterations <= max_iterations");
+  ransac.Validate("relative pose");
   FREELOC_CHECK(min_inliers >= 5, "relative pose: min_inliers must be at least 5 (the minimal sample)");
   FREELOC_CHECK(competitor_samples >= 0 && competitor_samples <= 100000,
                 "relative pose: competitor_samples must be in [0, 100000]");
-  FREELOC_CHECK(max_seconds >= 0 && std::isfinite(max_seconds), "relative pose: max_seconds must be >= 0");
 }
 
 void CheckFinite(const std::vector<Eigen::Vector2d>& pts, const std::string& what) {
@@ -31,27 +31,69 @@ void CheckFinite(const std::vector<Eigen::Vector2d>& pts, const std::string& wha
 
 namespace {
 
-Eigen::Matrix3d ExpSO3(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-12) return Eigen::Matrix3d::Identity() + Skew(w);
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
+// (R, unit t) refined on the Sampson error of the correspondences `idx` under a Cauchy loss: 5 parameters, a left
+// rotation increment and a step in the tangent plane of t.
+class SampsonRefinement {
+ public:
+  using Params = PoseRt;
+  static constexpr int kNumParams = 5;
+  SampsonRefinement(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                    const std::vector<int>& idx, double loss_scale)
+      : x1_(x1), x2_(x2), idx_(idx), loss_(loss_scale) {}
+  int num_params() const { return kNumParams; }
+  double Cost(const PoseRt& p) const {
+    const Eigen::Matrix3d E = EssentialFromPose(p);
+    double cost = 0;
+    for (int i : idx_) cost += loss_.Cost(SampsonSquared(E, x1_[i], x2_[i]));
+    return cost;
+  }
+  void Linearize(const PoseRt& p, Eigen::Matrix<double, 5, 5>* H, Eigen::Matrix<double, 5, 1>* g) const {
+    const Eigen::Matrix3d& R = p.R;
+    const Eigen::Vector3d& t = p.t;
+    Eigen::Vector3d b1, b2;
+    TangentBasis(t, &b1, &b2);
+    const Eigen::Matrix3d E = Skew(t) * R;
+    // dE for the 5 parameters: rotation (left increment) and translation along the tangent basis.
+    Eigen::Matrix3d dE[5];
+    const Eigen::Matrix3d tx = Skew(t);
+    for (int k = 0; k < 3; ++k) dE[k] = tx * Skew(Eigen::Vector3d::Unit(k)) * R;
+    dE[3] = Skew(b1) * R;
+    dE[4] = Skew(b2) * R;
+    for (int i : idx_) {
+      const Eigen::Vector3d& a = x1_[i];
+      const Eigen::Vector3d& b = x2_[i];
+      const Eigen::Vector3d Ea = E * a, Etb = E.transpose() * b;
+      const double C = b.dot(Ea);
+      const double S = Ea(0) * Ea(0) + Ea(1) * Ea(1) + Etb(0) * Etb(0) + Etb(1) * Etb(1);
+      if (S <= 1e-30) continue;
+      const double inv_sqrt_s = 1.0 / std::sqrt(S);
+      const double r = C * inv_sqrt_s;
+      Eigen::Matrix<double, 5, 1> J;
+      for (int k = 0; k < 5; ++k) {
+        const Eigen::Vector3d dEa = dE[k] * a, dEtb = dE[k].transpose() * b;
+        const double dC = b.dot(dEa);
+        const double dS = 2 * (Ea(0) * dEa(0) + Ea(1) * dEa(1) + Etb(0) * dEtb(0) + Etb(1) * dEtb(1));
+        J(k) = (dC - 0.5 * C * dS / S) * inv_sqrt_s;
+      }
+      const double w = loss_.Weight(r * r);
+      H->noalias() += w * J * J.transpose();
+      g->noalias() += w * r * J;
+    }
+  }
+  bool Step(const PoseRt& p, const Eigen::Matrix<double, 5, 1>& d, PoseRt* out) const {
+    Eigen::Vector3d b1, b2;
+    TangentBasis(p.t, &b1, &b2);
+    out->R = ExpSO3(d.head<3>()) * p.R;
+    out->t = (p.t + d(3) * b1 + d(4) * b2).normalized();
+    return true;
+  }
 
-// Orthonormal basis of the plane orthogonal to unit t.
-void TangentBasis(const Eigen::Vector3d& t, Eigen::Vector3d* b1, Eigen::Vector3d* b2) {
-  const Eigen::Vector3d a = std::abs(t.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  *b1 = t.cross(a).normalized();
-  *b2 = t.cross(*b1).normalized();
-}
-
-// Cauchy loss ρ(s) = c²·log(1 + s/c²) on squared residuals s; weight ρ'(s) = 1/(1 + s/c²).
-double CauchyCost(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
-                  const std::vector<int>& idx, const PoseRt& p, double c2) {
-  const Eigen::Matrix3d E = EssentialFromPose(p);
-  double cost = 0;
-  for (int i : idx) cost += c2 * std::log1p(SampsonSquared(E, x1[i], x2[i]) / c2);
-  return cost;
-}
+ private:
+  const std::vector<Eigen::Vector3d>& x1_;
+  const std::vector<Eigen::Vector3d>& x2_;
+  const std::vector<int>& idx_;
+  CauchyLoss loss_;
+};
 
 // A hypothesis carries its essential matrix so scoring never recomputes it.
 struct RelModel {
@@ -91,67 +133,10 @@ class RelPoseEstimator {
 
 double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
                           const std::vector<int>& idx, double loss_scale, int max_iterations, PoseRt* pose) {
-  const double c2 = loss_scale * loss_scale;
-  double cost = CauchyCost(x1, x2, idx, *pose, c2);
-  double lambda = 1e-4;
-  for (int it = 0; it < max_iterations; ++it) {
-    const Eigen::Matrix3d& R = pose->R;
-    const Eigen::Vector3d& t = pose->t;
-    Eigen::Vector3d b1, b2;
-    TangentBasis(t, &b1, &b2);
-    const Eigen::Matrix3d E = Skew(t) * R;
-    // dE for the 5 parameters: rotation (left increment) and translation along the tangent basis.
-    Eigen::Matrix3d dE[5];
-    const Eigen::Matrix3d tx = Skew(t);
-    for (int k = 0; k < 3; ++k) dE[k] = tx * Skew(Eigen::Vector3d::Unit(k)) * R;
-    dE[3] = Skew(b1) * R;
-    dE[4] = Skew(b2) * R;
-    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
-    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
-    for (int i : idx) {
-      const Eigen::Vector3d& a = x1[i];
-      const Eigen::Vector3d& b = x2[i];
-      const Eigen::Vector3d Ea = E * a, Etb = E.transpose() * b;
-      const double C = b.dot(Ea);
-      const double S = Ea(0) * Ea(0) + Ea(1) * Ea(1) + Etb(0) * Etb(0) + Etb(1) * Etb(1);
-      if (S <= 1e-30) continue;
-      const double inv_sqrt_s = 1.0 / std::sqrt(S);
-      const double r = C * inv_sqrt_s;
-      Eigen::Matrix<double, 5, 1> J;
-      for (int k = 0; k < 5; ++k) {
-        const Eigen::Vector3d dEa = dE[k] * a, dEtb = dE[k].transpose() * b;
-        const double dC = b.dot(dEa);
-        const double dS = 2 * (Ea(0) * dEa(0) + Ea(1) * dEa(1) + Etb(0) * dEtb(0) + Etb(1) * dEtb(1));
-        J(k) = (dC - 0.5 * C * dS / S) * inv_sqrt_s;
-      }
-      const double w = 1.0 / (1.0 + r * r / c2);
-      H.noalias() += w * J * J.transpose();
-      g.noalias() += w * r * J;
-    }
-    bool improved = false;
-    for (int tries = 0; tries < 6 && !improved; ++tries) {
-      Eigen::Matrix<double, 5, 5> A = H;
-      for (int k = 0; k < 5; ++k) A(k, k) += lambda * std::max(H(k, k), 1e-12);
-      const Eigen::Matrix<double, 5, 1> d = A.ldlt().solve(-g);
-      if (!d.allFinite()) break;
-      PoseRt cand;
-      cand.R = ExpSO3(d.head<3>()) * R;
-      cand.t = (t + d(3) * b1 + d(4) * b2).normalized();
-      const double c = CauchyCost(x1, x2, idx, cand, c2);
-      if (c < cost) {
-        const double rel = (cost - c) / std::max(cost, 1e-300);
-        *pose = cand;
-        cost = c;
-        lambda = std::max(lambda * 0.1, 1e-10);
-        improved = true;
-        if (rel < 1e-10 || d.norm() < 1e-12) return cost;
-      } else {
-        lambda *= 10;
-      }
-    }
-    if (!improved) break;
-  }
-  return cost;
+  LMOptions lm;
+  lm.max_iterations = max_iterations;
+  lm.min_step_norm = 1e-12;
+  return MinimizeLM(SampsonRefinement(x1, x2, idx, loss_scale), pose, lm).final_cost;
 }
 
 // The smaller principal spread (standard deviation, pixels) of the inlier points of one image.
@@ -215,13 +200,12 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   RelativePoseResult res;
   res.status.num_matches = static_cast<int>(px_ref.size());
   res.inliers.assign(px_ref.size(), 0);
-  auto finish = [&](const char* reason) {
-    res.status.reason = reason;
-    res.status.success = std::string(reason) == "ok";
+  auto finish = [&](EstimatorOutcome outcome) {
+    res.status.outcome = outcome;
     res.status.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return res;
   };
-  if (px_ref.size() < static_cast<size_t>(opt.min_inliers)) return finish("too-few-matches");
+  if (px_ref.size() < static_cast<size_t>(opt.min_inliers)) return finish(EstimatorOutcome::kTooFewMatches);
   std::vector<Eigen::Vector3d> x1(px_ref.size()), x2(px_ref.size());
   for (size_t i = 0; i < px_ref.size(); ++i) {
     x1[i] = ref.Unproject(px_ref[i].x(), px_ref[i].y());
@@ -230,27 +214,20 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   const double focal = 0.25 * (ref.fx + ref.fy + query.fx + query.fy);
   const double th = opt.threshold_px / focal;
   RelPoseEstimator est(x1, x2, th);
-  RansacOptions ro;
-  ro.threshold_sq = th * th;
-  ro.success_prob = opt.success_prob;
-  ro.min_iterations = opt.min_iterations;
-  ro.max_iterations = opt.max_iterations;
-  ro.seed = opt.seed;
-  ro.local_optimization = opt.local_optimization;
-  ro.max_seconds = opt.max_seconds;
+  const double threshold_sq = th * th;
   RelModel best_model;
-  const RansacStats st = Ransac(est, ro, &best_model);
+  const RansacStats st = Ransac(est, opt.ransac, threshold_sq, &best_model);
   PoseRt best = best_model.pose;
   res.status.iterations = st.iterations;
   res.status.local_optimizations = st.local_optimizations;
-  res.status.stop_reason = st.stop_reason;
-  if (st.stop_reason == "no-model" || st.num_inliers < 5) return finish("no-consensus");
+  res.status.stop = st.stop;
+  if (st.stop == RansacStop::kNoModel || st.num_inliers < 5) return finish(EstimatorOutcome::kNoConsensus);
   std::vector<int> in;
   auto collect = [&](const PoseRt& p) {
     in.clear();
     const Eigen::Matrix3d E = EssentialFromPose(p);
     for (size_t i = 0; i < x1.size(); ++i)
-      if (SampsonSquared(E, x1[i], x2[i]) < ro.threshold_sq) in.push_back(static_cast<int>(i));
+      if (SampsonSquared(E, x1[i], x2[i]) < threshold_sq) in.push_back(static_cast<int>(i));
   };
   collect(best);
   if (opt.final_refinement && in.size() >= 6) {
@@ -267,7 +244,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   if (opt.competitor_samples > 0 && in.size() >= static_cast<size_t>(opt.min_inliers)) {
     std::vector<CompetingModel> near;
     const bool use_depth = !depth.ref.empty() || !depth.query.empty();
-    const auto rivals = FindCompetingRelativeModels(x1, x2, best, in, ro.threshold_sq, th, opt.seed,
+    const auto rivals = FindCompetingRelativeModels(x1, x2, best, in, threshold_sq, th, opt.ransac.seed,
                                                     opt.competitor_samples, 0.7, 3, use_depth ? &near : nullptr);
     const double sigma = 1.0 / focal;
     // The evidence of every model on the same even subsample of ≤ 4000 correspondences (dense sets).
@@ -280,7 +257,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
       if (!depth.ref.empty()) ed.ref.push_back(i < depth.ref.size() ? depth.ref[i] : 0.0);
       if (!depth.query.empty()) ed.query.push_back(i < depth.query.size() ? depth.query[i] : 0.0);
     }
-    auto evaluate = [&](const PoseRt& p) { return EvaluateRelativeModel(e1, e2, p, ro.threshold_sq, ed, sigma); };
+    auto evaluate = [&](const PoseRt& p) { return EvaluateRelativeModel(e1, e2, p, threshold_sq, ed, sigma); };
     std::vector<PoseRt> models = {best};
     std::vector<ModelEvidence> ev = {evaluate(best)};
     for (const auto& r : rivals) {
@@ -329,7 +306,8 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
         res.status.runner_up_inliers = ev[runner].inliers * static_cast<int>(stride);
         res.runner_up = Rigid3d(models[runner].R, models[runner].t.normalized());
       }
-      res.status.decided_by = overruled ? (by_depth ? "depth" : "cheirality") : "support";
+      res.status.decided_by = overruled ? (by_depth ? CompetitorDecision::kDepth : CompetitorDecision::kCheirality)
+                                        : CompetitorDecision::kSupport;
       if (win != 0) {
         best = models[win];
         collect(best);
@@ -353,9 +331,9 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   res.status.num_inliers = n_in;
   if (n_in < opt.min_inliers) {
     res.inliers.assign(px_ref.size(), 0);
-    return finish("no-consensus");
+    return finish(EstimatorOutcome::kNoConsensus);
   }
-  res.status.chance_inliers = ChanceInliers(x1, x2, best, ro.threshold_sq);
+  res.status.chance_inliers = ChanceInliers(x1, x2, best, threshold_sq);
   // Support must beat chance clearly: RANSAC maximises over thousands of hypotheses, so a random set's best model
   // exceeds its shuffled support by several standard deviations; real geometry exceeds it many times over. A model
   // that does not is still an answer — a weak one: "weak-support", the pose returned, never "ok".
@@ -371,28 +349,28 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     const size_t offset = x2.size() / 2 + 1;
     for (size_t i = 0; i < x2.size(); ++i) x2s[i] = x2[(i + offset) % x2.size()];
     RelPoseEstimator shuffled(x1, x2s, th);
-    RansacOptions rs = ro;
-    rs.max_iterations = std::max(st.iterations, ro.min_iterations);
-    if (opt.max_seconds > 0)  // what is left of the budget (at least 0.1 s)
-      rs.max_seconds = std::max(
-          0.1, opt.max_seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    RansacOptions rs = opt.ransac;
+    rs.max_iterations = std::max(st.iterations, opt.ransac.min_iterations);
+    if (opt.ransac.max_seconds > 0)  // what is left of the budget (at least 0.1 s)
+      rs.max_seconds = std::max(0.1, opt.ransac.max_seconds -
+                                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     RelModel m;
-    const RansacStats ss = Ransac(shuffled, rs, &m);
-    res.status.shuffled_best = ss.stop_reason == "no-model" ? 0 : ss.num_inliers;
+    const RansacStats ss = Ransac(shuffled, rs, threshold_sq, &m);
+    res.status.shuffled_best = ss.stop == RansacStop::kNoModel ? 0 : ss.num_inliers;
     weak = n_in < 1.5 * res.status.shuffled_best + 4;
     trivial = n_in < 1.2 * res.status.shuffled_best + 3;
   }
   if (weak && trivial) {
     res.inliers.assign(px_ref.size(), 0);
-    return finish("no-consensus");
+    return finish(EstimatorOutcome::kNoConsensus);
   }
   if (InliersDegenerate(px_ref, px_query, res.inliers)) {
     res.inliers.assign(px_ref.size(), 0);
     res.status.num_inliers = 0;
-    return finish("degenerate");
+    return finish(EstimatorOutcome::kDegenerate);
   }
   res.query_from_ref = Rigid3d(best.R, best.t.normalized());
-  return finish(weak ? "weak-support" : "ok");
+  return finish(weak ? EstimatorOutcome::kWeakSupport : EstimatorOutcome::kOk);
 }
 
 }  // namespace freeloc::geometry

@@ -11,17 +11,16 @@
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/geometry/competing_models.h"
 #include "freeloc/geometry/essential.h"
+#include "freeloc/geometry/estimator_status.h"
 #include "freeloc/geometry/ransac.h"
 
 namespace freeloc::geometry {
 
 struct RelativePoseOptions {
   double threshold_px = 1.0;  // inlier threshold on the Sampson error, pixels (÷ mean focal for normalised units)
-  double success_prob = 0.9999;
-  int min_iterations = 50;
-  int max_iterations = 100000;
-  uint64_t seed = 0;
-  bool local_optimization = true;
+  // The search; its wall-clock budget is 10 s, then the best model so far, if it passes the checks.
+  RansacOptions ransac{/*success_prob=*/0.9999, /*min_iterations=*/50, /*max_iterations=*/100000,
+                       /*max_seconds=*/10.0};
   bool final_refinement = true;
   int refinement_iterations = 25;
   // Never a confident wrong answer: fewer inliers than this is no consensus (5 matches always fit a 5-point model
@@ -30,31 +29,7 @@ struct RelativePoseOptions {
   // Competing models (competing_models.h): minimal samples drawn from the winner's inliers to find a distinct
   // model with nearly the same support (0: no search, RANSAC's winner stands unexamined).
   int competitor_samples = 60;
-  double max_seconds = 10.0;  // RANSAC wall-clock budget; then the best model so far, if it passes the checks
   void Validate() const;  // throws freeloc::Error
-};
-
-struct EstimatorStatus {
-  bool success = false;
-  // "ok", "weak-support" (a model, but its support is not clearly beyond chance: the pose is returned, success
-  // false), "too-few-matches", "no-consensus" (no model), "degenerate"
-  std::string reason;
-  int chance_inliers = 0;   // inliers of the final model on shuffled pairs (what chance alone gives)
-  int shuffled_best = -1;   // weak support only: the best RANSAC model's inliers on shuffled pairs (−1: not run)
-  std::string stop_reason;  // from RANSAC: "confidence", "max-iterations", …
-  int num_matches = 0;
-  int iterations = 0;
-  int num_inliers = 0;
-  int local_optimizations = 0;
-  double refinement_cost = 0;  // robust cost after the final refinement
-  // Competing models: how many distinct models had nearly the winner's support, what decided between them
-  // ("support": nothing else told them apart; "cheirality"; "depth"; "" when there was no competitor), and how
-  // plausible the strongest loser stayed (its evidence ÷ the winner's, 0–1; 0 without competitor).
-  int competitors = 0;
-  std::string decided_by;
-  double runner_up_plausibility = 0;
-  int runner_up_inliers = 0;
-  double time_ms = 0;
 };
 
 struct RelativePoseResult {

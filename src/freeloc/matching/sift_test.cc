@@ -67,7 +67,7 @@ TEST(Sift, FreelocBeatsOfficialRecipeOnRealTumPairs) {
 
     // freeloc with its defaults (1 px Sampson threshold, robust scale).
     const auto rel = geometry::EstimateRelativePose(c.ref, c.query, s.reference.camera, q.camera);
-    ASSERT_TRUE(rel.status.success);
+    ASSERT_TRUE(rel.status.success());
     std::vector<Eigen::Vector2d> r, qq;
     for (size_t i = 0; i < c.size(); ++i)
       if (rel.inliers[i]) {
@@ -75,7 +75,7 @@ TEST(Sift, FreelocBeatsOfficialRecipeOnRealTumPairs) {
         qq.push_back(c.query[i]);
       }
     const auto sc = geometry::EstimateMetricScale(r, qq, rel.query_from_ref, d0, d1, s.reference.camera, q.camera);
-    ASSERT_TRUE(sc.success);
+    ASSERT_TRUE(sc.success());
     Rigid3d mine = rel.query_from_ref;
     mine.translation *= sc.scale;
     const Errors ef = Compare(mine, gt);
