@@ -18,7 +18,7 @@
 #include <sstream>
 
 #include "bench_torch.h"
-#include "freeloc/networks/stages.h"
+#include "freeloc/networks/network_stages.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
@@ -192,9 +192,9 @@ int main(int argc, char** argv) {
     o.segmenter.max_area_ratio = 1e9;
     for (std::string* p : {&o.dust3r_model, &o.mast3r_model, &o.seggpt_model, &o.metric3d_model}) *p = "random";
     std::unique_ptr<pl::Matcher> matcher =
-        o.UsesPointmapModel() ? pl::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt) : pl::MakeMatcher(o);
+        o.UsesPointmapModel() ? freeloc::networks::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt) : pl::MakeMatcher(o);
     std::unique_ptr<pl::DepthEstimator> dest =
-        o.UsesMetric3d() ? pl::MakeNetworkDepthEstimator(metric3d) : pl::MakeDepthEstimator(o);
+        o.UsesMetric3d() ? freeloc::networks::MakeNetworkDepthEstimator(metric3d) : pl::MakeDepthEstimator(o);
     pl::Relocalizer reloc(o, std::move(matcher), std::move(dest), pl::MakePoseSolver(o));
     Row row;
     row.preset = name;

@@ -377,7 +377,7 @@ class PyRelocalizer {
     if (!s.reloc) {
       pipeline::PipelineOptions o = options_;
       if (no_depth) o.depth = pipeline::DepthSpec::FromString("none");
-      s.reloc = std::make_unique<pipeline::Relocalizer>(o);
+      s.reloc = std::make_unique<pipeline::Relocalizer>(o, pipeline::Relocalizer::kOptionsValidated);  // in the ctor
     }
     return *s.reloc;
   }
@@ -432,8 +432,7 @@ py::dict Run(const std::string& data, const std::string& out, const std::string&
   }
   if (!models.is_none()) o.models_dir = PathOf(models);
   ApplyOptions(&o, kw);
-  pipeline::FindModels(&o);
-  Validate(o);
+  pipeline::FindModels(&o);  // validated once, by ExecuteRun (an option's error is a ValueError naming it)
   pipeline::RunSpec spec;
   spec.data = data;
   spec.out = out;
@@ -727,6 +726,8 @@ PYBIND11_MODULE(_freeloc, m) {
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
+    } catch (const OptionError& e) {  // an option's error names the keyword (the option's own name)
+      PyErr_SetString(PyExc_ValueError, e.what());
     } catch (const Error& e) {
       error(e.what());
     }

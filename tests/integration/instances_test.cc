@@ -53,7 +53,7 @@ TEST(Instances, ProposalsPropagationAndMatchingOnTumPhotos) {
     if (props[i].kept) pairs.push_back({props[i].id, ref_masks[i].second, props[i].query_mask});
   }
   // Instance matching with DUSt3R on the masked pairs, then the merge.
-  const matching::PointmapFn fn = pipeline::Dust3rPointmapFn(dust3r);
+  const matching::PointmapFn fn = networks::Dust3rPointmapFn(dust3r);
   matching::InstanceOptions io;
   io.preprocess.size = 224;
   io.min_matches = 1;

@@ -18,6 +18,7 @@
 #include "freeloc/io/mapfree.h"
 #include "freeloc/io/safetensors.h"
 #include "freeloc/io/submission.h"
+#include "freeloc/pipeline/options.h"
 #include "testing/mapfree_writer.h"
 #include "testing/testing.h"
 #include "cli_testing.h"
@@ -785,7 +786,7 @@ TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
 
 }  // namespace
 
-// Issue 16: limits are the user's to set (flag or environment), and a limit error is one line naming the limit.
+// Limits are the user's to set (flag or environment), and a limit error is one line naming the limit.
 TEST(Cli, InputLimitsAreSetByFlagOrEnvironment) {
   FREELOC_REQUIRE_SHARED("fixtures/pth/formats.pth");
   const std::string pth = freeloc::testing::SharedPath("fixtures/pth/formats.pth");
@@ -793,7 +794,7 @@ TEST(Cli, InputLimitsAreSetByFlagOrEnvironment) {
   ASSERT_EQ(ok.code, 0) << ok.out;
   Result flag = RunFreeloc("--limit max_tensors=1 inspect " + pth);
   EXPECT_EQ(flag.code, 1) << flag.out;
-  EXPECT_TRUE(Contains(flag.out, "--limit max_tensors=N")) << flag.out;
+  EXPECT_TRUE(Contains(flag.out, "raise the limit max_tensors (FREELOC_LIMIT_MAX_TENSORS=N")) << flag.out;
   EXPECT_EQ(std::count(flag.out.begin(), flag.out.end(), '\n'), 1) << flag.out;
   Result env = RunFreeloc("inspect " + pth, "-u FREELOC_MODELS FREELOC_LIMIT_MAX_TENSORS=1");
   EXPECT_EQ(env.code, 1) << env.out;
@@ -1040,6 +1041,47 @@ TEST(Cli, OptionsAndHelpShowTheDefaultsOfTheOptionTable) {
     EXPECT_TRUE(Contains(r.out, "(default anchored)")) << cmd << "\n" << r.out;
     EXPECT_FALSE(Contains(r.out, "robust scale")) << cmd << "\n" << r.out;
   }
+}
+
+// The flags are generated from the option registry: every row with a flag is offered where its scope says (with its
+// second spelling and choices), and an option's error names the flag the command spells it with.
+TEST(Cli, FlagsComeFromTheOptionRegistry) {
+  using freeloc::pipeline::FlagScope;
+  const Result top = RunFreeloc("--help"), run = RunFreeloc("run --help"), pose = RunFreeloc("pose --help"),
+               reloc = RunFreeloc("relocalize --help");
+  for (const auto& f : freeloc::pipeline::OptionFields()) {
+    if (!f.flag) continue;
+    const std::string flag = std::string(f.flag) + (f.alias ? std::string(",") + f.alias : std::string()) + " ";
+    switch (f.scope) {
+      case FlagScope::kGlobal: EXPECT_TRUE(Contains(top.out, flag)) << flag; break;
+      case FlagScope::kSolve:
+        for (const Result* h : {&run, &pose, &reloc}) EXPECT_TRUE(Contains(h->out, flag)) << flag;
+        break;
+      case FlagScope::kStages:
+        EXPECT_TRUE(Contains(run.out, flag)) << flag;
+        EXPECT_TRUE(Contains(reloc.out, flag)) << flag;
+        EXPECT_FALSE(Contains(pose.out, flag)) << flag;
+        break;
+      case FlagScope::kRun:
+        EXPECT_TRUE(Contains(run.out, flag)) << flag;
+        EXPECT_FALSE(Contains(reloc.out, flag)) << flag;
+        break;
+      case FlagScope::kNone: ADD_FAILURE() << f.name << " has a flag but no scope";
+    }
+    if (!f.choices.empty() && f.scope != FlagScope::kGlobal)
+      EXPECT_TRUE(Contains(f.scope == FlagScope::kSolve ? pose.out : run.out, "one of " + f.choices)) << f.name;
+  }
+  // An option's error names the flag: the registry's, or the command's own spelling (match --size is dust3r_size).
+  freeloc::testing::TempDir tmp;
+  const std::string img = freeloc::testing::DemoPath("val/s00001/seq0/frame_00000.jpg");
+  Result r = RunFreeloc("match --model x.pth --size 100 " + img + " " + img + " --out " + tmp.File("m.txt"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "--size: 100 is too small")) << r.out;
+  EXPECT_FALSE(Contains(r.out, "--dust3r-size")) << r.out;
+  r = RunFreeloc("run --data " + freeloc::testing::DemoPath("") + " --frames 12 --out " + tmp.File("x.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_TRUE(Contains(r.out, "--frames: 12 is not in 1..9")) << r.out;
+  EXPECT_EQ(RunFreeloc("run --data x --frames 0 --out " + tmp.File("x.zip")).code, 2);  // not a count
 }
 
 // --check-args checks a command line without running it: valid lines exit 0 even when their files do not exist,

@@ -4,9 +4,11 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
+#include "freeloc/core/error.h"
 #include "freeloc/nn/runtime.h"
 #include "freeloc/pipeline/options.h"
 
@@ -16,37 +18,40 @@ class App;
 
 namespace freeloc::cli {
 
+// The global flags (--threads, --device, --precision: the option registry's kGlobal rows) as given, by field name.
 struct GlobalOptions {
-  int threads = 0;                // 0 = library default
-  std::string device = "cpu";     // cpu | cuda
-  std::string precision = "fp32"; // fp32 | bf16
+  std::map<std::string, std::string> values;  // field → text as given (empty: not given)
   bool quiet = false;
   bool verbose = false;
-  nn::RuntimeOptions Runtime() const;  // typed; throws naming the flag
+  int threads() const;                 // 0 = library default
+  nn::RuntimeOptions Runtime() const;  // typed through the option registry
 };
+// The registry's kGlobal rows as flags of `app`, checked as parsed (choices; counts positive).
+void AddGlobalFlags(CLI::App* app, GlobalOptions* global);
 
-// The pipeline's options as flags, shared by run, relocalize, pose and match: a preset, then per-field overrides
-// (--matcher, --depth, --solver, …, and --set NAME=VALUE for any option field).
+// The pipeline's options as flags, generated from the option registry (pipeline/options.h): a preset, then the
+// rows whose flag is offered to the command, and --set NAME=VALUE for any option field.
 struct PipelineArgs {
-  std::string preset;  // empty: the command's default
-  std::string matcher, depth, solver, scale, instance_mode;
-  std::string models, dust3r_model, dust3r_config, mast3r_model, seggpt_model, metric3d_model;
-  double threshold = -1;
-  int dust3r_size = 0;
-  std::vector<std::string> sets;  // NAME=VALUE
+  std::map<std::string, std::string> values;  // field → text as given (empty: the preset's)
+  std::vector<std::string> sets;              // NAME=VALUE
 };
-// `networks`: also the stage and network flags (--matcher, --depth, --models, --dust3r, …); without them, for a
-// command given its correspondences and depth maps (pose). The help shows `default_preset`'s values.
-void AddPipelineArgs(CLI::App* sub, PipelineArgs* args, const std::string& default_preset, bool networks = true);
-// Preset, overrides, global runtime, `adjust` (a command's own rules), models found; validated. Errors name the
-// flag ("--solver: …").
+// The kSolve rows; with `stages` also the kStages rows (matcher, depth, networks) — without them for a command
+// given its correspondences and depth maps (pose); with `run` also the kRun rows (track, frames, device poses).
+// The help shows `default_preset`'s values.
+void AddPipelineArgs(CLI::App* sub, PipelineArgs* args, const std::string& default_preset, bool stages = true,
+                     bool run = false);
+// Preset, overrides, global runtime, `adjust` (a command's own rules), models found; validated when `validate`
+// (false where the library entry point the command calls validates them itself: one validation per run).
 pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& args, const GlobalOptions& global,
                                               const std::string& default_preset,
-                                              const std::function<void(pipeline::PipelineOptions*)>& adjust = nullptr);
-// Runs `fn`; a freeloc::Error whose message names an option field is rethrown with the field's flag.
-pipeline::PipelineOptions WithFlagNames(const std::function<pipeline::PipelineOptions()>& fn);
-// The message with a leading option field ("depth provided:x: …", "solver: …") replaced by its flag.
-std::string NameFlags(std::string message);
+                                              const std::function<void(pipeline::PipelineOptions*)>& adjust = nullptr,
+                                              bool validate = true);
+
+// The flag of an option field (the registry's, or a run field's: --data, --out, --log, --shard); `own` maps a
+// command's own spellings first (match: dust3r_size → --size).
+std::string FlagOf(const std::string& field, const std::map<std::string, std::string>& own = {});
+// An option error as the command line says it: the flag, then the library's detail ("--solver: 'x' is not …").
+std::string FlagMessage(const OptionError& e, const std::map<std::string, std::string>& own = {});
 
 // The scenes of `data`/`split` (all, or the comma-separated `scenes_csv`); see pipeline::ResolveScenes.
 std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split, const std::string& scenes_csv,

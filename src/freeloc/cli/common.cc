@@ -1,8 +1,9 @@
-// Helpers shared by the subcommands: the pipeline's options as flags, flag names in errors, scene lists.
+// Helpers shared by the subcommands: the option registry's rows as flags, flags in option errors, scene lists.
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdlib>
-#include <regex>
+#include <cerrno>
+#include <map>
 #include <sstream>
 
 #include "freeloc/cli/commands.h"
@@ -15,69 +16,28 @@ namespace freeloc::cli {
 
 namespace {
 
-// Option fields → the flags that set them: the option table's own column (pipeline/options.h), plus the run
-// controller's fields that are flags of `run` alone.
-const std::vector<std::pair<std::string, std::string>>& Flags() {
-  static const std::vector<std::pair<std::string, std::string>> flags = [] {
-    std::vector<std::pair<std::string, std::string>> f;
-    for (const pipeline::OptionField& o : pipeline::OptionFields())
-      if (o.flag) f.emplace_back(o.name, o.flag);
-    for (const char* run_field : {"shard", "data", "out", "log"}) f.emplace_back(run_field, std::string("--") + run_field);
-    return f;
-  }();
+// Fields that are not pipeline options: the run controller's (pipeline/run_controller.h RunSpec), flags of `run`
+// alone, and --set itself.
+const std::map<std::string, std::string>& RunFlags() {
+  static const std::map<std::string, std::string> flags = {
+      {"data", "--data"}, {"out", "--out"}, {"log", "--log"}, {"shard", "--shard"}, {"set", "--set"}};
   return flags;
 }
 
 }  // namespace
 
-// "field: …" → "--flag: …"; other fields named in the text get "(--flag)" after them.
-std::string NameFlags(std::string m) {
-  for (const auto& [f, flag] : Flags()) {  // a leading "field:" or "field " names the flag
-    if (m.size() > f.size() && m.compare(0, f.size(), f) == 0 && (m[f.size()] == ':' || m[f.size()] == ' ')) {
-      m = flag + m.substr(f.size());
-      break;
-    }
-  }
-  for (const auto& [field, flag] : Flags()) {
-    if (field.find('_') == std::string::npos) continue;  // only unambiguous names
-    const std::regex word("\\b" + field + "\\b(?! \\()");
-    m = std::regex_replace(m, word, field + " (" + flag + ")");
-  }
-  return m;
+std::string FlagOf(const std::string& field, const std::map<std::string, std::string>& own) {
+  if (const auto it = own.find(field); it != own.end()) return it->second;
+  if (const pipeline::OptionField* f = pipeline::FindOptionFieldOrNull(field); f && f->flag) return f->flag;
+  if (const auto it = RunFlags().find(field); it != RunFlags().end()) return it->second;
+  return field;  // a field without a flag: --set NAME=…
+}
+
+std::string FlagMessage(const OptionError& e, const std::map<std::string, std::string>& own) {
+  return FlagOf(e.field(), own) + e.detail();
 }
 
 namespace {
-
-void Apply(pipeline::PipelineOptions* o, const char* field, const std::string& value) {
-  if (!value.empty()) pipeline::SetOption(o, field, value);
-}
-
-}  // namespace
-
-nn::RuntimeOptions GlobalOptions::Runtime() const {
-  nn::RuntimeOptions rt;
-  rt.device = ParseEnum<nn::Device>(device, "--device");
-  rt.precision = ParseEnum<nn::Precision>(precision, "--precision");
-  rt.threads = threads;
-  return rt;
-}
-
-pipeline::PipelineOptions WithFlagNames(const std::function<pipeline::PipelineOptions()>& fn) {
-  try {
-    return fn();
-  } catch (const Error& e) {
-    throw Error(NameFlags(e.what()));
-  }
-}
-
-namespace {
-
-// A pipeline flag's help: the option table's text and the default preset's value (one source for both).
-std::string FlagHelp(const char* field, const pipeline::PipelineOptions& defaults) {
-  const std::string value = pipeline::GetOption(defaults, field);
-  return std::string(pipeline::FindOptionField(field).help) +
-         (value.empty() || value == "-1" ? std::string() : " (default " + value + ")");
-}
 
 // Names that become file names (precomputed:<name>[-<solver>], provided:<suffix>) are checked as the flag is parsed:
 // a path there is a usage error (exit 2), never a file opened outside the scene.
@@ -97,72 +57,107 @@ CLI::Validator FileNameParts() {
       "NAME");
 }
 
+// Numbers given as flags are counts and sizes: positive, checked as parsed (a usage error, exit 2); each field's
+// own range is the registry's validation.
+CLI::Validator Positive(pipeline::OptionType type) {
+  return CLI::Validator(
+      [type](std::string& v) {
+        char* end = nullptr;
+        errno = 0;
+        const double x = type == pipeline::OptionType::kInt ? static_cast<double>(std::strtol(v.c_str(), &end, 10))
+                                                            : std::strtod(v.c_str(), &end);
+        const bool ok = end && end != v.c_str() && *end == 0 && errno == 0 && std::isfinite(x) && x > 0;
+        return ok ? std::string()
+                  : std::string(type == pipeline::OptionType::kInt ? "must be a positive integer"
+                                                                   : "must be a positive number");
+      },
+      type == pipeline::OptionType::kInt ? "N" : "X");
+}
+
+// One registry row as a flag of `app`: its spelling(s), its help with its choices and the default preset's value,
+// and the checks made as it is parsed.
+void AddOptionFlag(CLI::App* app, const pipeline::OptionField& f, std::string* value,
+                   const pipeline::PipelineOptions* defaults) {
+  std::string names = f.flag;
+  if (f.alias) names += std::string(",") + f.alias;
+  std::string help = f.help;
+  if (!f.choices.empty()) help += "; one of " + f.choices;
+  if (defaults) {
+    const std::string d = pipeline::GetOption(*defaults, f.name);
+    if (!d.empty() && d != "-1") help += " (default " + d + ")";
+  }
+  CLI::Option* opt = app->add_option(names, *value, help);
+  if (f.type != pipeline::OptionType::kText) opt->check(Positive(f.type));
+  if (std::string(f.name) == "preset" || std::string(f.name) == "matcher" || std::string(f.name) == "depth")
+    opt->check(FileNameParts());
+  if (f.scope == pipeline::FlagScope::kGlobal && !f.choices.empty()) {  // before any command: checked as parsed
+    std::vector<std::string> choices;
+    std::stringstream ss(f.choices);
+    for (std::string c; std::getline(ss, c, ',');) choices.push_back(c.substr(c.find_first_not_of(' ')));
+    opt->check(CLI::IsMember(choices));
+  }
+}
+
 }  // namespace
 
-void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_preset, bool networks) {
+void AddGlobalFlags(CLI::App* app, GlobalOptions* global) {
+  for (const pipeline::OptionField& f : pipeline::OptionFields())
+    if (f.flag && f.scope == pipeline::FlagScope::kGlobal) AddOptionFlag(app, f, &global->values[f.name], nullptr);
+}
+
+int GlobalOptions::threads() const { return Runtime().threads; }
+
+nn::RuntimeOptions GlobalOptions::Runtime() const {
+  pipeline::PipelineOptions o;
+  for (const auto& [field, value] : values)
+    if (!value.empty()) pipeline::SetOption(&o, field, value);
+  return o.runtime;
+}
+
+void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_preset, bool stages, bool run) {
   const pipeline::PipelineOptions d = pipeline::ResolvePreset(default_preset);
-  std::string presets;
-  for (const std::string& p : pipeline::PresetNames()) presets += (presets.empty() ? "" : ", ") + p;
-  sub->add_option("--preset", a->preset, "default " + default_preset + "; one of " + presets)->check(FileNameParts());
-  if (networks) {  // a command given correspondences and depth maps (pose) has no matcher or depth stage to choose
-    sub->add_option("--matcher", a->matcher, "override: " + FlagHelp("matcher", d))->check(FileNameParts());
-    sub->add_option("--depth", a->depth, "override: " + FlagHelp("depth", d))->check(FileNameParts());
+  for (const pipeline::OptionField& f : pipeline::OptionFields()) {
+    if (!f.flag) continue;
+    const bool offered = f.scope == pipeline::FlagScope::kSolve || (stages && f.scope == pipeline::FlagScope::kStages) ||
+                         (run && f.scope == pipeline::FlagScope::kRun);
+    if (!offered) continue;
+    if (std::string(f.name) == "preset") {
+      std::string presets;
+      for (const std::string& p : pipeline::PresetNames()) presets += (presets.empty() ? "" : ", ") + p;
+      sub->add_option(f.flag, a->values[f.name], "default " + default_preset + "; one of " + presets)
+          ->check(FileNameParts());
+      continue;
+    }
+    AddOptionFlag(sub, f, &a->values[f.name], &d);
   }
-  sub->add_option("--solver", a->solver, "override: " + FlagHelp("solver", d));
-  sub->add_option("--scale", a->scale, "override: " + FlagHelp("scale", d));
-  sub->add_option("--threshold", a->threshold, "override: inlier threshold in pixels (> 0; default: the preset's, else the solver's)")
-      ->check(CLI::Validator(
-          [](std::string& v) {
-            char* end = nullptr;
-            const double x = std::strtod(v.c_str(), &end);
-            return (end && *end == 0 && std::isfinite(x) && x > 0) ? std::string()
-                                                                  : std::string("must be a positive number of pixels");
-          },
-          "PX"));
   sub->add_option("--set", a->sets,
                   "override any option field: NAME=VALUE (`freeloc options` lists them with their defaults)");
-  if (!networks) return;
-  sub->add_option("--instance-mode", a->instance_mode, "override: " + FlagHelp("instance_mode", d));
-  sub->add_option("--models", a->models,
-                  "folder holding the published weights files (then $FREELOC_MODELS; see docs/models.md)");
-  sub->add_option("--dust3r,--dust3r-model", a->dust3r_model, "DUSt3R weights (.pth, or model.safetensors)");
-  sub->add_option("--dust3r-config", a->dust3r_config, "DUSt3R config.json (optional)");
-  sub->add_option("--mast3r,--mast3r-model", a->mast3r_model,
-                  "MASt3R weights (.pth with its constructor string, or model.safetensors + config.json)");
-  sub->add_option("--seggpt", a->seggpt_model, "SegGPT weights (seggpt_vit_large.pth, or model.safetensors)");
-  sub->add_option("--metric3d", a->metric3d_model, "Metric3D v2 weights (metric_depth_vit_*_800k.pth, …)");
-  sub->add_option("--dust3r-size", a->dust3r_size, FlagHelp("dust3r_size", d));
 }
 
 pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const GlobalOptions& g,
                                               const std::string& default_preset,
-                                              const std::function<void(pipeline::PipelineOptions*)>& adjust) {
-  return WithFlagNames([&] {
-    pipeline::PipelineOptions o = pipeline::ResolvePreset(a.preset.empty() ? default_preset : a.preset);
-    Apply(&o, "matcher", a.matcher);
-    Apply(&o, "depth", a.depth);
-    Apply(&o, "solver", a.solver);
-    Apply(&o, "scale", a.scale);
-    Apply(&o, "instance_mode", a.instance_mode);
-    if (a.threshold > 0) o.threshold_px = a.threshold;
-    o.models_dir = a.models;
-    Apply(&o, "dust3r_model", a.dust3r_model);
-    Apply(&o, "dust3r_config", a.dust3r_config);
-    Apply(&o, "mast3r_model", a.mast3r_model);
-    Apply(&o, "seggpt_model", a.seggpt_model);
-    Apply(&o, "metric3d_model", a.metric3d_model);
-    if (a.dust3r_size > 0) o.dust3r_size = a.dust3r_size;
-    o.runtime = g.Runtime();
-    for (const std::string& s : a.sets) {
-      const size_t eq = s.find('=');
-      FREELOC_CHECK(eq != std::string::npos && eq > 0, "--set: '" << s << "' is not NAME=VALUE");
-      pipeline::SetOption(&o, s.substr(0, eq), s.substr(eq + 1));
-    }
-    if (adjust) adjust(&o);
-    pipeline::FindModels(&o);
-    o.Validate();
-    return o;
-  });
+                                              const std::function<void(pipeline::PipelineOptions*)>& adjust,
+                                              bool validate) {
+  const auto given = [&a](const char* field) {
+    const auto it = a.values.find(field);
+    return it == a.values.end() ? std::string() : it->second;
+  };
+  const std::string preset = given("preset");
+  pipeline::PipelineOptions o = pipeline::ResolvePreset(preset.empty() ? default_preset : preset);
+  for (const pipeline::OptionField& f : pipeline::OptionFields()) {  // in registry order
+    const std::string v = given(f.name);
+    if (!v.empty() && std::string(f.name) != "preset") pipeline::SetOption(&o, f.name, v);
+  }
+  o.runtime = g.Runtime();
+  for (const std::string& s : a.sets) {
+    const size_t eq = s.find('=');
+    FREELOC_OPTION_CHECK("set", eq != std::string::npos && eq > 0, ": '" << s << "' is not NAME=VALUE");
+    pipeline::SetOption(&o, s.substr(0, eq), s.substr(eq + 1));
+  }
+  if (adjust) adjust(&o);
+  pipeline::FindModels(&o);
+  if (validate) o.Validate();
+  return o;
 }
 
 std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split, const std::string& scenes_csv,

@@ -55,11 +55,7 @@ int main(int argc, char** argv) {
                    "metres.",
                "freeloc"};
   app.set_version_flag("--version", std::string("freeloc ") + Version());
-  app.add_option("--threads", global.threads, "CPU threads for inference and geometry (default: library default)")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--device", global.device, "where networks run: cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}));
-  app.add_option("--precision", global.precision, "network arithmetic: fp32 (default, parity) or bf16")
-      ->check(CLI::IsMember({"fp32", "bf16"}));
+  cli::AddGlobalFlags(&app, &global);  // --threads, --device, --precision: the option registry's global rows
   std::vector<std::string> limits;
   app.add_option("--limit", limits,
                  "raise or lower an input limit, NAME=VALUE (max_image_pixels, max_zip_member_bytes, "
@@ -118,9 +114,9 @@ int main(int argc, char** argv) {
                            : user ? std::string(" (OPENBLAS_CORETYPE=") + user + " set by the user)"
                                   : std::string(" (OpenBLAS's own choice)"));
   }
-  if (global.threads > 0) {
+  if (global.threads() > 0) {
     // Must be set before any threaded library initialises its pool (LibTorch/OpenMP, OpenBLAS).
-    const std::string n = std::to_string(global.threads);
+    const std::string n = std::to_string(global.threads());
     setenv("OMP_NUM_THREADS", n.c_str(), 1);
     setenv("OPENBLAS_NUM_THREADS", n.c_str(), 1);
   }
@@ -131,6 +127,9 @@ int main(int argc, char** argv) {
       SetLimit(l.substr(0, eq), l.substr(eq + 1));
     }
     return run ? run() : 2;
+  } catch (const OptionError& e) {  // an option's error names its flag here (the library names the field)
+    std::fprintf(stderr, "freeloc: error: %s\n", SafeText(cli::FlagMessage(e), 4000).c_str());
+    return 1;
   } catch (const Error& e) {
     std::fprintf(stderr, "freeloc: error: %s\n", SafeText(e.what(), 4000).c_str());
     return 1;

@@ -3,6 +3,7 @@
 // when instance label images are given — written one `x_ref y_ref x_query y_query` per line in original pixels,
 // the input format of `freeloc pose`.
 #include <CLI/CLI.hpp>
+#include <map>
 #include <cstdio>
 
 #include "freeloc/cli/commands.h"
@@ -22,18 +23,28 @@ struct MatchArgs {
   double conf_thr = 0;
 };
 
+// match spells some option fields its own way.
+const std::map<std::string, std::string>& MatchFlags() {
+  static const std::map<std::string, std::string> flags = {
+      {"dust3r_model", "--model"},         {"mast3r_model", "--model"},        {"dust3r_config", "--config"},
+      {"dust3r_size", "--size"},           {"match_conf_threshold", "--conf-thr"},
+      {"mast3r_conf_threshold", "--conf-thr"}, {"match_subsample", "--subsample"},
+      {"mast3r_subsample", "--subsample"}, {"mast3r_border", "--border"}};
+  return flags;
+}
+
 pipeline::PipelineOptions Options(const MatchArgs& a, const GlobalOptions& g) {
   PipelineArgs p = a.pipeline;
   const bool mast3r = a.matcher == "mast3r";
-  (mast3r ? p.mast3r_model : p.dust3r_model) = a.model;
+  p.values[mast3r ? "mast3r_model" : "dust3r_model"] = a.model;
   FREELOC_CHECK(!mast3r || a.config.empty(),
                 "--config: a MASt3R model reads its configuration from the .pth or the config.json beside "
                 "model.safetensors");
-  p.dust3r_config = a.config;
-  p.dust3r_size = a.size;
-  p.instance_mode = a.mode;
-  p.matcher = a.matcher + (a.ref_masks.empty() ? "" : "+instances");
-  p.depth = "none";
+  p.values["dust3r_config"] = a.config;
+  if (a.size > 0) p.values["dust3r_size"] = std::to_string(a.size);
+  p.values["instance_mode"] = a.mode;
+  p.values["matcher"] = a.matcher + (a.ref_masks.empty() ? "" : "+instances");
+  p.values["depth"] = "none";
   return ResolvePipelineArgs(p, g, "dust3r", [&](pipeline::PipelineOptions* o) {
     FREELOC_CHECK(a.ref_masks.empty() == a.query_masks.empty(), "give both --ref-masks and --query-masks, or neither");
     ApplyMaskArgs(o, !a.ref_masks.empty(), !a.query_masks.empty());
@@ -49,7 +60,7 @@ pipeline::PipelineOptions Options(const MatchArgs& a, const GlobalOptions& g) {
   });
 }
 
-int RunMatch(const MatchArgs& a, const GlobalOptions& g) {
+int RunMatch(const MatchArgs& a, const GlobalOptions& g) try {
   const pipeline::PipelineOptions o = Options(a, g);
   const Image ref = ReadImage(a.ref), query = ReadImage(a.query);
   std::vector<uint16_t> ref_labels, query_labels;
@@ -68,6 +79,8 @@ int RunMatch(const MatchArgs& a, const GlobalOptions& g) {
   std::printf("%zu correspondences (%d global before merging; %d of %d instances used) written to %s\n", c.size(),
               r.global_matches, r.instances_used, r.instances, a.out.c_str());
   return 0;
+} catch (const OptionError& e) {
+  throw Error(FlagMessage(e, MatchFlags()));
 }
 
 }  // namespace

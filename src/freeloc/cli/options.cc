@@ -31,8 +31,9 @@ int RunOptions(const OptionsArgs& a) {
   std::printf("# options of preset %s (set any with --set NAME=VALUE; flags in brackets)\n", o.preset.c_str());
   for (const auto& f : pipeline::OptionFields()) {
     const std::string value = pipeline::GetOption(o, f.name);
-    std::printf("%-*s = %-24s # %s%s\n", static_cast<int>(width), f.name, value.empty() ? "\"\"" : value.c_str(),
-                f.help, f.flag ? (std::string(" [") + f.flag + "]").c_str() : "");
+    const std::string choices = f.choices.empty() ? "" : "; one of " + f.choices;
+    std::printf("%-*s = %-24s # %s%s%s\n", static_cast<int>(width), f.name, value.empty() ? "\"\"" : value.c_str(),
+                f.help, choices.c_str(), f.flag ? (std::string(" [") + f.flag + "]").c_str() : "");
   }
   return 0;
 }

@@ -75,10 +75,11 @@ Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref
 pipeline::PipelineOptions Options(const RelocArgs& a, const GlobalOptions& g) {
   return ResolvePipelineArgs(a.pipeline, g, "sift-essential", [&](pipeline::PipelineOptions* o) {
     // No depth files and no --depth: the provided-depth presets answer with a unit translation.
-    if (a.ref_depth.empty() && a.query_depth.empty() && a.pipeline.depth.empty() && o->UsesProvidedDepth())
+    if (a.ref_depth.empty() && a.query_depth.empty() && (a.pipeline.values.count("depth") == 0 || a.pipeline.values.at("depth").empty()) && o->UsesProvidedDepth())
       o->depth.kind = pipeline::DepthKind::kNone;
-    FREELOC_CHECK(!o->UsesPrecomputed(), "matcher: relocalize works on images: use sift, dust3r, dust3r+instances, mast3r or mast3r+instances "
-                                         "(precomputed correspondences go to freeloc pose)");
+    FREELOC_OPTION_CHECK("matcher", !o->UsesPrecomputed(),
+                         ": relocalize works on images: use sift, dust3r, dust3r+instances, mast3r or mast3r+instances "
+                         "(precomputed correspondences go to freeloc pose)");
     ApplyMaskArgs(o, !a.ref_masks.empty(), !a.query_masks.empty());
   });
 }

@@ -24,7 +24,6 @@ namespace {
 struct RunArgs {
   PipelineArgs pipeline;
   std::string data, split = "val", scenes, out, log, shard, save_matches, report;
-  std::string track, frames, device_poses;  // multi-frame (empty: the preset's)
   int report_worst = 20, report_per_scene = 1;
   bool resume = false;
 };
@@ -34,12 +33,8 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
   const std::unique_ptr<pipeline::RunComm> comm = pipeline::MpiCommFromEnvironment();
   const bool root = !comm || comm->rank() == 0;
   try {
-    const pipeline::PipelineOptions o =
-        ResolvePipelineArgs(a.pipeline, g, "sift-essential", [&a](pipeline::PipelineOptions* p) {
-          if (!a.track.empty()) pipeline::SetOption(p, "track", a.track);
-          if (!a.frames.empty()) pipeline::SetOption(p, "frames", a.frames);
-          if (!a.device_poses.empty()) pipeline::SetOption(p, "device_poses", a.device_poses);
-        });
+    // Validated once, by ExecuteRun.
+    const pipeline::PipelineOptions o = ResolvePipelineArgs(a.pipeline, g, "sift-essential", nullptr, /*validate=*/false);
     if (root) FREELOC_LOG(INFO) << o.Summary();
     pipeline::RunSpec spec;
     spec.data = a.data;
@@ -72,9 +67,11 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
                    a.log.empty() ? " (run with --log FILE for every record)" : "");
     return 3;
   } catch (const std::exception& e) {
-    if (!comm) throw Error(NameFlags(e.what()));
+    if (!comm) throw;
     // One rank cannot go on: say so once per rank and end every rank (none may wait for it forever).
-    std::fprintf(stderr, "freeloc: error: rank %d: %s\n", comm->rank(), NameFlags(e.what()).c_str());
+    const auto* option = dynamic_cast<const OptionError*>(&e);
+    std::fprintf(stderr, "freeloc: error: rank %d: %s\n", comm->rank(),
+                 (option ? FlagMessage(*option) : std::string(e.what())).c_str());
     comm->Abort(1);
   }
   return 1;  // not reached: Abort ends the process
@@ -114,7 +111,7 @@ std::string DemoPreset(const std::string& models, std::string* missing) {
 int RunDemo(const std::string& data_dir, const std::string& models, const GlobalOptions& g) {
   std::string missing;
   PipelineArgs args;
-  args.models = models;
+  args.values["models_dir"] = models;
   const pipeline::PipelineOptions o = ResolvePipelineArgs(args, g, DemoPreset(models, &missing));
   std::printf("freeloc demo — preset %s on the bundled TUM RGB-D scenes (%s)\n", o.preset.c_str(), data_dir.c_str());
   std::printf("(%s)\n", o.Summary().c_str());
@@ -197,15 +194,7 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
             }
           },
           "I/N"));
-  sub->add_option("--track", a->track,
-                  "single-frame (default: every query alone) | multi-frame (each evaluated frame — linear positions "
-                  "9, 19, … — fused from its window of 9 frames; docs/pipeline.md \"Multi Frame\")");
-  sub->add_option("--frames", a->frames, "multi-frame: use the last K (1–9) frames of each window (default 9; 1 = "
-                                         "the single-frame answer on the same queries)");
-  sub->add_option("--device-poses", a->device_poses,
-                  "multi-frame: auto (default: the phone's poses_device.txt where it agrees with the images) | use "
-                  "(trust the documented convention) | ignore");
-  AddPipelineArgs(sub, &a->pipeline, "sift-essential");
+  AddPipelineArgs(sub, &a->pipeline, "sift-essential", /*stages=*/true, /*run=*/true);
   sub->callback([a, run, &global] { *run = [a, &global] { return RunRun(*a, global); }; });
 }
 

@@ -21,10 +21,14 @@ struct ServeArgs {
 
 int RunServe(const ServeArgs& a, const GlobalOptions& g) {
   service::ServiceOptions o = a.service;
-  o.pipeline = ResolvePipelineArgs(a.pipeline, g, "sift-essential", [](pipeline::PipelineOptions* p) {
-    FREELOC_CHECK(!p->UsesPrecomputed(), "matcher: serve works on images: use sift, dust3r, dust3r+instances, mast3r "
-                                         "or mast3r+instances");
-  });
+  // Validated once, by the server.
+  o.pipeline = ResolvePipelineArgs(
+      a.pipeline, g, "sift-essential",
+      [](pipeline::PipelineOptions* p) {
+        FREELOC_OPTION_CHECK("matcher", !p->UsesPrecomputed(),
+                             ": serve works on images: use sift, dust3r, dust3r+instances, mast3r or mast3r+instances");
+      },
+      /*validate=*/false);
   // SIGTERM/SIGINT go to one thread that stops the server (blocked here, before any thread starts, so every thread
   // inherits the mask).
   sigset_t set;

@@ -5,12 +5,28 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace freeloc {
 
 class Error : public std::runtime_error {
  public:
   explicit Error(const std::string& message) : std::runtime_error(message) {}
+};
+
+// An option out of range or unreadable. `field` is the option's registry name (pipeline/options.h: "solver",
+// "threshold_px", …; or a run field: "data", "out", "log", "shard"), `detail` the rest of the message (it starts with
+// ": " or " "). what() reads field + detail — the name C++ and Python callers use; the command line shows the
+// field's flag instead (cli/common.h FlagMessage), looked up in the option registry, never rewritten from text.
+class OptionError : public Error {
+ public:
+  OptionError(std::string field, std::string detail)
+      : Error(field + detail), field_(std::move(field)), detail_(std::move(detail)) {}
+  const std::string& field() const { return field_; }
+  const std::string& detail() const { return detail_; }
+
+ private:
+  std::string field_, detail_;
 };
 
 // Formats "<input>: <what is wrong>; <what to do>" — the shape every user-facing error takes.
@@ -46,6 +62,17 @@ namespace internal {
 #define FREELOC_CHECK_LE(a, b, msg) FREELOC_CHECK_OP_(a, b, <=, msg)
 #define FREELOC_CHECK_GT(a, b, msg) FREELOC_CHECK_OP_(a, b, >, msg)
 #define FREELOC_CHECK_GE(a, b, msg) FREELOC_CHECK_OP_(a, b, >=, msg)
+
+// FREELOC_OPTION_CHECK(field, cond, detail): throws OptionError(field, detail) when `cond` is false; `detail` (a stream
+// expression) continues the message after the field's name: FREELOC_OPTION_CHECK("frames", f <= 9, ": " << f << …).
+#define FREELOC_OPTION_CHECK(field, cond, detail)                               \
+  do {                                                                          \
+    if (!(cond)) {                                                              \
+      std::ostringstream freeloc_option_os_;                                    \
+      freeloc_option_os_ << detail;                                             \
+      throw ::freeloc::OptionError((field), freeloc_option_os_.str());          \
+    }                                                                           \
+  } while (0)
 
 // FREELOC_THROW(msg): unconditional error with the same formatting.
 #define FREELOC_THROW(msg)                           \

@@ -34,7 +34,7 @@ const Field& FindField(const std::string& name) {
     if (name == f.name) return f;
   std::string choices;
   for (const Field& f : kFields) choices += std::string(choices.empty() ? "" : ", ") + f.name;
-  FREELOC_THROW("--limit: unknown limit '" << SafeText(name) << "'; the limits are " << choices);
+  FREELOC_THROW("limit: unknown limit '" << SafeText(name) << "'; the limits are " << choices);
 }
 
 InputLimits& Mutable() {
@@ -56,7 +56,7 @@ const InputLimits& Limits() { return Mutable(); }
 
 void SetLimit(const std::string& name, const std::string& value) {
   const Field& f = FindField(name);
-  Mutable().*(f.member) = ParsePositive(name, value, "--limit");
+  Mutable().*(f.member) = ParsePositive(name, value, "limit");
 }
 
 std::vector<std::string> LimitNames() {
@@ -67,7 +67,10 @@ std::vector<std::string> LimitNames() {
 
 std::string LimitHint(const std::string& name) {
   const Field& f = FindField(name);
-  return "limit " + name + " = " + std::to_string(Limits().*(f.member)) + "; raise it with --limit " + name + "=N";
+  std::string env = "FREELOC_LIMIT_";
+  for (char c : name) env += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return "limit " + name + " = " + std::to_string(Limits().*(f.member)) + "; raise the limit " + name + " (" + env +
+         "=N in the environment; docs/formats.md \"Limits and safety\")";
 }
 
 }  // namespace freeloc

@@ -129,7 +129,7 @@ std::vector<uint8_t> PngHeader(uint32_t w, uint32_t h) {
 TEST(HostileLimits, ImagePixelsAreRefusedBeforeDecoding) {
   const std::string e = ErrorOf([&] { DecodeImage(PngHeader(30000, 30000), "big.png"); });
   EXPECT_NE(e.find("big.png: PNG declares 30000 x 30000 pixels"), std::string::npos) << e;
-  EXPECT_NE(e.find("--limit max_image_pixels=N"), std::string::npos) << e;
+  EXPECT_NE(e.find("raise the limit max_image_pixels (FREELOC_LIMIT_MAX_IMAGE_PIXELS=N"), std::string::npos) << e;
   // A small image is only refused by the decoder (no pixel data), not by the limit.
   EXPECT_EQ(ErrorOf([&] { DecodeImage(PngHeader(64, 48), "small.png"); }).find("declares"), std::string::npos);
   // The limit is the user's: lowered, a real image is refused.

@@ -6,7 +6,9 @@
 #include "freeloc/nn/seggpt.h"
 #include "freeloc/vision/dust3r_preprocess.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
+
+using namespace freeloc::pipeline;  // NOLINT: the networks module implements the pipeline's stages
 
 namespace {
 
@@ -83,4 +85,4 @@ std::vector<uint8_t> RunBoundSegment(const std::shared_ptr<void>& network, const
   return m.Segment(prompt_images, prompt_masks, target, nn::ParseSegType(type)).mask;
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

@@ -18,7 +18,9 @@
 #include "freeloc/nn/seggpt.h"
 #include "freeloc/vision/dust3r_preprocess.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
+
+using namespace freeloc::pipeline;  // NOLINT: the networks module implements the pipeline's stages
 
 int Pointmap(const PointmapCommand& o) {
   FREELOC_CHECK(o.images.size() == 2, "pointmap needs exactly two images (IMG1 IMG2), got " << o.images.size());
@@ -205,4 +207,4 @@ int Depth(const DepthCommand& o) {
   return 0;
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

@@ -3,10 +3,10 @@
 
 #include "freeloc/pipeline/networks.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
 
-int Pointmap(const PointmapCommand& command);
-int Segment(const SegmentCommand& command);
-int Depth(const DepthCommand& command);
+int Pointmap(const pipeline::PointmapCommand& command);
+int Segment(const pipeline::SegmentCommand& command);
+int Depth(const pipeline::DepthCommand& command);
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

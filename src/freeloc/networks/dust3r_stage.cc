@@ -5,7 +5,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/nn/dust3r.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
 
 namespace {
 matching::PairPointmaps ToHost(const nn::Dust3rPrediction& p, const Dust3rInput& a, const Dust3rInput& b) {
@@ -129,4 +129,4 @@ matching::PointmapFn CachingDust3r::Fn() {
 }
 
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

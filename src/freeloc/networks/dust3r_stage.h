@@ -14,7 +14,7 @@ namespace freeloc::nn {
 class Dust3rModel;
 }  // namespace freeloc::nn
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
 
 // Runs `model` on a preprocessed pair and returns its pointmaps (view 2's points in view 1's frame) on the host;
 // a MASt3R model's descriptors too when `descriptors` is set.
@@ -55,4 +55,4 @@ class CachingDust3r {
   int encoded_ = 0, reused_ = 0;
 };
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

@@ -6,7 +6,7 @@
 #include "freeloc/nn/dust3r.h"
 #include "testing/testing.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
 namespace {
 
 // The caching function encodes each distinct reference input once and gives the pointmaps of the one-shot path.
@@ -47,4 +47,4 @@ TEST(CachingDust3r, ReusesReferenceEncodingsAndMatchesTheOneShotPath) {
 }
 
 }  // namespace
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

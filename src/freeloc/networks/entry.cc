@@ -1,17 +1,17 @@
 // The networks module's entry point (pipeline/networks.h), looked up by pipeline::Networks().
 #include "freeloc/networks/bindings.h"
 #include "freeloc/networks/commands.h"
-#include "freeloc/networks/stages.h"
+#include "freeloc/networks/network_stages.h"
 #include "freeloc/pipeline/networks.h"
 
 namespace {
 const freeloc::pipeline::NetworksApi kApi = {
-    freeloc::pipeline::kNetworksAbi,      freeloc::pipeline::MakeNetworkMatcher,
-    freeloc::pipeline::MakeNetworkDepthEstimator, freeloc::pipeline::Pointmap,
-    freeloc::pipeline::Segment,           freeloc::pipeline::Depth,
-    freeloc::pipeline::LoadBoundNetwork,  freeloc::pipeline::BoundNetworkFamily,
-    freeloc::pipeline::RunBoundPointmaps, freeloc::pipeline::RunBoundDepth,
-    freeloc::pipeline::RunBoundSegment,
+    freeloc::pipeline::kNetworksAbi,      freeloc::networks::MakeNetworkMatcher,
+    freeloc::networks::MakeNetworkDepthEstimator, freeloc::networks::Pointmap,
+    freeloc::networks::Segment,           freeloc::networks::Depth,
+    freeloc::networks::LoadBoundNetwork,  freeloc::networks::BoundNetworkFamily,
+    freeloc::networks::RunBoundPointmaps, freeloc::networks::RunBoundDepth,
+    freeloc::networks::RunBoundSegment,
 };
 }  // namespace
 

@@ -7,7 +7,7 @@
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
 
 namespace {
 template <typename Model>
@@ -35,4 +35,4 @@ std::shared_ptr<nn::Metric3dModel> CachedMetric3d(const std::string& path, const
   return Cached<nn::Metric3dModel>(path, "", rt);
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

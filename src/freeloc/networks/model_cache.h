@@ -13,7 +13,7 @@ class Metric3dModel;
 struct RuntimeOptions;
 }  // namespace freeloc::nn
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
 
 // Loaded on first use and kept for the process (keyed by path, config and runtime), so a run loads each network
 // once. `config`: an explicit config.json (optional). Throw freeloc::Error naming the file.
@@ -22,4 +22,4 @@ std::shared_ptr<nn::Dust3rModel> CachedDust3r(const std::string& path, const std
 std::shared_ptr<nn::SegGptModel> CachedSegGpt(const std::string& path, const nn::RuntimeOptions& runtime);
 std::shared_ptr<nn::Metric3dModel> CachedMetric3d(const std::string& path, const nn::RuntimeOptions& runtime);
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

@@ -12,13 +12,15 @@
 #include "freeloc/matching/proposals.h"
 #include "freeloc/networks/dust3r_stage.h"
 #include "freeloc/networks/model_cache.h"
-#include "freeloc/networks/stages.h"
+#include "freeloc/networks/network_stages.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/instance_segmenter.h"
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::networks {
+
+using namespace freeloc::pipeline;  // NOLINT: the networks module implements the pipeline's stages
 
 namespace {
 
@@ -261,7 +263,6 @@ class Metric3dDepth : public DepthEstimator {
 }  // namespace
 
 std::unique_ptr<Matcher> MakeNetworkMatcher(const PipelineOptions& o) {
-  o.Validate();
   FREELOC_CHECK(o.UsesPointmapModel(), "matcher: " << o.matcher.ToString() << " runs no network");
   return MakeNetworkMatcher(o,
                             o.UsesMast3r() ? CachedDust3r(o.mast3r_model, "", o.runtime)
@@ -270,7 +271,6 @@ std::unique_ptr<Matcher> MakeNetworkMatcher(const PipelineOptions& o) {
 }
 
 std::unique_ptr<DepthEstimator> MakeNetworkDepthEstimator(const PipelineOptions& o) {
-  o.Validate();
   FREELOC_CHECK(o.depth.kind == DepthKind::kMetric3d, "depth: " << o.depth.ToString() << " runs no network");
   return MakeNetworkDepthEstimator(CachedMetric3d(o.metric3d_model, o.runtime));
 }
@@ -287,4 +287,4 @@ std::unique_ptr<DepthEstimator> MakeNetworkDepthEstimator(std::shared_ptr<nn::Me
   return std::make_unique<Metric3dDepth>(std::move(model));
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::networks

@@ -42,7 +42,7 @@ struct EnumTable<nn::Precision> {
 
 namespace nn {
 inline void RuntimeOptions::Validate() const {
-  FREELOC_CHECK(threads >= 0, "threads: " << threads << " is negative; use 0 (library default) or a count");
+  FREELOC_OPTION_CHECK("threads", threads >= 0, ": " << threads << " is negative; use 0 (library default) or a count");
 }
 inline std::string RuntimeOptions::Key() const {
   return ToString(device) + "|" + ToString(precision) + "|" + std::to_string(threads);

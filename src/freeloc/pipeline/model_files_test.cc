@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/models.h"
+#include "freeloc/pipeline/model_files.h"
 
 #include <gtest/gtest.h>
 #include <stdlib.h>

@@ -504,7 +504,7 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
     PipelineOptions lo = o;
     lo.track = Track::kSingleFrame;
     if (lo.UsesPrecomputed()) lo.matcher = MatcherSpec{};
-    Relocalizer local(lo);
+    Relocalizer local(lo, Relocalizer::kOptionsValidated);  // the run validated them
     FrameInputs qin;
     qin.depth = frames[qi].inputs.depth;
     qin.intrinsics_source = frames[qi].inputs.intrinsics_source;

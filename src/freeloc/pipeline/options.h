@@ -294,16 +294,28 @@ namespace freeloc::pipeline {
 // options with a dot: "proposals.max_instances", "segmenter.min_score"). Values are text, parsed by the field's
 // type; errors name the field and what it takes.
 enum class OptionType { kText, kInt, kReal };
+// The text forms of the two stage specs (MatcherSpec, DepthSpec), which take a name after a colon.
+inline constexpr const char* kMatcherChoices =
+    "sift, dust3r, dust3r+instances, mast3r, mast3r+instances, precomputed:<name>";
+inline constexpr const char* kDepthChoices = "provided:<suffix>, metric3d, mast3r, none";
+// Which command lines carry an option's flag: kGlobal — `freeloc` itself, before the command (checked as parsed);
+// kSolve — every command that solves a pose (run, relocalize, demo, serve, pose); kStages — those that also choose
+// the matcher and depth stages and their networks (all of them but pose); kRun — `freeloc run` alone.
+enum class FlagScope { kNone, kGlobal, kSolve, kStages, kRun };
 struct OptionField {
   const char* name;
-  const char* flag;  // the command-line flag that sets it (relocalize, run, pose …), nullptr: only `--set NAME=…`
+  const char* flag;  // the command-line flag that sets it, nullptr: only `--set NAME=…`
+  FlagScope scope;   // where the flag is offered (kNone without a flag)
+  const char* alias; // a second spelling of the flag (e.g. --dust3r-model), nullptr: none
   OptionType type;
   const char* help;
+  std::string choices;  // "a, b, c" for the fields with a fixed set of values (from their enum tables), else empty
 };
 const std::vector<OptionField>& OptionFields();
 void SetOption(PipelineOptions* options, const std::string& name, const std::string& value);
 std::string GetOption(const PipelineOptions& options, const std::string& name);
 const OptionField& FindOptionField(const std::string& name);  // throws naming the options when unknown
+const OptionField* FindOptionFieldOrNull(const std::string& name);
 // The option table as Markdown (name, flag, type, default of a default-constructed PipelineOptions, help): what
 // docs/formats.md shows and `freeloc options --markdown` prints; a test keeps the two equal.
 std::string OptionTableMarkdown();

@@ -46,16 +46,16 @@ std::string AvailablePresets() {
 PipelineOptions ResolvePrecomputed(const std::string& name) {
   const std::string rest = name.substr(12);
   const size_t dash = rest.rfind('-');
-  FREELOC_CHECK(dash != std::string::npos && dash > 0, "preset: '" << name << "' is not of the form " << kPrecomputedForm);
+  FREELOC_OPTION_CHECK("preset", dash != std::string::npos && dash > 0, ": '" << name << "' is not of the form " << kPrecomputedForm);
   PipelineOptions o;
   o.preset = name;
   o.matcher.kind = MatcherKind::kPrecomputed;
   o.matcher.correspondences = rest.substr(0, dash);
-  FREELOC_CHECK(IsFileNamePart(o.matcher.correspondences),
-                "preset: '" << SafeText(name, 100) << "': the correspondence name must be letters, digits, '_', '-', "
+  FREELOC_OPTION_CHECK("preset", IsFileNamePart(o.matcher.correspondences),
+                ": '" << SafeText(name, 100) << "': the correspondence name must be letters, digits, '_', '-', "
                             << "'.' or '+' (it names correspondences_<name>.npz), not a path");
-  FREELOC_CHECK(TryParseEnum(rest.substr(dash + 1), &o.solver),
-                "preset: '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of "
+  FREELOC_OPTION_CHECK("preset", TryParseEnum(rest.substr(dash + 1), &o.solver),
+                ": '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of "
                             << EnumNames<SolverKind>());
   if (o.solver == SolverKind::kEssential || o.solver == SolverKind::kHybrid) o.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
   return o;
@@ -83,7 +83,7 @@ PipelineOptions ResolvePreset(const std::string& name) {
     o.threshold_px = p.threshold_px;
     return o;
   }
-  FREELOC_THROW("preset: '" << name << "' is unknown; available: " << AvailablePresets());
+  throw OptionError("preset", ": '" + name + "' is unknown; available: " + AvailablePresets());
 }
 
 // The benchmark's correspondence baseline (precomputed:SIFT-essential: essential, 3 px, anchored scale), so `freeloc

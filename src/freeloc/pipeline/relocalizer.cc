@@ -8,7 +8,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/core/timing.h"
-#include "freeloc/pipeline/models.h"
+#include "freeloc/pipeline/model_files.h"
 #include "freeloc/pipeline/multi_frame.h"
 
 namespace freeloc::pipeline {
@@ -58,8 +58,11 @@ struct Relocalizer::Impl {
   }
 };
 
-Relocalizer::Relocalizer(const PipelineOptions& options)
+Relocalizer::Relocalizer(const PipelineOptions& options, OptionsValidated)
     : Relocalizer(options, MakeMatcher(options), MakeDepthEstimator(options), MakePoseSolver(options)) {}
+
+Relocalizer::Relocalizer(const PipelineOptions& options)
+    : Relocalizer((options.Validate(), options), kOptionsValidated) {}
 
 Relocalizer::Relocalizer(const PipelineOptions& options, std::unique_ptr<Matcher> matcher,
                          std::unique_ptr<DepthEstimator> depth, std::unique_ptr<PoseSolver> solver)

@@ -27,6 +27,9 @@ class Relocalizer {
  public:
   // Validates `options` and loads the networks it needs (kept for the process). Throws freeloc::Error.
   explicit Relocalizer(const PipelineOptions& options);
+  // The same for options an entry point has validated already (ExecuteRun, the service): one validation per run.
+  enum OptionsValidated { kOptionsValidated };
+  Relocalizer(const PipelineOptions& options, OptionsValidated);
   // With stages of your own (stages.h); `options` is only reported back by options().
   Relocalizer(const PipelineOptions& options, std::unique_ptr<Matcher> matcher, std::unique_ptr<DepthEstimator> depth,
               std::unique_ptr<PoseSolver> solver);

@@ -300,7 +300,7 @@ TEST(Relocalizer, PresetsAndOverrides) {
   EXPECT_EQ(ni.depth.ToString(), "metric3d");
   EXPECT_EQ(pd.matcher.ToString(), "dust3r+instances");
   EXPECT_EQ(pd.depth.ToString(), "provided:sensor");
-  // Issue 14: the network presets solve with the hybrid depth-aware solver (sift-essential keeps essential).
+  // The network presets solve with the hybrid depth-aware solver (sift-essential keeps essential).
   for (const auto* p : {&seed, &ni, &pd}) EXPECT_EQ(p->solver, SolverKind::kHybrid);
   EXPECT_EQ(ResolvePreset("sift-essential").solver, SolverKind::kEssential);
   EXPECT_EQ(ResolvePreset("sift-essential").scale, geometry::ScaleMethod::kAnchored);

@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/run_report.h"
+#include "freeloc/pipeline/report_recorder.h"
 
 #include <algorithm>
 #include <filesystem>

@@ -25,7 +25,7 @@
 #include "freeloc/io/submission.h"
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/run_comm.h"
-#include "freeloc/pipeline/run_report.h"
+#include "freeloc/pipeline/report_recorder.h"
 
 namespace freeloc::pipeline {
 
@@ -56,10 +56,10 @@ std::vector<std::string> Shard::Select(const std::vector<std::string>& scenes) c
 }
 
 void RunSpec::Validate() const {
-  FREELOC_CHECK(!data.empty(), "data: give the dataset root or a split folder");
-  FREELOC_CHECK(!out.empty(), "out: give the submission ZIP to write");
-  FREELOC_CHECK(shard.whole() || (shard.index >= 1 && shard.index <= shard.count),
-                "shard: " << shard.index << "/" << shard.count << " is not i/n with 1 <= i <= n");
+  FREELOC_OPTION_CHECK("data", !data.empty(), ": give the dataset root or a split folder");
+  FREELOC_OPTION_CHECK("out", !out.empty(), ": give the submission ZIP to write");
+  FREELOC_OPTION_CHECK("shard", shard.whole() || (shard.index >= 1 && shard.index <= shard.count),
+                       ": " << shard.index << "/" << shard.count << " is not i/n with 1 <= i <= n");
 }
 
 std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split,
@@ -88,7 +88,7 @@ std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, con
     std::error_code ec;
     any_depth = any_depth || fs::exists(p, ec);
   }
-  FREELOC_CHECK(any_depth, "depth " << o.depth.ToString() << ": no scene has this depth (e.g. " << example
+  FREELOC_OPTION_CHECK("depth", any_depth, " " << o.depth.ToString() << ": no scene has this depth (e.g. " << example
                                     << " is missing); check the suffix, or use metric3d or none");
   return loaded;
 }
@@ -412,8 +412,8 @@ RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const 
   if (root) {
     CheckWritableFile(spec.out, "the submission");
     if (!spec.log.empty()) {
-      FREELOC_CHECK(fs::absolute(spec.log) != fs::absolute(spec.out),
-                    "log: " << spec.log << " is also the submission; give the log another path");
+      FREELOC_OPTION_CHECK("log", fs::absolute(spec.log) != fs::absolute(spec.out),
+                           ": " << spec.log << " is also the submission; give the log another path");
       CheckWritableFile(spec.log, "the run log");
     }
   }
@@ -424,7 +424,8 @@ RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const 
   if (!spec.shard.whole() && root) FREELOC_LOG(INFO) << "shard " << spec.shard.ToString() << ": " << res.scenes.size() << " scenes";
   res.loaded = LoadScenes(res.split_dir, res.scenes, options);
   // The networks are loaded here, before the journal and the first scene: a bad weights file is one error.
-  std::unique_ptr<Relocalizer> reloc = factory ? factory(options) : std::make_unique<Relocalizer>(options);
+  std::unique_ptr<Relocalizer> reloc =
+      factory ? factory(options) : std::make_unique<Relocalizer>(options, Relocalizer::kOptionsValidated);
   const RunHeader header{options, spec.data, spec.split, spec.shard.ToString(), res.scenes};
   Journal journal(spec.out, RunHeaderJson(header));
   if (root && spec.resume) {

@@ -89,10 +89,15 @@ void CheckDepthCovers(const std::vector<Eigen::Vector2d>& px, const DepthMap& d,
 }
 
 // The estimator's reason text → the status enum ("ok", "too-few-matches", "no-consensus", "degenerate").
-QueryStatus StatusOf(const std::string& reason) {
-  QueryStatus s = QueryStatus::kError;
-  FREELOC_CHECK(TryParseEnum(reason, &s) && s != QueryStatus::kError, "solver: unexpected status '" << reason << "'");
-  return s;
+QueryStatus StatusOf(geometry::EstimatorOutcome outcome) {
+  switch (outcome) {
+    case geometry::EstimatorOutcome::kOk: return QueryStatus::kOk;
+    case geometry::EstimatorOutcome::kWeakSupport: return QueryStatus::kWeakSupport;
+    case geometry::EstimatorOutcome::kTooFewMatches: return QueryStatus::kTooFewMatches;
+    case geometry::EstimatorOutcome::kNoConsensus: return QueryStatus::kNoConsensus;
+    case geometry::EstimatorOutcome::kDegenerate: return QueryStatus::kDegenerate;
+  }
+  return QueryStatus::kError;
 }
 
 // The evidence confidence.h predicts the pose error from (essential inliers, their Sampson residual, the scale).
@@ -168,9 +173,9 @@ class EssentialSolver : public PoseSolver {
     r->inliers = rel.status.num_inliers;
     r->inlier_mask = rel.inliers;
     r->solve_ms = MsSince(t0);
-    r->status = StatusOf(rel.status.reason);
+    r->status = StatusOf(rel.status.outcome);
     const bool weak = r->weak();
-    if (!rel.status.success && !weak) return;
+    if (!rel.status.success() && !weak) return;
     r->query_from_ref = rel.query_from_ref;
     r->confidence = rel.status.num_inliers;
     if (d_ref.empty() || d_query.empty()) {
@@ -197,8 +202,9 @@ class EssentialSolver : public PoseSolver {
       }
     const auto s = geometry::EstimateMetricScale(a, b, rel.query_from_ref, d_ref, d_query, k_ref, k_query, scale_);
     r->scale_inliers = s.num_inliers;
-    if (!s.success) {
-      r->status = s.reason == "no-valid-depth" ? QueryStatus::kScaleNoValidDepth : QueryStatus::kScaleNoConsensus;
+    if (!s.success()) {
+      r->status = s.outcome == geometry::ScaleOutcome::kNoValidDepth ? QueryStatus::kScaleNoValidDepth
+                                                                     : QueryStatus::kScaleNoConsensus;
       return;
     }
     r->query_from_ref.translation *= s.scale;
@@ -242,7 +248,7 @@ class HybridSolver : public PoseSolver {
     const geometry::DepthSamples z = SampleDepths(c, d_ref, d_query);
     const geometry::HybridPoseResult h =
         geometry::EstimateHybridPose(c.ref, c.query, z.ref, z.query, k_ref, k_query, options_);
-    const bool fits = h.status.success && h.status.num_inliers >= 0.8 * ess.inliers;
+    const bool fits = h.status.success() && h.status.num_inliers >= 0.8 * ess.inliers;
     if (!fits) {
       *r = ess;
       r->route = "hybrid>essential";
@@ -301,7 +307,7 @@ class AbsoluteSolver : public PoseSolver {
                         : geometry::EstimateProcrustes(c.ref, c.query, d_ref, d_query, k_ref, k_query);
     r->inliers = m.status.num_inliers;
     r->inlier_mask = m.inliers;
-    r->status = StatusOf(m.status.reason);
+    r->status = StatusOf(m.status.outcome);
     r->query_from_ref = m.query_from_ref;
     r->confidence = m.confidence;
     if (r->ok()) Confidence(c, k_ref, k_query, d_ref, d_query, r);
@@ -354,7 +360,6 @@ class AbsoluteSolver : public PoseSolver {
 }  // namespace
 
 std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& o) {
-  o.Validate();
   switch (o.matcher.kind) {
     case MatcherKind::kSift: return std::make_unique<SiftMatcher>();
     case MatcherKind::kPrecomputed: return std::make_unique<PrecomputedMatcher>(o.matcher.correspondences);
@@ -368,7 +373,6 @@ std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& o) {
 }
 
 std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
-  o.Validate();
   switch (o.depth.kind) {
     case DepthKind::kMetric3d: return Networks().make_depth_estimator(o);
     case DepthKind::kProvided: return std::make_unique<ProvidedDepth>();
@@ -379,7 +383,6 @@ std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
 }
 
 std::unique_ptr<PoseSolver> MakePoseSolver(const PipelineOptions& o) {
-  o.Validate();
   if (o.solver == SolverKind::kEssential) return std::make_unique<EssentialSolver>(o);
   if (o.solver == SolverKind::kHybrid) return std::make_unique<HybridSolver>(o);
   return std::make_unique<AbsoluteSolver>(o.solver == SolverKind::kPnp, o.threshold_px);

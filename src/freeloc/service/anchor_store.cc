@@ -100,7 +100,7 @@ std::shared_ptr<Anchor> AnchorStore::Make(const std::string& id, PhotoUpload upl
   a->upload = std::move(upload);
   a->image = std::move(p.image);
   const auto t0 = std::chrono::steady_clock::now();
-  a->reloc = std::make_unique<pipeline::Relocalizer>(o);
+  a->reloc = std::make_unique<pipeline::Relocalizer>(o, pipeline::Relocalizer::kOptionsValidated);  // by the server
   a->reloc->SetReference(a->image, p.camera, std::move(p.inputs));
   a->reference_ms = MsSince(t0);
   // The intrinsics as resolved (the pointmap's when it gave them): what a query's record reports for the reference.
