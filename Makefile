@@ -50,7 +50,7 @@ sanitize: deps
 	cd $(SANITIZE_DIR) && ASAN_OPTIONS=detect_leaks=1:detect_odr_violation=0 ctest --output-on-failure -j $(JOBS)
 
 format:
-	find src bench tests -name '*.cc' -o -name '*.h' | xargs clang-format -i
+	find src bench tests python/src fuzz \( -name '*.cc' -o -name '*.h' \) -not -path '*/corpus/*' -not -path '*/regressions/*' | xargs clang-format -i
 
 clean:
 	rm -rf $(BUILD_DIR) $(FUZZ_DIR) $(SANITIZE_DIR)

@@ -1,5 +1,6 @@
-// bench/baseline — freeloc's `sift-essential` (its shipped vote, the depth-anchored scale, the hybrid solver) against the map-free benchmark code's SIFT + Ess.Mat + D.Scale
-// baseline (spec/mapfree-protocol.md §4), side by side on the same scenes, SIFT included in both:
+// bench/baseline — freeloc's `sift-essential` (its shipped vote, the depth-anchored scale, the hybrid solver) against
+// the map-free benchmark code's SIFT + Ess.Mat + D.Scale baseline (spec/mapfree-protocol.md §4), side by side on the
+// same scenes, SIFT included in both:
 //   official: OpenCV SIFT 2048 / RootSIFT / FLANN / ratio 0.8 (the same extractor as freeloc's) per pair, pixels
 //             normalised by each K, cv::findEssentialMat(USAC_MAGSAC, prob 0.9999, 3 px / mean focal),
 //             cv::recoverPose, the official scale vote (int-truncated depth, 0.1 m window, no refit), confidence =
@@ -10,12 +11,14 @@
 // with the bundled TUM photos, 540×720, exact and degraded depth), or any map-free folder with --data/--depth
 // (e.g. held-back scenes). Both submissions go through freeloc's evaluator (the official metrics).
 //
-//   baseline [--scenes N] [--queries Q] [--seed S] [--hard] [--keep DIR] | [--data SPLIT_DIR] [--depth SUFFIX[,SUFFIX…]]
+//   baseline [--scenes N] [--queries Q] [--seed S] [--hard] [--keep DIR] | [--data SPLIT_DIR] [--depth
+//   SUFFIX[,SUFFIX…]]
 //            [--per-query]
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <unistd.h>
 #include <filesystem>
 #include <memory>
 #include <sstream>
@@ -44,8 +47,8 @@ struct Outcome {
 };
 
 // The benchmark code's EssentialMatrixMetricSolver on the benchmark's SIFT matches (testing/official_baseline.h).
-Outcome OfficialBaseline(const Image& ref, const Image& query, const Camera& kr, const Camera& kq,
-                         const DepthMap& dr, const DepthMap& dq) {
+Outcome OfficialBaseline(const Image& ref, const Image& query, const Camera& kr, const Camera& kq, const DepthMap& dr,
+                         const DepthMap& dq) {
   Outcome o;
   const double t0 = bench::NowSeconds();
   const matching::Correspondences c = matching::MatchSift(ref, query);
@@ -73,13 +76,14 @@ struct AllQueries {
     const double n = static_cast<double>(t_err.size() + failures);
     std::vector<double> sorted_t = t_err;
     std::sort(sorted_t.begin(), sorted_t.end());
-    return {Fmt("%.4f", bench::Median(t_err)), Fmt("%.4f", sorted_t.empty() ? 0.0 : sorted_t[sorted_t.size() * 9 / 10]),
+    return {Fmt("%.4f", bench::Median(t_err)),
+            Fmt("%.4f", sorted_t.empty() ? 0.0 : sorted_t[sorted_t.size() * 9 / 10]),
             Fmt("%.4f", bench::Median(r_err)),
             Fmt("%.4f", std::count(pose_ok.begin(), pose_ok.end(), true) / n),
-            Fmt("%.4f", eval::PrecisionRecallAuc(conf, pose_ok, failures)), std::to_string(failures)};
+            Fmt("%.4f", eval::PrecisionRecallAuc(conf, pose_ok, failures)),
+            std::to_string(failures)};
   }
 };
-
 
 }  // namespace
 
@@ -112,18 +116,19 @@ int main(int argc, char** argv) {
     for (int s = 0; s < n_scenes; ++s) {
       char name[16];
       std::snprintf(name, sizeof(name), "s%05d", s);
-      testing::WriteTexturedScene(split + "/" + name, seed + 17u * static_cast<uint32_t>(s), n_queries, photos, 540, 720,
-                                  hard ? testing::SceneDifficulty::Hard() : testing::SceneDifficulty{});
+      testing::WriteTexturedScene(split + "/" + name, seed + 17u * static_cast<uint32_t>(s), n_queries, photos, 540,
+                                  720, hard ? testing::SceneDifficulty::Hard() : testing::SceneDifficulty{});
     }
     const testing::SceneDifficulty d = hard ? testing::SceneDifficulty::Hard() : testing::SceneDifficulty{};
-    std::printf("Photo-textured synthetic scenes (seed %u + 17·s%s): %d rooms × %d queries, 540×720, baseline %.1f–%.1f m, "
-                "rotation ≤ %.1f°, texture %.0f texels/m, image noise σ %.0f; depth `exact`, `degraded` (global 5 %%, smooth 5 %%, outlier blobs 10 %%, holes 5 %%), "
-                "`degraded8` (global ±8 %%, smooth ±5 %%, holes 5 %%) and `mono` (monocular-like: log-normal global "
-                "scale σ 0.2 clipped to ±50 %%, shift ±0.15 m, smooth field 5–10 %%, edges bled 2–4 px, 1 %% salt, 5 %% "
-                "holes); generated in %.1f s into %s.\n\n",
-                seed, hard ? ", --hard" : "", n_scenes, n_queries, d.min_baseline_m, d.max_baseline_m,
-                d.max_rotation_rad * 180 / 3.14159265358979, d.px_per_m, d.noise_grey, bench::NowSeconds() - t0,
-                split.c_str());
+    std::printf(
+        "Photo-textured synthetic scenes (seed %u + 17·s%s): %d rooms × %d queries, 540×720, baseline %.1f–%.1f m, "
+        "rotation ≤ %.1f°, texture %.0f texels/m, image noise σ %.0f; depth `exact`, `degraded` (global 5 %%, smooth 5 "
+        "%%, outlier blobs 10 %%, holes 5 %%), "
+        "`degraded8` (global ±8 %%, smooth ±5 %%, holes 5 %%) and `mono` (monocular-like: log-normal global "
+        "scale σ 0.2 clipped to ±50 %%, shift ±0.15 m, smooth field 5–10 %%, edges bled 2–4 px, 1 %% salt, 5 %% "
+        "holes); generated in %.1f s into %s.\n\n",
+        seed, hard ? ", --hard" : "", n_scenes, n_queries, d.min_baseline_m, d.max_baseline_m,
+        d.max_rotation_rad * 180 / 3.14159265358979, d.px_per_m, d.noise_grey, bench::NowSeconds() - t0, split.c_str());
   } else {
     std::printf("Data: %s, depth %s.\n\n", split.c_str(), depths.c_str());
   }
@@ -198,8 +203,8 @@ int main(int argc, char** argv) {
         }
         if (per_query && has_gt) {
           const Rigid3d& gt = sc.gt.at(q.name);
-          std::printf("%s %s %s |t| %.3f  official %.3f m %.2f° c %.3g%s\n", depth.c_str(), name.c_str(), q.name.c_str(),
-                      gt.translation.norm(), off.ok ? (off.pose.Center() - gt.Center()).norm() : -1.0,
+          std::printf("%s %s %s |t| %.3f  official %.3f m %.2f° c %.3g%s\n", depth.c_str(), name.c_str(),
+                      q.name.c_str(), gt.translation.norm(), off.ok ? (off.pose.Center() - gt.Center()).norm() : -1.0,
                       off.ok ? RotationAngleDeg(off.pose.rotation, gt.rotation) : -1.0, off.confidence, line.c_str());
         }
       }
@@ -213,8 +218,10 @@ int main(int argc, char** argv) {
       WriteSubmission(zf, sub_freeloc[m]);
       reports.push_back(eval::RunEvaluation(split, scenes, zf));
     }
-    std::printf("### depth `%s`, the official metrics (every 5th frame of each scene; columns: official SIFT + "
-                "Ess.Mat + D.Scale, then", depth.c_str());
+    std::printf(
+        "### depth `%s`, the official metrics (every 5th frame of each scene; columns: official SIFT + "
+        "Ess.Mat + D.Scale, then",
+        depth.c_str());
     for (size_t m = 0; m < nm; ++m) std::printf("%s %s", m ? "," : "", methods[m].name);
     std::printf(")\n\n%s\n", eval::MarkdownCompare(reports).c_str());
     auto row = [&](const char* method, const AllQueries& a, int n_answered) {

@@ -7,7 +7,6 @@
 
 #include <atomic>
 #include <cmath>
-
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -107,7 +106,6 @@ inline std::map<std::string, TensorView> RandomSegGpt() {
   return sd;
 }
 
-
 // A released Metric3D v2 variant (vit_small, vit_large, vit_giant2) with random weights (seed 0), shapes from the
 // fixture's list of the released state dicts.
 inline std::map<std::string, TensorView> RandomMetric3d(const std::string& variant) {
@@ -138,7 +136,6 @@ inline std::map<std::string, TensorView> RandomMetric3d(const std::string& varia
   }
   return sd;
 }
-
 
 // Counts the floating-point operations LibTorch executes (all threads): matrix products (aten::mm, addmm, bmm, and
 // nn's oneDNN bf16 matmul, which records itself as freeloc::bf16_linear) and convolutions (aten::convolution,
@@ -174,7 +171,8 @@ class FlopCounter {
     } else if (name == "aten::addmm" && in.size() >= 3) {
       const auto a = Shape(in[1]), b = Shape(in[2]);
       if (a.size() == 2 && b.size() == 2) f = 2.0 * a[0] * a[1] * b[1];
-    } else if (name == "freeloc::bf16_linear" && in.size() >= 2) {  // nn's oneDNN bf16 matmul: x [rows, in], w [out, in]
+    } else if (name == "freeloc::bf16_linear" &&
+               in.size() >= 2) {  // nn's oneDNN bf16 matmul: x [rows, in], w [out, in]
       const auto a = Shape(in[0]), w = Shape(in[1]);
       if (a.size() == 2 && w.size() == 2) f = 2.0 * a[0] * a[1] * w[0];
     } else if (name == "aten::bmm" && in.size() >= 2) {

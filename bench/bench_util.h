@@ -5,12 +5,11 @@
 #include <link.h>
 #include <sys/resource.h>
 
-#include <cstdlib>
-#include <fstream>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -51,8 +50,8 @@ inline std::string MachineLine() {
     blas += sel ? std::string(", selected by freeloc: ") + sel : user ? std::string(", OPENBLAS_CORETYPE=") + user : "";
     blas += ")";
   }
-  return "CPU: " + model + " (" + std::to_string(n) + " threads; " + isa + ") · BLAS: " +
-         (blas.empty() ? "none loaded by this program" : blas);
+  return "CPU: " + model + " (" + std::to_string(n) + " threads; " + isa +
+         ") · BLAS: " + (blas.empty() ? "none loaded by this program" : blas);
 }
 
 // "a,b,,c" → {"a", "b", "c"} (the benchmarks' comma-separated flags).
@@ -66,10 +65,10 @@ inline std::vector<std::string> SplitList(const std::string& s) {
 
 // The bundled TUM photos (data/demo/val/…) that texture the synthetic rooms of bench/baseline and bench/multiframe.
 inline const std::vector<std::string>& DemoTexturePhotos() {
-  static const std::vector<std::string> paths = {
-      "s00001/seq0/frame_00000.png", "s00001/seq1/frame_00002.png", "s00001/seq1/frame_00004.png",
-      "s00002/seq0/frame_00000.png", "s00003/seq0/frame_00000.png", "s00003/seq1/frame_00000.png",
-      "s00001/seq1/frame_00000.png"};
+  static const std::vector<std::string> paths = {"s00001/seq0/frame_00000.png", "s00001/seq1/frame_00002.png",
+                                                 "s00001/seq1/frame_00004.png", "s00002/seq0/frame_00000.png",
+                                                 "s00003/seq0/frame_00000.png", "s00003/seq1/frame_00000.png",
+                                                 "s00001/seq1/frame_00000.png"};
   return paths;
 }
 

@@ -26,8 +26,8 @@ namespace {
 
 void Table(const char* title, const std::vector<testing::StudyQuery>& qs) {
   std::printf("### %s — %zu queries\n\n", title, qs.size());
-  bench::MarkdownTable t({"confidence", "AUC pose (25 cm, 5°)", "AUC VCRE (90 px)", "precision pose",
-                          "precision VCRE", "estimates"});
+  bench::MarkdownTable t(
+      {"confidence", "AUC pose (25 cm, 5°)", "AUC VCRE (90 px)", "precision pose", "precision VCRE", "estimates"});
   for (auto c : {testing::StudyConfidence::kInlierCount, testing::StudyConfidence::kScaleSupport,
                  testing::StudyConfidence::kFreeloc, testing::StudyConfidence::kOracle}) {
     const auto s = testing::ScoreStudy(qs, c);
@@ -54,11 +54,12 @@ int main(int argc, char** argv) {
   }
   std::printf("## bench/confidence — ranking estimates for the map-free AUCs\n\n");
   std::printf("%s\n\n", bench::MachineLine().c_str());
-  std::printf("Synthetic population: seed %u%s, %d queries at %dx%d; baseline 0.1–1.5 m, 30–1500 matches "
-              "(log-uniform), 0.3–2.5 px noise, 0–60 %% outliers; depth by query index mod 3: exact, degraded "
-              "(global ≤ 15 %%, smooth ≤ 10 %%, outlier blobs ≤ 30 %%, 5 %% holes), monocular-like (log-normal "
-              "global scale σ 0.2, shift ±0.15 m, field 5–10 %%, bled edges, 1 %% salt, 5 %% holes).\n\n",
-              seed, seed == 1 ? " (the tuning population)" : " (held out)", queries, width, height);
+  std::printf(
+      "Synthetic population: seed %u%s, %d queries at %dx%d; baseline 0.1–1.5 m, 30–1500 matches "
+      "(log-uniform), 0.3–2.5 px noise, 0–60 %% outliers; depth by query index mod 3: exact, degraded "
+      "(global ≤ 15 %%, smooth ≤ 10 %%, outlier blobs ≤ 30 %%, 5 %% holes), monocular-like (log-normal "
+      "global scale σ 0.2, shift ±0.15 m, field 5–10 %%, bled edges, 1 %% salt, 5 %% holes).\n\n",
+      seed, seed == 1 ? " (the tuning population)" : " (held out)", queries, width, height);
   std::stringstream ss(solvers);
   for (std::string solver; std::getline(ss, solver, ',');) {
     std::vector<testing::StudyQuery> all, by_mode[3];
@@ -68,10 +69,11 @@ int main(int argc, char** argv) {
       by_mode[all.back().depth_mode].push_back(all.back());
       const auto& q = all.back();
       if (dump)
-        std::printf("%s q%d mode %d %s inl %d/%d scale %d conf %.3f pred_t %.3f pred_R %.3f | t %.3f R %.3f vcre %.1f\n",
-                    solver.c_str(), i, q.depth_mode, q.result.StatusText().c_str(), q.result.inliers,
-                    q.result.matches, q.result.scale_inliers, q.result.confidence, q.result.predicted_translation_m,
-                    q.result.predicted_rotation_deg, q.err.trans_err, q.err.rot_err, q.err.vcre);
+        std::printf(
+            "%s q%d mode %d %s inl %d/%d scale %d conf %.3f pred_t %.3f pred_R %.3f | t %.3f R %.3f vcre %.1f\n",
+            solver.c_str(), i, q.depth_mode, q.result.StatusText().c_str(), q.result.inliers, q.result.matches,
+            q.result.scale_inliers, q.result.confidence, q.result.predicted_translation_m,
+            q.result.predicted_rotation_deg, q.err.trans_err, q.err.rot_err, q.err.vcre);
     }
     const std::string p = "solver " + solver + ", ";
     Table((p + "exact depth").c_str(), by_mode[0]);
@@ -84,8 +86,8 @@ int main(int argc, char** argv) {
   // The bundled TUM scenes.
   const std::string split = std::string(FREELOC_SOURCE_DIR) + "/data/demo/val";
   std::vector<testing::StudyQuery> demo;
-  bench::MarkdownTable t({"scene", "query", "status", "inliers", "freeloc confidence", "predicted t (m)",
-                          "t err (m)", "R err (°)"});
+  bench::MarkdownTable t(
+      {"scene", "query", "status", "inliers", "freeloc confidence", "predicted t (m)", "t err (m)", "R err (°)"});
   for (const char* name : {"s00001", "s00002", "s00003"}) {
     const MapfreeScene scene = MapfreeScene::Load(split + "/" + name);
     const auto res = pipeline::RelocalizeScene(scene, pipeline::ResolvePreset("sift-essential"));

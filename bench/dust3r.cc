@@ -59,8 +59,8 @@ int main(int argc, char** argv) {
   torch::set_num_threads(threads);
   const double gemm32 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kFloat32);
   const double gemm16 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kBFloat16);
-  const auto sd =
-      freeloc::bench::RandomFullModel(std::string(FREELOC_SHARED_DIR) + "/fixtures/dust3r/full_model_state_dict_shapes.json");
+  const auto sd = freeloc::bench::RandomFullModel(std::string(FREELOC_SHARED_DIR) +
+                                                  "/fixtures/dust3r/full_model_state_dict_shapes.json");
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
   const auto model = freeloc::nn::Dust3rModel::Create(
@@ -108,9 +108,10 @@ int main(int argc, char** argv) {
   // bf16 vs fp32 on one encoder block's GEMMs (768 tokens, 1024 wide, MLP 4096).
   const double b32 = BlockGemms(768, 1024, 4096, torch::kFloat32);
   const double b16 = BlockGemms(768, 1024, 4096, torch::kBFloat16);
-  std::printf("\nbf16: one encoder block's GEMMs (torch::linear) take %.3f s in fp32 and %.3f s in bf16 (%.2f× the fp32 "
-              "time) on this CPU.\n",
-              b32, b16, b16 / b32);
+  std::printf(
+      "\nbf16: one encoder block's GEMMs (torch::linear) take %.3f s in fp32 and %.3f s in bf16 (%.2f× the fp32 "
+      "time) on this CPU.\n",
+      b32, b16, b16 / b32);
   if (bf16_pair) {
     freeloc::nn::RuntimeOptions rb = rt;
     rb.precision = freeloc::nn::Precision::kBf16;

@@ -37,13 +37,16 @@ int main(int argc, char** argv) {
   }
   torch::set_num_threads(threads);
   const double gemm32 = freeloc::bench::GemmRate(768, 1024, 4096, torch::kFloat32);
-  const auto sd =
-      freeloc::bench::RandomFullModel(std::string(FREELOC_SHARED_DIR) + "/fixtures/mast3r/full_model_state_dict_shapes.json");
+  const auto sd = freeloc::bench::RandomFullModel(std::string(FREELOC_SHARED_DIR) +
+                                                  "/fixtures/mast3r/full_model_state_dict_shapes.json");
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
-  const std::map<std::string, std::string> kw = {{"enc_num_heads", "16"},     {"dec_num_heads", "12"},
-                                                 {"pos_embed", "RoPE100"},    {"head_type", "catmlp+dpt"},
-                                                 {"output_mode", "pts3d+desc24"}, {"two_confs", "True"},
+  const std::map<std::string, std::string> kw = {{"enc_num_heads", "16"},
+                                                 {"dec_num_heads", "12"},
+                                                 {"pos_embed", "RoPE100"},
+                                                 {"head_type", "catmlp+dpt"},
+                                                 {"output_mode", "pts3d+desc24"},
+                                                 {"two_confs", "True"},
                                                  {"desc_conf_mode", "('exp', 0, inf)"}};
   const auto mast3r = freeloc::nn::Dust3rModel::Create(sd, kw, "random full-size weights", rt);
   // The DUSt3R path on the same trunk weights (shared, not copied).
@@ -118,12 +121,15 @@ int main(int argc, char** argv) {
   t.Row({"  its two DPT heads", Fmt("%.2f s", Median(heads_d)), ""});
   t.Row({"MASt3R pair (pointmaps + descriptors)", Fmt("%.2f s", pm),
          Fmt("%.1f GFLOP/s (2.04 TFLOP); ", 2037.2 / pm) + Fmt("%.3f× the DUSt3R pair (target ≤ 1.15×)", pm / pd)});
-  t.Row({"  its heads (2 DPT + 2 MLP)", Fmt("%.2f s", Median(heads_m)), Fmt("+%.2f s for the MLPs", Median(heads_m) - Median(heads_d))});
-  t.Row({"MASt3R query with cached reference encoding", Fmt("%.2f s", Median(cached)), Fmt("%.2f× the pair", Median(cached) / pm)});
+  t.Row({"  its heads (2 DPT + 2 MLP)", Fmt("%.2f s", Median(heads_m)),
+         Fmt("+%.2f s for the MLPs", Median(heads_m) - Median(heads_d))});
+  t.Row({"MASt3R query with cached reference encoding", Fmt("%.2f s", Median(cached)),
+         Fmt("%.2f× the pair", Median(cached) / pm)});
   t.Row({"route B swapped pass (decoders + head 1)", Fmt("%.2f s", Median(swapped)),
          Fmt("+%.0f %% of the cached query (the query's own depth)", 100 * Median(swapped) / Median(cached))});
   t.Row({"fast reciprocal NN, 512×384×24, S = 8 (" + st.kernel + ")", Fmt("%.0f ms", 1e3 * Median(t_nn)),
-         std::to_string(m.size()) + " matches, calls " + sizes + (same ? "; identical to brute force" : "; DIFFERS from brute force")});
+         std::to_string(m.size()) + " matches, calls " + sizes +
+             (same ? "; identical to brute force" : "; DIFFERS from brute force")});
   t.Row({"  exhaustive reference (double, 1 thread)", Fmt("%.1f s", t_brute), std::to_string(mb.size()) + " matches"});
   t.Row({"fp32 GEMM rate, same process", Fmt("%.1f GFLOP/s", gemm32),
          Fmt("MASt3R pair reaches %.0f %% of it", 100.0 * 2037.2 / pm / gemm32)});

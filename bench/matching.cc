@@ -127,9 +127,9 @@ bool DescriptorBench(int threads) {
     const bool same = SameMatches(m, ref);
     all_same = all_same && same;
     t.Row({"512×384, D = 24, S = 8", "fast NN, " + st.kernel + " screening, " + std::to_string(threads) + " threads",
-           Fmt("%.1f", bench::Median(ms)), std::to_string(m.size()), Sizes(st.query_sizes),
-           std::to_string(st.lookups), std::to_string(st.candidates),
-           st.kernel == "int8-vnni" ? Fmt("%.0f %%", 100 * st.tiles_skipped) : "–", same ? "yes" : "NO"});
+           Fmt("%.1f", bench::Median(ms)), std::to_string(m.size()), Sizes(st.query_sizes), std::to_string(st.lookups),
+           std::to_string(st.candidates), st.kernel == "int8-vnni" ? Fmt("%.0f %%", 100 * st.tiles_skipped) : "–",
+           same ? "yes" : "NO"});
   }
   t.Row({"512×384, D = 24, S = 8", "exhaustive reference (double, 1 thread)", Fmt("%.0f", ref_ms),
          std::to_string(ref.size()), Sizes(ref_st.query_sizes), std::to_string(ref_st.lookups),

@@ -27,7 +27,6 @@ using freeloc::bench::Fmt;
 
 namespace {
 
-
 struct Variant {
   const char* name;
   int frames;
@@ -81,16 +80,16 @@ int main(int argc, char** argv) {
     if (!fs::exists(dir + "/poses_device.documented.txt"))
       fs::copy_file(dir + "/poses_device.txt", dir + "/poses_device.documented.txt");
   }
-  std::printf("Synthetic query sequences (seed %u + 17·s%s): %d scenes × %d evaluated frames (+ %d trailing frames), "
-              "%d×%d, evaluated frames placed as single-frame queries (baseline %.1f–%.1f m, rotation ≤ %.1f°), each "
-              "ending a 9-frame hand-held path (%.0f–%.0f cm and ≤ %.1f° per frame), frame numbers with gaps; device "
-              "poses from a drifting tracker (±2 %% scale, 2 mm + 0.05° random walk per frame). Depth per frame as "
-              "bench/baseline (`exact`, `degraded8`, `mono`; each frame's errors independent). Generated in %.1f s into "
-              "%s. `sift-essential` (anchored scale), provided depth.\n\n",
-              seed, hard ? ", --hard" : "", n_scenes, windows, so.trailing, so.width, so.height,
-              so.difficulty.min_baseline_m, so.difficulty.max_baseline_m,
-              so.difficulty.max_rotation_rad * 180 / 3.14159265358979, 100 * so.min_step_m, 100 * so.max_step_m,
-              so.max_turn_deg, bench::NowSeconds() - t0, split.c_str());
+  std::printf(
+      "Synthetic query sequences (seed %u + 17·s%s): %d scenes × %d evaluated frames (+ %d trailing frames), "
+      "%d×%d, evaluated frames placed as single-frame queries (baseline %.1f–%.1f m, rotation ≤ %.1f°), each "
+      "ending a 9-frame hand-held path (%.0f–%.0f cm and ≤ %.1f° per frame), frame numbers with gaps; device "
+      "poses from a drifting tracker (±2 %% scale, 2 mm + 0.05° random walk per frame). Depth per frame as "
+      "bench/baseline (`exact`, `degraded8`, `mono`; each frame's errors independent). Generated in %.1f s into "
+      "%s. `sift-essential` (anchored scale), provided depth.\n\n",
+      seed, hard ? ", --hard" : "", n_scenes, windows, so.trailing, so.width, so.height, so.difficulty.min_baseline_m,
+      so.difficulty.max_baseline_m, so.difficulty.max_rotation_rad * 180 / 3.14159265358979, 100 * so.min_step_m,
+      100 * so.max_step_m, so.max_turn_deg, bench::NowSeconds() - t0, split.c_str());
 
   const std::vector<Variant> variants = {
       {"single frame (--frames 1)", 1, "ignore", ""},

@@ -5,11 +5,13 @@
 // encodings, instance encodings), then per query a stage table — depth, the pair's network pass, global matching,
 // SegGPT propagation, the masked pairs' network passes, instance matching + merge, solve — the total, the FLOP the
 // networks executed (counted at the LibTorch dispatcher: mm/addmm/bmm/convolution) and the achieved GFLOP/s against
-// the GEMM rate (of the run's precision) measured in this process; one untimed query first (one-time kernel costs). The reference gives K rectangular instances;
-// SegGPT propagates them (its output bias is set so that every instance is painted over the whole query and its
-// filters are off: with random weights the masks are noise, and the point is the work every instance costs).
+// the GEMM rate (of the run's precision) measured in this process; one untimed query first (one-time kernel costs). The
+// reference gives K rectangular instances; SegGPT propagates them (its output bias is set so that every instance is
+// painted over the whole query and its filters are off: with random weights the masks are noise, and the point is the
+// work every instance costs).
 //
-//   relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] [--metric3d vit_small|vit_large|vit_giant2]
+//   relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] [--metric3d
+//   vit_small|vit_large|vit_giant2]
 //              [--precision fp32|bf16]
 #include <algorithm>
 #include <cstdio>
@@ -42,7 +44,8 @@ freeloc::Image Photo(double shift, double zoom) {
     bool disc;
   };
   std::vector<Shape> shapes(180);
-  for (auto& s : shapes) s = {u(rng) * kW, u(rng) * kH, u(rng) * 255, u(rng) * 255, u(rng) * 255, 8 + u(rng) * 40, u(rng) < 0.5};
+  for (auto& s : shapes)
+    s = {u(rng) * kW, u(rng) * kH, u(rng) * 255, u(rng) * 255, u(rng) * 255, 8 + u(rng) * 40, u(rng) < 0.5};
   freeloc::Image img(kW, kH);
   for (int y = 0; y < kH; ++y)
     for (int x = 0; x < kW; ++x) {
@@ -192,7 +195,8 @@ int main(int argc, char** argv) {
     o.segmenter.max_area_ratio = 1e9;
     for (std::string* p : {&o.dust3r_model, &o.mast3r_model, &o.seggpt_model, &o.metric3d_model}) *p = "random";
     std::unique_ptr<pl::Matcher> matcher =
-        o.UsesPointmapModel() ? freeloc::networks::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt) : pl::MakeMatcher(o);
+        o.UsesPointmapModel() ? freeloc::networks::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt)
+                              : pl::MakeMatcher(o);
     std::unique_ptr<pl::DepthEstimator> dest =
         o.UsesMetric3d() ? freeloc::networks::MakeNetworkDepthEstimator(metric3d) : pl::MakeDepthEstimator(o);
     pl::Relocalizer reloc(o, std::move(matcher), std::move(dest), pl::MakePoseSolver(o));
@@ -226,16 +230,16 @@ int main(int argc, char** argv) {
       Row x;
       x.total_s = NowSeconds() - t0;
       x.gflop = query_gflop;
-      x.depth = r.depth_ms / 1e3;
-      x.pair = r.pair_ms / 1e3;
-      x.match = (r.match_ms - r.pair_ms) / 1e3;
-      x.seg = r.segment_ms / 1e3;
-      x.inst_pass = r.instance_pass_ms / 1e3;
-      x.inst_match = std::max(0.0, r.instance_ms - r.segment_ms - r.instance_pass_ms) / 1e3;
-      x.solve = r.solve_ms / 1e3;
+      x.depth = r.timings.depth_ms / 1e3;
+      x.pair = r.timings.pair_ms / 1e3;
+      x.match = (r.timings.match_ms - r.timings.pair_ms) / 1e3;
+      x.seg = r.timings.segment_ms / 1e3;
+      x.inst_pass = r.timings.instance_pass_ms / 1e3;
+      x.inst_match = std::max(0.0, r.timings.instance_ms - r.timings.segment_ms - r.timings.instance_pass_ms) / 1e3;
+      x.solve = r.timings.solve_ms / 1e3;
       x.other = std::max(0.0, x.total_s - x.depth - x.pair - x.match - x.seg - x.inst_pass - x.inst_match - x.solve);
       x.instances = r.instances;
-      x.pairs = r.instance_pairs;
+      x.pairs = r.timings.instance_pairs;
       x.matches = r.matches;
       x.status = r.StatusText().substr(0, 24);
       per.push_back(x);
@@ -279,18 +283,20 @@ int main(int argc, char** argv) {
     const double net_s = r.depth + r.pair + r.seg + r.inst_pass;
     const double net = net_s > 0 ? r.gflop / net_s : 0;
     t.Row({r.preset, Fmt("%.2f s", r.ref_s), Fmt("%.2f s", r.total_s), Fmt("%.0f", r.gflop), Fmt("%.1f", r.gflops),
-           Fmt("%.0f %%", 100 * r.gflops / gemm), net > 0 ? Fmt("%.1f", net) + Fmt(" (%.0f %%)", 100 * net / gemm) : "–",
-           r.status});
+           Fmt("%.0f %%", 100 * r.gflops / gemm),
+           net > 0 ? Fmt("%.1f", net) + Fmt(" (%.0f %%)", 100 * net / gemm) : "–", r.status});
   }
   t.Print();
-  std::printf("\nWhere a query's time goes (seconds; SegGPT and the masked pairs: K instances propagated / pairs run):\n\n");
+  std::printf(
+      "\nWhere a query's time goes (seconds; SegGPT and the masked pairs: K instances propagated / pairs run):\n\n");
   freeloc::bench::MarkdownTable s({"preset", "depth", "pair network pass", "global matching", "SegGPT",
                                    "masked pairs' passes", "instance matching + merge", "solve (matches)", "other"});
   for (const auto& r : rows)
     s.Row({r.preset, Fmt("%.2f", r.depth), Fmt("%.2f", r.pair), Fmt("%.2f", r.match),
            r.instances ? Fmt("%.2f", r.seg) + " (" + std::to_string(r.instances) + ")" : "–",
            r.instances ? Fmt("%.2f", r.inst_pass) + " (" + std::to_string(r.pairs) + ")" : "–",
-           r.instances ? Fmt("%.2f", r.inst_match) : "–", Fmt("%.3f", r.solve) + " (" + std::to_string(r.matches) + ")", Fmt("%.2f", r.other)});
+           r.instances ? Fmt("%.2f", r.inst_match) : "–", Fmt("%.3f", r.solve) + " (" + std::to_string(r.matches) + ")",
+           Fmt("%.2f", r.other)});
   s.Print();
   return 0;
 }

@@ -101,9 +101,8 @@ int main(int argc, char** argv) {
       }
       std::vector<double> neg(err.size());
       for (size_t i = 0; i < err.size(); ++i) neg[i] = -err[i];
-      t.Row({dg.name, freeloc::ToString(method), Fmt("%.4f", Percentile(err, 0.5)),
-             Fmt("%.4f", Percentile(err, 0.9)), std::to_string(fail), Fmt("%.3f", Spearman(conf, neg)),
-             Fmt("%.2f", bench::Median(ms))});
+      t.Row({dg.name, freeloc::ToString(method), Fmt("%.4f", Percentile(err, 0.5)), Fmt("%.4f", Percentile(err, 0.9)),
+             std::to_string(fail), Fmt("%.3f", Spearman(conf, neg)), Fmt("%.2f", bench::Median(ms))});
     }
   }
   t.Print();

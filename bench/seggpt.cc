@@ -16,9 +16,7 @@
 using freeloc::bench::Fmt;
 using freeloc::bench::NowSeconds;
 
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 int main(int argc, char** argv) {
   int threads = 2, reps = 3;

@@ -18,7 +18,9 @@
 #include "freeloc/pipeline/options.h"
 #include "freeloc/service/server.h"
 
+// clang-format off
 #include <httplib.h>  // after Eigen (through the freeloc headers): OpenSSL's headers, which it pulls, define names Eigen uses
+// clang-format on
 
 namespace {
 
@@ -47,12 +49,12 @@ int main(int argc, char** argv) {
   }
   const std::string s = "data/demo/val/s00003/";
   const std::string ref = Bytes(s + "seq0/frame_00000.png"), query = Bytes(s + "seq1/frame_00000.png");
-  const std::string ref_d = Bytes(s + "seq0/frame_00000.sensor.png"), query_d = Bytes(s + "seq1/frame_00000.sensor.png");
+  const std::string ref_d = Bytes(s + "seq0/frame_00000.sensor.png"),
+                    query_d = Bytes(s + "seq1/frame_00000.sensor.png");
   const std::string k = "520.908620,521.007327,325.141442,249.701764";
   const auto form = [&](const std::string& image, const std::string& depth) {
-    return httplib::MultipartFormDataItems{{"image", image, "i.png", "image/png"},
-                                           {"depth", depth, "d.png", "image/png"},
-                                           {"intrinsics", k, "", ""}};
+    return httplib::MultipartFormDataItems{
+        {"image", image, "i.png", "image/png"}, {"depth", depth, "d.png", "image/png"}, {"intrinsics", k, "", ""}};
   };
 
   freeloc::service::ServiceOptions o;
@@ -75,9 +77,10 @@ int main(int argc, char** argv) {
   const std::string path = "/v1/anchors/" + id + "/relocalize";
 
   std::printf("# bench/serve\n\n%s\n\n", freeloc::bench::MachineLine().c_str());
-  std::printf("sift-essential with sensor depth, one anchor (TUM s00003), %d workers, %d clients for %.0f s, "
-              "each sending the next request when the last is answered; server and clients in one process.\n\n",
-              workers, clients, seconds);
+  std::printf(
+      "sift-essential with sensor depth, one anchor (TUM s00003), %d workers, %d clients for %.0f s, "
+      "each sending the next request when the last is answered; server and clients in one process.\n\n",
+      workers, clients, seconds);
   std::mutex mu;
   std::vector<double> latencies;
   std::map<int, int> statuses;
@@ -108,10 +111,12 @@ int main(int argc, char** argv) {
   const double elapsed = freeloc::bench::NowSeconds() - t0;
   std::sort(latencies.begin(), latencies.end());
   const auto q = [&](double p) {
-    return latencies.empty() ? 0.0 : latencies[std::min(latencies.size() - 1, static_cast<size_t>(p * latencies.size()))];
+    return latencies.empty() ? 0.0
+                             : latencies[std::min(latencies.size() - 1, static_cast<size_t>(p * latencies.size()))];
   };
-  std::printf("| clients | workers | requests | answered 200 | other statuses | p50 ms | p95 ms | p99 ms | "
-              "throughput /s |\n|---:|---:|---:|---:|---|---:|---:|---:|---:|\n");
+  std::printf(
+      "| clients | workers | requests | answered 200 | other statuses | p50 ms | p95 ms | p99 ms | "
+      "throughput /s |\n|---:|---:|---:|---:|---|---:|---:|---:|---:|\n");
   int total = 0;
   std::string other;
   for (const auto& [st, n] : statuses) {
@@ -138,8 +143,8 @@ int main(int argc, char** argv) {
   std::thread serving2([&] { small.Serve(); });
   httplib::Client admin2("127.0.0.1", port2);
   const auto created2 = admin2.Post("/v1/anchors", form(ref, ref_d));
-  const std::string path2 = "/v1/anchors/" + created2->body.substr(created2->body.find("\"id\":\"") + 6, 16) +
-                            "/relocalize";
+  const std::string path2 =
+      "/v1/anchors/" + created2->body.substr(created2->body.find("\"id\":\"") + 6, 16) + "/relocalize";
   std::map<int, int> burst;
   std::map<std::string, int> failures;  // client-side: no HTTP answer
   std::vector<std::thread> b;
@@ -157,8 +162,10 @@ int main(int argc, char** argv) {
   for (auto& t : b) t.join();
   small.Stop();
   serving2.join();
-  std::printf("Backpressure: a burst of %d simultaneous requests against 1 worker and a queue of 2:\n\n| status | "
-              "requests |\n|---|---:|\n", n);
+  std::printf(
+      "Backpressure: a burst of %d simultaneous requests against 1 worker and a queue of 2:\n\n| status | "
+      "requests |\n|---|---:|\n",
+      n);
   for (const auto& [st, c] : burst) std::printf("| %d | %d |\n", st, c);
   for (const auto& [what, c] : failures) std::printf("\n(-1: no HTTP answer: %s, %d)", what.c_str(), c);
   std::printf("\n");

@@ -51,8 +51,8 @@ std::string Safetensors(Choices& c) {
 
 std::string Npy(Choices& c) {
   static const char* kDescr[] = {"<f4", "<f8", "<f2", "<i8", "<i4", "<i2", "|i1", "|u1", "|b1", ">f4", "<c8", "<U3"};
-  std::string d = "{'descr': '" + std::string(kDescr[c.Byte() % 12]) + "', 'fortran_order': " +
-                  (c.Byte() % 2 ? "True" : "False") + ", 'shape': (";
+  std::string d = "{'descr': '" + std::string(kDescr[c.Byte() % 12]) +
+                  "', 'fortran_order': " + (c.Byte() % 2 ? "True" : "False") + ", 'shape': (";
   const int nd = c.Byte() % 4;
   for (int k = 0; k < nd; ++k) d += std::to_string(c.Int()) + (nd == 1 || k + 1 < nd ? "," : "");
   d += "), }";

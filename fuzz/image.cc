@@ -1,7 +1,6 @@
 // libFuzzer target: image decoding (DecodeImage: JPEG, PNG, BMP, TIFF, WebP) and 16-bit depth PNGs (ReadDepthPng).
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
-
 #include "fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -2,7 +2,6 @@
 // (ParseOfficialPoses, with and without the confidence column).
 #include "freeloc/io/mapfree.h"
 #include "freeloc/io/submission.h"
-
 #include "fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -1,6 +1,5 @@
 // libFuzzer target: .npy parsing on a buffer and .npz archives through ReadNpz (first byte selects).
 #include "freeloc/io/npz.h"
-
 #include "fuzz_input.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

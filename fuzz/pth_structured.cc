@@ -8,7 +8,6 @@
 #include "fuzz_input.h"
 #include "testing/pth_builder.h"
 
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace freeloc;
   static const char* kClasses[] = {"FloatStorage", "DoubleStorage", "HalfStorage", "BFloat16Storage", "LongStorage",
@@ -26,7 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const int64_t item = kItem[cls];
     switch (c.Byte() % 3) {
       case 0:  // exactly what the declared count needs, when that is small: valid storages reach the view checks
-        st.record_bytes = st.declared_numel >= 0 && st.declared_numel <= 4096 ? static_cast<uint64_t>(st.declared_numel * item) : 0;
+        st.record_bytes =
+            st.declared_numel >= 0 && st.declared_numel <= 4096 ? static_cast<uint64_t>(st.declared_numel * item) : 0;
         break;
       case 1: st.record_bytes = c.Byte(); break;
       default: st.record_bytes = static_cast<uint64_t>(c.Byte()) * 8;

@@ -12,8 +12,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <limits>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -24,12 +24,12 @@
 #include "freeloc/eval/report.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/intrinsics.h"
+#include "freeloc/pipeline/multi_frame.h"
 #include "freeloc/pipeline/networks.h"
 #include "freeloc/pipeline/record.h"
-#include "freeloc/pipeline/multi_frame.h"
 #include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/run_controller.h"
 
 namespace py = pybind11;
 
@@ -80,7 +80,8 @@ void Validate(const pipeline::PipelineOptions& o) {
 // A 3×3 intrinsics matrix (any real dtype) → Camera; `width`/`height` when known.
 Camera CameraOf(const py::handle& k, const char* what, int width = 0, int height = 0) {
   const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(k);
-  if (!a || a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3) BadValue(std::string(what) + ": expected a 3x3 matrix");
+  if (!a || a.ndim() != 2 || a.shape(0) != 3 || a.shape(1) != 3)
+    BadValue(std::string(what) + ": expected a 3x3 matrix");
   const auto m = a.unchecked<2>();
   Camera c{m(0, 0), m(1, 1), m(0, 2), m(1, 2), width, height};
   if (!(std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy)) || c.fx <= 0 ||
@@ -108,9 +109,7 @@ std::vector<Eigen::Vector2d> Points(const py::handle& x, const char* what) {
   return p;
 }
 
-bool IsPath(const py::handle& v) {
-  return py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__");
-}
+bool IsPath(const py::handle& v) { return py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__"); }
 std::string PathOf(const py::handle& v) { return py::str(py::module_::import("os").attr("fspath")(v)); }
 
 // A path, an H×W float array of metres, or an H×W uint16 array of millimetres (the map-free PNG values, as
@@ -186,9 +185,7 @@ py::array TensorArray(const TensorView& t) {
   return a;
 }
 
-py::dict AsDict(const PoseResult& p) {
-  return JsonToPy(pipeline::QueryRecordJson("", p.r, &p.options));
-}
+py::dict AsDict(const PoseResult& p) { return JsonToPy(pipeline::QueryRecordJson("", p.r, &p.options)); }
 
 // ---------------------------------------------------------------------------------------------------------------
 // Entry points
@@ -198,7 +195,8 @@ PoseResult EstimateRelativePose(const py::handle& x_ref, const py::handle& x_que
                                 const py::kwargs& kw) {
   const std::vector<Eigen::Vector2d> a = Points(x_ref, "x_ref"), b = Points(x_query, "x_query");
   if (a.size() != b.size())
-    BadValue("x_ref and x_query differ in length (" + std::to_string(a.size()) + " vs " + std::to_string(b.size()) + ")");
+    BadValue("x_ref and x_query differ in length (" + std::to_string(a.size()) + " vs " + std::to_string(b.size()) +
+             ")");
   const Camera kr = CameraOf(k_ref, "K_ref"), kq = CameraOf(k_query, "K_query");
   const DepthMap dr = DepthOf(depth_ref, "depth_ref"), dq = DepthOf(depth_query, "depth_query");
   pipeline::PipelineOptions o = pipeline::CorrespondenceDefaults();
@@ -255,9 +253,10 @@ class PyRelocalizer {
     in_query.depth = DepthOf(depth_query, "depth_query");
     // As `freeloc relocalize`: no depth given and none overridden → the provided-depth presets answer without depth.
     const bool any_depth = !in_ref.depth.empty() || !in_query.depth.empty();
-    return Answer(any_depth, ri, kr, std::move(in_ref), [&](pipeline::Relocalizer& reloc, matching::Correspondences* c) {
-      return reloc.Relocalize(qi, kq, std::move(in_query), c);
-    });
+    return Answer(any_depth, ri, kr, std::move(in_ref),
+                  [&](pipeline::Relocalizer& reloc, matching::Correspondences* c) {
+                    return reloc.Relocalize(qi, kq, std::move(in_query), c);
+                  });
   }
 
   // The Multi Frame track's query: `frames` oldest first, the evaluated frame last (1–9); per frame its K (or one
@@ -266,8 +265,8 @@ class PyRelocalizer {
                               const py::handle& ks, const py::handle& depth_ref, const py::handle& depths,
                               const py::handle& device_poses) {
     const size_t n = frames.size();
-    if (n < 1 || n > 9) BadValue("frames: give 1 to 9 frames (oldest first, the evaluated frame last), got " +
-                                 std::to_string(n));
+    if (n < 1 || n > 9)
+      BadValue("frames: give 1 to 9 frames (oldest first, the evaluated frame last), got " + std::to_string(n));
     auto per_frame = [&](const py::handle& v, const char* what) -> std::vector<py::object> {
       std::vector<py::object> out(n, py::none());
       if (v.is_none()) return out;
@@ -284,8 +283,8 @@ class PyRelocalizer {
     };
     const auto k_list = per_frame(ks, "Ks");
     const auto d_list = per_frame(depths, "depths");
-    const auto p_list = device_poses.is_none() ? std::vector<py::object>(n, py::none())
-                                               : per_frame(device_poses, "device_poses");
+    const auto p_list =
+        device_poses.is_none() ? std::vector<py::object>(n, py::none()) : per_frame(device_poses, "device_poses");
     pipeline::FrameInputs in_ref;
     Image ri;
     const Camera kr = PhotoOf(ref, k_ref, "ref_image", "K_ref", &ri, &in_ref);
@@ -315,9 +314,10 @@ class PyRelocalizer {
         f.device_from_query = Rigid3d(R, t);
       }
     }
-    return Answer(any_depth, ri, kr, std::move(in_ref), [&](pipeline::Relocalizer& reloc, matching::Correspondences* c) {
-      return pipeline::RelocalizeWindow(reloc, std::move(window), c);
-    });
+    return Answer(any_depth, ri, kr, std::move(in_ref),
+                  [&](pipeline::Relocalizer& reloc, matching::Correspondences* c) {
+                    return pipeline::RelocalizeWindow(reloc, std::move(window), c);
+                  });
   }
 
   const pipeline::PipelineOptions& options() const { return options_; }
@@ -337,7 +337,8 @@ class PyRelocalizer {
                                    options_.UsesPointmapModel(), image_name);
     if (c.source == pipeline::IntrinsicsSource::kNone)
       BadValue(std::string(k_name) + ": not given, and " + image_name + " has no usable EXIF focal length (" + c.why +
-               "); pass " + k_name + " (3x3) or use a dust3r or mast3r preset (they estimate the focal from the "
+               "); pass " + k_name +
+               " (3x3) or use a dust3r or mast3r preset (they estimate the focal from the "
                "pointmap)");
     return pipeline::ApplyIntrinsics(c, in);
   }
@@ -345,8 +346,9 @@ class PyRelocalizer {
   // The reference set (its work redone only when it changed), then `query` on the relocalizer, without the GIL.
   // Without any depth given and none overridden the provided-depth presets answer without depth, as `freeloc
   // relocalize` does.
-  PoseResult Answer(bool any_depth, const Image& ri, const Camera& kr, pipeline::FrameInputs in_ref,
-                    const std::function<pipeline::QueryResult(pipeline::Relocalizer&, matching::Correspondences*)>& query) {
+  PoseResult Answer(
+      bool any_depth, const Image& ri, const Camera& kr, pipeline::FrameInputs in_ref,
+      const std::function<pipeline::QueryResult(pipeline::Relocalizer&, matching::Correspondences*)>& query) {
     const bool no_depth = !any_depth && !depth_overridden_ && options_.UsesProvidedDepth();
     PoseResult p;
     p.options = options_;
@@ -388,8 +390,8 @@ class PyRelocalizer {
     const DepthMap& d = in.depth;
     const bool same = s.set && s.ref.width == im.width && s.ref.height == im.height && s.ref.data == im.data &&
                       s.k.fx == k.fx && s.k.fy == k.fy && s.k.cx == k.cx && s.k.cy == k.cy &&
-                      s.source == in.intrinsics_source && s.orientation == in.orientation &&
-                      s.depth.width == d.width && s.depth.data == d.data;
+                      s.source == in.intrinsics_source && s.orientation == in.orientation && s.depth.width == d.width &&
+                      s.depth.data == d.data;
     if (!same) {
       s.ref = im;
       s.k = k;
@@ -579,47 +581,57 @@ namespace {
 
 // read_depth, read_image.
 void BindFiles(py::module_& m) {
-  m.def("read_depth", [](const py::object& path) {
-    const DepthMap d = ReadDepthPng(PathOf(path));
-    py::array_t<float> a({static_cast<py::ssize_t>(d.height), static_cast<py::ssize_t>(d.width)});
-    std::memcpy(a.mutable_data(), d.data.data(), d.data.size() * sizeof(float));
-    return a;
-  }, py::arg("path"), "The map-free uint16 millimetre PNG as float32 metres (0 = invalid).");
+  m.def(
+      "read_depth",
+      [](const py::object& path) {
+        const DepthMap d = ReadDepthPng(PathOf(path));
+        py::array_t<float> a({static_cast<py::ssize_t>(d.height), static_cast<py::ssize_t>(d.width)});
+        std::memcpy(a.mutable_data(), d.data.data(), d.data.size() * sizeof(float));
+        return a;
+      },
+      py::arg("path"), "The map-free uint16 millimetre PNG as float32 metres (0 = invalid).");
 
-  m.def("read_intrinsics", [](const py::object& path) {
-    ExifInfo exif;
-    const std::string p = PathOf(path);
-    const Image im = ReadImage(p, &exif);
-    const pipeline::IntrinsicsChoice c =
-        pipeline::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, im, false, p);
-    py::dict d;
-    d["width"] = im.width;
-    d["height"] = im.height;
-    d["orientation"] = exif.orientation;
-    d["source"] = c.source == pipeline::IntrinsicsSource::kExif ? "exif" : "none";
-    d["why"] = c.why;
-    if (c.source == pipeline::IntrinsicsSource::kExif) {
-      py::array_t<double> k({py::ssize_t{3}, py::ssize_t{3}});
-      auto m = k.mutable_unchecked<2>();
-      const double v[9] = {c.camera.fx, 0, c.camera.cx, 0, c.camera.fy, c.camera.cy, 0, 0, 1};
-      for (int i = 0; i < 9; ++i) m(i / 3, i % 3) = v[i];
-      d["K"] = k;
-    } else {
-      d["K"] = py::none();
-    }
-    return d;
-  }, py::arg("path"),
-     "What freeloc reads from a photo's EXIF: {'K': 3x3 or None, 'source': 'exif' or 'none', 'why', 'orientation', "
-     "'width', 'height'} for the image as decoded (upright). Without EXIF intrinsics a dust3r/mast3r Relocalizer "
-     "estimates the focal from the pointmap.");
+  m.def(
+      "read_intrinsics",
+      [](const py::object& path) {
+        ExifInfo exif;
+        const std::string p = PathOf(path);
+        const Image im = ReadImage(p, &exif);
+        const pipeline::IntrinsicsChoice c =
+            pipeline::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, im, false, p);
+        py::dict d;
+        d["width"] = im.width;
+        d["height"] = im.height;
+        d["orientation"] = exif.orientation;
+        d["source"] = c.source == pipeline::IntrinsicsSource::kExif ? "exif" : "none";
+        d["why"] = c.why;
+        if (c.source == pipeline::IntrinsicsSource::kExif) {
+          py::array_t<double> k({py::ssize_t{3}, py::ssize_t{3}});
+          auto m = k.mutable_unchecked<2>();
+          const double v[9] = {c.camera.fx, 0, c.camera.cx, 0, c.camera.fy, c.camera.cy, 0, 0, 1};
+          for (int i = 0; i < 9; ++i) m(i / 3, i % 3) = v[i];
+          d["K"] = k;
+        } else {
+          d["K"] = py::none();
+        }
+        return d;
+      },
+      py::arg("path"),
+      "What freeloc reads from a photo's EXIF: {'K': 3x3 or None, 'source': 'exif' or 'none', 'why', 'orientation', "
+      "'width', 'height'} for the image as decoded (upright). Without EXIF intrinsics a dust3r/mast3r Relocalizer "
+      "estimates the focal from the pointmap.");
 
-  m.def("read_image", [](const py::object& path) {
-    const Image im = ReadImage(PathOf(path));
-    py::array_t<uint8_t> a({static_cast<py::ssize_t>(im.height), static_cast<py::ssize_t>(im.width), py::ssize_t{3}});
-    std::memcpy(a.mutable_data(), im.data.data(), im.data.size());
-    return a;
-  }, py::arg("path"), "An image file as an H x W x 3 uint8 RGB array (EXIF orientation applied), as freeloc reads it.");
-
+  m.def(
+      "read_image",
+      [](const py::object& path) {
+        const Image im = ReadImage(PathOf(path));
+        py::array_t<uint8_t> a(
+            {static_cast<py::ssize_t>(im.height), static_cast<py::ssize_t>(im.width), py::ssize_t{3}});
+        std::memcpy(a.mutable_data(), im.data.data(), im.data.size());
+        return a;
+      },
+      py::arg("path"),
+      "An image file as an H x W x 3 uint8 RGB array (EXIF orientation applied), as freeloc reads it.");
 }
 
 // PoseResult, estimate_relative_pose, Relocalizer.
@@ -629,22 +641,29 @@ void BindPoses(py::module_& m) {
       .def_property_readonly("message", [](const PoseResult& p) { return p.r.message; })
       .def_property_readonly("ok", [](const PoseResult& p) { return p.r.ok(); })
       .def_property_readonly("metric", [](const PoseResult& p) { return p.r.metric(); })
-      .def_property_readonly("answered", [](const PoseResult& p) { return p.r.answered; },
-                             "not ok but submitted (always_answer): status weak-support with its own pose and low confidence, else the prior pose (identity) with confidence 0")
-      .def_property_readonly("route", [](const PoseResult& p) { return p.r.route; },
-                             "the solver's route: essential, hybrid, hybrid>essential (fell back), pnp, procrustes")
-      .def_property_readonly("qvec", [](const PoseResult& p) {
-        const auto q = p.r.query_from_ref.QuaternionWxyz();
-        return Array({q[0], q[1], q[2], q[3]}, {4});
-      })
-      .def_property_readonly("R", [](const PoseResult& p) {
-        const Eigen::Matrix3d R = p.r.query_from_ref.R();
-        return Array({R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)}, {3, 3});
-      })
-      .def_property_readonly("t", [](const PoseResult& p) {
-        const auto& t = p.r.query_from_ref.translation;
-        return Array({t.x(), t.y(), t.z()}, {3});
-      })
+      .def_property_readonly(
+          "answered", [](const PoseResult& p) { return p.r.answered; },
+          "not ok but submitted (always_answer): status weak-support with its own pose and low confidence, else the "
+          "prior pose (identity) with confidence 0")
+      .def_property_readonly(
+          "route", [](const PoseResult& p) { return p.r.route; },
+          "the solver's route: essential, hybrid, hybrid>essential (fell back), pnp, procrustes")
+      .def_property_readonly("qvec",
+                             [](const PoseResult& p) {
+                               const auto q = p.r.query_from_ref.QuaternionWxyz();
+                               return Array({q[0], q[1], q[2], q[3]}, {4});
+                             })
+      .def_property_readonly(
+          "R",
+          [](const PoseResult& p) {
+            const Eigen::Matrix3d R = p.r.query_from_ref.R();
+            return Array({R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)}, {3, 3});
+          })
+      .def_property_readonly("t",
+                             [](const PoseResult& p) {
+                               const auto& t = p.r.query_from_ref.translation;
+                               return Array({t.x(), t.y(), t.z()}, {3});
+                             })
       .def_property_readonly("confidence", [](const PoseResult& p) { return p.r.confidence; })
       .def_property_readonly("inliers", &InlierArray)
       .def_property_readonly("num_inliers", [](const PoseResult& p) { return p.r.inliers; })
@@ -670,10 +689,8 @@ void BindPoses(py::module_& m) {
            "The Multi Frame track: the last of `frames` (oldest first, 1–9) relocalized from its whole window, with "
            "per-frame Ks, depths and device poses (4x4 frame_from_query or None); as_dict()['window'] says how the "
            "frames voted.")
-      .def_property_readonly("options", [](const PyRelocalizer& r) {
-        return JsonToPy(pipeline::OptionsJson(r.options()));
-      });
-
+      .def_property_readonly("options",
+                             [](const PyRelocalizer& r) { return JsonToPy(pipeline::OptionsJson(r.options())); });
 }
 
 // _evaluate, run, option and preset names.
@@ -692,7 +709,6 @@ void BindRuns(py::module_& m) {
     return n;
   });
   m.def("preset_names", &pipeline::PresetNames);
-
 }
 
 // Dust3r, Metric3D, SegGPT.

@@ -16,10 +16,11 @@ int main(int argc, char** argv) {
   const freeloc::Image back = freeloc::ReadImage(argv[1]);
   const bool codecs_after = freeloc::ModuleLoaded("libfreeloc_codecs.so");
   const auto& api = freeloc::pipeline::Networks();
-  std::printf("torch at start = %d, codecs at start = %d, codecs after decode = %d, round trip = %d, networks abi = %d, "
-              "loaded = %d\n",
-              torch_at_start, codecs_at_start, codecs_after, back.data == img.data, api.abi,
-              freeloc::pipeline::NetworksLoaded());
+  std::printf(
+      "torch at start = %d, codecs at start = %d, codecs after decode = %d, round trip = %d, networks abi = %d, "
+      "loaded = %d\n",
+      torch_at_start, codecs_at_start, codecs_after, back.data == img.data, api.abi,
+      freeloc::pipeline::NetworksLoaded());
   return !torch_at_start && !codecs_at_start && codecs_after && back.data == img.data &&
                  freeloc::pipeline::NetworksLoaded()
              ? 0

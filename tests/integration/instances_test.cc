@@ -3,13 +3,13 @@
 // instance-restricted DUSt3R matching → the Eq. 3 merge.
 #include <gtest/gtest.h>
 
-#include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/matching/proposals.h"
+#include "freeloc/networks/dust3r_stage.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/instance_segmenter.h"
-#include "freeloc/networks/dust3r_stage.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "testing/testing.h"
 
 namespace freeloc {

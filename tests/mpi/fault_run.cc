@@ -9,9 +9,9 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
-#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/run_comm.h"
+#include "freeloc/pipeline/run_controller.h"
 
 int main(int argc, char** argv) {
   using namespace freeloc;

@@ -71,7 +71,7 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height, con
       return p;
     };
     const std::array<float, 4> k = {static_cast<float>(sc.query.fx), static_cast<float>(sc.query.fy),
-                                     static_cast<float>(sc.query.cx), static_cast<float>(sc.query.cy)};
+                                    static_cast<float>(sc.query.cx), static_cast<float>(sc.query.cy)};
     q.err = eval::ComputeFrameErrors(official(sc.query_from_ref), official(q.result.query_from_ref), k, width, height);
   }
   return q;

@@ -91,8 +91,8 @@ inline void WriteSyntheticMapfreeScene(const std::string& dir, uint32_t seed, co
     SyntheticScene s = base;
     const Eigen::Vector3d axis = Eigen::Vector3d(u01(rng) - 0.5, u01(rng) - 0.5, u01(rng) - 0.5).normalized();
     const Eigen::Quaterniond q(Eigen::AngleAxisd(0.2 * (u01(rng) - 0.5), axis));
-    const Eigen::Vector3d c = Eigen::Vector3d(u01(rng) - 0.5, 0.3 * (u01(rng) - 0.5), u01(rng) - 0.5).normalized() *
-                              (0.2 + 1.2 * u01(rng));
+    const Eigen::Vector3d c =
+        Eigen::Vector3d(u01(rng) - 0.5, 0.3 * (u01(rng) - 0.5), u01(rng) - 0.5).normalized() * (0.2 + 1.2 * u01(rng));
     s.query_from_ref = Rigid3d(q, -(q * c));
     s.depth_query = s.Render(s.query, s.query_from_ref);
     std::vector<Eigen::Vector2d> p1, p2;

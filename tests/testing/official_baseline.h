@@ -16,8 +16,8 @@
 namespace freeloc::testing {
 
 inline bool OfficialEssentialScale(const matching::Correspondences& c, const Camera& k0, const Camera& k1,
-                                   const DepthMap& d0, const DepthMap& d1, Rigid3d* out,
-                                   double* confidence = nullptr, double pix_threshold = 3.0) {
+                                   const DepthMap& d0, const DepthMap& d1, Rigid3d* out, double* confidence = nullptr,
+                                   double pix_threshold = 3.0) {
   if (c.size() < 5) return false;
   std::vector<cv::Point2d> a, b;
   for (size_t i = 0; i < c.size(); ++i) {

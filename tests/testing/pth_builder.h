@@ -40,7 +40,7 @@ inline std::string Le(uint64_t v, int n) {
   for (int i = 0; i < n; ++i) s += static_cast<char>((v >> (8 * i)) & 0xff);
   return s;
 }
-inline std::string Str(const std::string& s) { return "X" + Le(s.size(), 4) + s; }  // BINUNICODE
+inline std::string Str(const std::string& s) { return "X" + Le(s.size(), 4) + s; }           // BINUNICODE
 inline std::string Long(int64_t v) { return "\x8a\x08" + Le(static_cast<uint64_t>(v), 8); }  // LONG1, 8 bytes
 inline std::string Ints(const std::vector<int64_t>& v) {
   std::string t = "(";
@@ -65,7 +65,7 @@ inline std::string PthPickle(const PthSpec& spec) {
     p += "ctorch._utils\n_rebuild_tensor_v2\n";
     p += "((" + Str("storage") + "ctorch\n" + cls + "\n" + Str(t.storage_key) + Str("cpu") + Long(numel) + "tQ";
     p += Long(t.offset) + Ints(t.shape) + Ints(t.stride);
-    p += "\x89";  // NEWFALSE: requires_grad
+    p += "\x89";                           // NEWFALSE: requires_grad
     p += "ccollections\nOrderedDict\n)R";  // backward hooks
     p += "tR";
   }

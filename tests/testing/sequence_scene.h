@@ -23,8 +23,8 @@
 namespace freeloc::testing {
 
 struct SequenceOptions {
-  int windows = 3;          // evaluated frames
-  int trailing = 2;         // frames after the last evaluated one (unused by the track)
+  int windows = 3;   // evaluated frames
+  int trailing = 2;  // frames after the last evaluated one (unused by the track)
   int width = 360, height = 480;
   double min_step_m = 0.02, max_step_m = 0.07;  // camera motion per frame
   double max_turn_deg = 0.6;                    // rotation per frame
@@ -63,9 +63,10 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
   poses += internal::PoseLine("seq0/frame_00000.png", Rigid3d());
 
   // The tracker's world: gravity-aligned, arbitrary heading and origin (for the other convention).
-  const Rigid3d tracker_from_ref(Eigen::Quaterniond(Eigen::AngleAxisd(6.28 * u01(rng), Eigen::Vector3d::UnitY()) *
-                                                    Eigen::AngleAxisd(0.3 * (u01(rng) - 0.5), Eigen::Vector3d::UnitX())),
-                                 Eigen::Vector3d(2 * g(rng), 0.5 * g(rng), 2 * g(rng)));
+  const Rigid3d tracker_from_ref(
+      Eigen::Quaterniond(Eigen::AngleAxisd(6.28 * u01(rng), Eigen::Vector3d::UnitY()) *
+                         Eigen::AngleAxisd(0.3 * (u01(rng) - 0.5), Eigen::Vector3d::UnitX())),
+      Eigen::Vector3d(2 * g(rng), 0.5 * g(rng), 2 * g(rng)));
   std::vector<std::string> names;
   int number = 0;
   const int total = 10 * so.windows + so.trailing;
@@ -85,7 +86,8 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
       const int pos = 10 * w + 9 + k;
       if (pos >= total) break;
       const Eigen::Vector3d c = cq + v * k + 0.5 * acc * k * k;
-      const Eigen::Quaterniond ref_from_cam = rq.conjugate() * Eigen::Quaterniond(Eigen::AngleAxisd(turn * k, turn_axis));
+      const Eigen::Quaterniond ref_from_cam =
+          rq.conjugate() * Eigen::Quaterniond(Eigen::AngleAxisd(turn * k, turn_axis));
       cam_from_ref[static_cast<size_t>(pos)] = Rigid3d(ref_from_cam.conjugate(), -(ref_from_cam.conjugate() * c));
     }
   }
@@ -123,8 +125,9 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
       const int pos = qpos - k;
       const std::string& name = names[static_cast<size_t>(pos)];
       if (k == 0) {  // the evaluated frame: the identity, with signed zeros as in the real files
-        const std::string id = name + " 1.0000000000000000 -0.0000000000000000 0.0000000000000000 -0.0000000000000000 "
-                                      "0.0000000000000000 -0.0000000000000000 0.0000000000000000\n";
+        const std::string id = name +
+                               " 1.0000000000000000 -0.0000000000000000 0.0000000000000000 -0.0000000000000000 "
+                               "0.0000000000000000 -0.0000000000000000 0.0000000000000000\n";
         dev_doc += id;
         dev_other += id;
         dev_garbage += id;
@@ -139,8 +142,8 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
       const Rigid3d Pq = Tq * tracker_from_ref.Inverse();
       const Rigid3d Pj = drift[static_cast<size_t>(k)] * Tj * tracker_from_ref.Inverse();
       dev_other += DeviceLine(name, Pq.Inverse() * Pj);
-      dev_garbage += DeviceLine(name, Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.35 * u01(rng), unit())),
-                                            0.5 * u01(rng) * unit()));
+      dev_garbage += DeviceLine(
+          name, Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.35 * u01(rng), unit())), 0.5 * u01(rng) * unit()));
     }
   }
   auto write = [&](const std::string& file, std::string text, bool final_newline) {

@@ -1,13 +1,13 @@
 #include "testing/testing.h"
 
-#include "freeloc/core/error.h"
-
 #include <unistd.h>
 
 #include <cstdlib>
 #include <fstream>
 #include <random>
 #include <sstream>
+
+#include "freeloc/core/error.h"
 
 namespace freeloc::testing {
 

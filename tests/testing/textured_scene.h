@@ -119,8 +119,8 @@ inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int querie
   std::string intrinsics, poses;
   char line[256];
   auto add = [&](const std::string& name, const Camera& k, const Rigid3d& q_from_r) {
-    std::snprintf(line, sizeof(line), "%s %.6f %.6f %.6f %.6f %d %d\n", name.c_str(), k.fx, k.fy, k.cx, k.cy,
-                  k.width, k.height);
+    std::snprintf(line, sizeof(line), "%s %.6f %.6f %.6f %.6f %d %d\n", name.c_str(), k.fx, k.fy, k.cx, k.cy, k.width,
+                  k.height);
     intrinsics += line;
     const Eigen::Quaterniond& q = q_from_r.rotation;
     const Eigen::Vector3d& t = q_from_r.translation;

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_testing.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
 #include "freeloc/io/safetensors.h"
@@ -21,7 +22,6 @@
 #include "freeloc/pipeline/options.h"
 #include "testing/mapfree_writer.h"
 #include "testing/testing.h"
-#include "cli_testing.h"
 
 namespace {
 
@@ -84,8 +84,8 @@ TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
   freeloc::testing::TempDir tmp;
   std::map<std::string, std::vector<freeloc::SubmissionEntry>> sub;
   for (const char* s : {"s00001", "s00002", "s00003"}) {
-    std::istringstream in(freeloc::testing::ReadText(
-        freeloc::testing::DemoPath(std::string("val/") + s + "/poses.txt")));
+    std::istringstream in(
+        freeloc::testing::ReadText(freeloc::testing::DemoPath(std::string("val/") + s + "/poses.txt")));
     std::string l;
     while (std::getline(in, l)) {
       std::istringstream ls(l);
@@ -179,7 +179,8 @@ TEST(Cli, PoseFromCorrespondenceFile) {
   EXPECT_TRUE(Contains(r.out, "give the depth map at its image's resolution")) << r.out;
   // An 8-bit PNG is not a depth map.
   freeloc::WritePng8(tmp.File("d8.png"), 640, 480, std::vector<uint8_t>(640 * 480, 3));
-  r = RunFreeloc(base + " --ref-depth " + tmp.File("d8.png") + " --query-depth " + scene + "/seq1/frame_00000.sensor.png");
+  r = RunFreeloc(base + " --ref-depth " + tmp.File("d8.png") + " --query-depth " + scene +
+                 "/seq1/frame_00000.sensor.png");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "8-bit PNG is not a depth map")) << r.out;
   // Four matches: a status (too-few-matches), exit 1, no crash.
@@ -243,8 +244,7 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --out " + tmp.File("g.txt"));
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string g = freeloc::testing::ReadText(tmp.File("g.txt"));
-  r = RelocalizeS00003(freeloc::testing::DemoPath(),
-                       " --preset dust3r --dust3r-size 224 --dust3r-model " + model);
+  r = RelocalizeS00003(freeloc::testing::DemoPath(), " --preset dust3r --dust3r-size 224 --dust3r-model " + model);
   // (Random weights also give a focal far from the given one: the intrinsics check's warning comes first.)
   EXPECT_TRUE(Contains(r.out, "differs from the pointmap's estimate")) << r.out;
   const nlohmann::json rj = nlohmann::json::parse(r.out.substr(r.out.find('{')));
@@ -252,8 +252,10 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   EXPECT_EQ(rj["matches"], std::count(g.begin(), g.end(), '\n')) << r.out;
   r = RelocalizeS00003(freeloc::testing::DemoPath(), " --preset dust3r");
   EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_TRUE(Contains(r.out, "preset dust3r needs the DUSt3R weights: looked for "
-                              "DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth")) << r.out;
+  EXPECT_TRUE(Contains(r.out,
+                       "preset dust3r needs the DUSt3R weights: looked for "
+                       "DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth"))
+      << r.out;
   // A whole scene through `run` loads the model once and writes a submission.
   r = RunFreeloc("run --data " + freeloc::testing::DemoPath() +
                  " --scenes s00003 --preset dust3r --dust3r-size 224 --dust3r-model " + model + " --out " +
@@ -262,9 +264,8 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   EXPECT_TRUE(Contains(r.out, "in 1 scenes")) << r.out;
   EXPECT_TRUE(std::filesystem::exists(tmp.File("d.zip")));
   // A weights file that is not there stops the run before any scene: exit 1, no submission, no progress file.
-  r = RunFreeloc("run --data " + freeloc::testing::DemoPath() +
-                 " --scenes s00003 --preset dust3r --dust3r-model " + tmp.File("nope.pth") + " --out " +
-                 tmp.File("e.zip"));
+  r = RunFreeloc("run --data " + freeloc::testing::DemoPath() + " --scenes s00003 --preset dust3r --dust3r-model " +
+                 tmp.File("nope.pth") + " --out " + tmp.File("e.zip"));
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "nope.pth: cannot open the checkpoint")) << r.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.File("e.zip")));
@@ -394,17 +395,19 @@ TEST(Cli, PoseAndRunAgreeOnTheSameCorrespondences) {
     const auto j = nlohmann::json::parse(p.out);
     EXPECT_EQ(p.code, rec["ok"].get<bool>() ? 0 : 1) << p.out;  // the run's query solved ⇔ pose exits 0
     EXPECT_EQ(j["status"], rec["status"]);
-    auto rel = [](double a, double b) { return std::abs(a - b) / std::max(1e-300, std::max(std::abs(a), std::abs(b))); };
+    auto rel = [](double a, double b) {
+      return std::abs(a - b) / std::max(1e-300, std::max(std::abs(a), std::abs(b)));
+    };
     EXPECT_LE(rel(j["confidence"], rec["confidence"]), 1e-9);
     for (int i = 0; i < 4; ++i) EXPECT_LE(rel(j["qvec"][i], rec["qvec"][i]), 1e-9) << i;
     for (int i = 0; i < 3; ++i) EXPECT_LE(rel(j["tvec"][i], rec["tvec"][i]), 1e-9) << i;
     EXPECT_EQ(j["inliers"], rec["inliers"]);
     EXPECT_EQ(j["options"]["threshold_px"], 3.0);
     // pose's defaults are this preset's: the same answer with no flags beyond the inputs.
-    const Result d = RunFreeloc("pose --matches " + tmp.File("m/" + scene + "/" + stem) + ".matches.txt " +
-                                "--ref-intrinsics " + k(sc.reference.camera) + " --query-intrinsics " + k(q->camera) +
-                                " --ref-depth " + sc.DepthPath(sc.reference, "gt") + " --query-depth " +
-                                sc.DepthPath(*q, "gt") + " --json");
+    const Result d =
+        RunFreeloc("pose --matches " + tmp.File("m/" + scene + "/" + stem) + ".matches.txt " + "--ref-intrinsics " +
+                   k(sc.reference.camera) + " --query-intrinsics " + k(q->camera) + " --ref-depth " +
+                   sc.DepthPath(sc.reference, "gt") + " --query-depth " + sc.DepthPath(*q, "gt") + " --json");
     const auto jd = nlohmann::json::parse(d.out);
     EXPECT_EQ(jd["status"], rec["status"]);
     EXPECT_EQ(jd["tvec"], j["tvec"]);
@@ -421,8 +424,10 @@ TEST(Cli, PoseAndRunAgreeOnTheSameCorrespondences) {
 TEST(Cli, RunRecordsItsProvenance) {
   freeloc::testing::TempDir tmp;
   const std::string data = freeloc::testing::DemoPath();
-  Result r = RunFreeloc("--threads 1 run --data " + data + " --scenes s00002 --solver essential --set "
-                        "proposals.max_instances=3 --out " + tmp.File("s.zip") + " --log " + tmp.File("l.jsonl"));
+  Result r = RunFreeloc("--threads 1 run --data " + data +
+                        " --scenes s00002 --solver essential --set "
+                        "proposals.max_instances=3 --out " +
+                        tmp.File("s.zip") + " --log " + tmp.File("l.jsonl"));
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string log = freeloc::testing::ReadText(tmp.File("l.jsonl"));
   const auto header = nlohmann::json::parse(log.substr(0, log.find('\n')));
@@ -499,8 +504,9 @@ TEST(Cli, RunWritesAnHtmlReport) {
   // queries and at most 1 failure in detail.
   for (uint32_t s : {1u, 2u})
     freeloc::testing::WriteSyntheticMapfreeScene(tmp.File("syn/val/s0000" + std::to_string(s)), 70 + s);
-  r = RunFreeloc("-q run --data " + tmp.File("syn") + " --preset precomputed:SIFT-essential --depth provided:gt --out " +
-                 tmp.File("t.zip") + " --report " + tmp.File("rep2") + " --report-worst 2 --report-per-scene 0");
+  r = RunFreeloc("-q run --data " + tmp.File("syn") +
+                 " --preset precomputed:SIFT-essential --depth provided:gt --out " + tmp.File("t.zip") + " --report " +
+                 tmp.File("rep2") + " --report-worst 2 --report-per-scene 0");
   ASSERT_EQ(r.code, 0) << r.out;
   const std::string h2 = check(tmp.File("rep2"), 8, 2 + 2);  // the 2 worst + both too-few-matches failures
   EXPECT_TRUE(Contains(h2, "too-few-matches (2)")) << h2.substr(0, 2000);
@@ -520,8 +526,7 @@ void LinkTinyModels(const freeloc::testing::TempDir& dir) {
                      dir.File("seggpt-vit-large/config.json"));
   fs::create_symlink(freeloc::testing::SharedPath("fixtures/metric3d/final_norm/weights.safetensors"),
                      dir.File("metric_depth_vit_small_800k.pth"));
-  fs::create_symlink(freeloc::testing::SharedPath("fixtures/metric3d/final_norm/config.json"),
-                     dir.File("config.json"));
+  fs::create_symlink(freeloc::testing::SharedPath("fixtures/metric3d/final_norm/config.json"), dir.File("config.json"));
 }
 
 TEST(Cli, DemoRelocalizesTheBundledScenes) {
@@ -534,8 +539,9 @@ TEST(Cli, DemoRelocalizesTheBundledScenes) {
   EXPECT_TRUE(Contains(r.out, "--models DIR or set FREELOC_MODELS")) << r.out;
   // The closing note says what happened to the depth-less scene, as the table shows it (an estimate, no failure).
   EXPECT_TRUE(Contains(r.out, "| s00001 | 1 | 0 |")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "(s00001 has no depth maps: its 5 queries got no metric pose (status no-depth) and were "
-                              "submitted with the prior pose"))
+  EXPECT_TRUE(Contains(r.out,
+                       "(s00001 has no depth maps: its 5 queries got no metric pose (status no-depth) and were "
+                       "submitted with the prior pose"))
       << r.out;
   EXPECT_FALSE(Contains(r.out, "count as failures")) << r.out;
 }
@@ -587,8 +593,8 @@ TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
   // and writes the same bytes as the uninterrupted one.
   const std::string out = tmp.File("b.zip"), progress = out + ".progress.jsonl";
   const std::string kill_script = "bash -c 'env " + env + " " + FREELOC_BINARY + " " + run + "--out " + out +
-                                  " >/dev/null 2>&1 & pid=$!; " +
-                                  "for i in $(seq 1 1200); do [ -f " + progress + " ] && [ \"$(wc -l < " + progress +
+                                  " >/dev/null 2>&1 & pid=$!; " + "for i in $(seq 1 1200); do [ -f " + progress +
+                                  " ] && [ \"$(wc -l < " + progress +
                                   ")\" -ge 2 ] && break; sleep 0.025; done; kill -9 $pid; wait $pid' 2>/dev/null";
   ASSERT_NE(std::system(kill_script.c_str()), -1);
   ASSERT_FALSE(std::filesystem::exists(out)) << "the run finished before the kill; the test proves nothing";
@@ -625,16 +631,17 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "ok");
   // --intrinsics FILE (the scene's intrinsics.txt) instead of the two strings, and --save-matches.
   const std::string s3 = data + "/val/s00003/";
-  r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + s3 + "seq1/frame_00000.png --intrinsics " +
-                 s3 + "intrinsics.txt --ref-depth " + s3 + "seq0/frame_00000.sensor.png --query-depth " + s3 +
+  r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + s3 +
+                 "seq1/frame_00000.png --intrinsics " + s3 + "intrinsics.txt --ref-depth " + s3 +
+                 "seq0/frame_00000.sensor.png --query-depth " + s3 +
                  "seq1/frame_00000.sensor.png --json --save-matches " + tmp.File("m.txt"));
   ASSERT_EQ(r.code, 0) << r.out;
   const auto jr = nlohmann::json::parse(r.out);
   const std::string saved = freeloc::testing::ReadText(tmp.File("m.txt"));
   EXPECT_EQ(std::count(saved.begin(), saved.end(), '\n'), jr["matches"].get<int>());
   EXPECT_EQ(jr["status"], "ok");
-  r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + tmp.File("other.png") +
-                 " --intrinsics " + s3 + "intrinsics.txt");
+  r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + tmp.File("other.png") + " --intrinsics " +
+                 s3 + "intrinsics.txt");
   EXPECT_EQ(r.code, 1);
   EXPECT_TRUE(Contains(r.out, "intrinsics.txt: no line for " + tmp.File("other.png"))) << r.out;
   r = RunFreeloc("relocalize --ref " + s3 + "seq0/frame_00000.png --query " + s3 + "seq1/frame_00000.png");
@@ -656,8 +663,7 @@ TEST(Cli, RunReportsBadInputClearly) {
   const std::string split = tmp.File("data/val");
   fs::create_directories(split);
   for (const char* s : {"s00002", "s00003"})
-    fs::copy(freeloc::testing::DemoPath(std::string("val/") + s), split + "/" + s,
-             fs::copy_options::recursive);
+    fs::copy(freeloc::testing::DemoPath(std::string("val/") + s), split + "/" + s, fs::copy_options::recursive);
   const std::string run = "run --data " + tmp.File("data") + " --log " + tmp.File("log.jsonl") + " --out ";
   // A depth suffix no scene has: stops before any work.
   Result r = RunFreeloc(run + tmp.File("a.zip") + " --depth provided:sensr");
@@ -675,8 +681,8 @@ TEST(Cli, RunReportsBadInputClearly) {
   ASSERT_EQ(r.code, 3) << r.out;
   EXPECT_TRUE(Contains(r.out, "0 of 2 queries relocalized in 2 scenes")) << r.out;
   EXPECT_TRUE(Contains(r.out, "statuses: error 2")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "2 of 2 queries failed on input errors (status error), every record in " +
-                                  tmp.File("log.jsonl")))
+  EXPECT_TRUE(
+      Contains(r.out, "2 of 2 queries failed on input errors (status error), every record in " + tmp.File("log.jsonl")))
       << r.out;
   EXPECT_TRUE(Contains(r.out, "  s00002/seq1/frame_00000.png: " + split + "/s00002/seq1/frame_00000.png")) << r.out;
   const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
@@ -696,7 +702,9 @@ TEST(Cli, RunReportsBadInputClearly) {
   fs::remove(split + "/s00003/seq0/frame_00000.png");
   r = RunFreeloc(run + tmp.File("c.zip") + " --scenes s00003");
   ASSERT_EQ(r.code, 3) << r.out;
-  EXPECT_TRUE(Contains(freeloc::testing::ReadText(tmp.File("log.jsonl")), "\"status\":\"error\",\"message\":\"reference: ")) << r.out;
+  EXPECT_TRUE(
+      Contains(freeloc::testing::ReadText(tmp.File("log.jsonl")), "\"status\":\"error\",\"message\":\"reference: "))
+      << r.out;
   // A scene without intrinsics: stops before any scene is processed, naming the file.
   fs::remove(split + "/s00003/intrinsics.txt");
   r = RunFreeloc(run + tmp.File("d.zip"));
@@ -887,8 +895,8 @@ TEST(Cli, Mast3rPresetsRunAndEval) {
   const std::string data = freeloc::testing::DemoPath();
   for (const char* preset : {"mast3r", "mast3r-pnp", "mast3r-metric3d", "seed-mast3r"}) {
     SCOPED_TRACE(preset);
-    const std::string run = std::string("-q run --data ") + data + " --scenes s00002 --preset " + preset +
-                            " --dust3r-size 224 ";
+    const std::string run =
+        std::string("-q run --data ") + data + " --scenes s00002 --preset " + preset + " --dust3r-size 224 ";
     Result r = RunFreeloc(run + "--out " + tmp.File("none.zip"));
     EXPECT_EQ(r.code, 1) << r.out;
     EXPECT_TRUE(Contains(r.out, "MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth")) << r.out;
@@ -896,7 +904,8 @@ TEST(Cli, Mast3rPresetsRunAndEval) {
     r = RunFreeloc(run + "--models " + models.path() + " --out " + tmp.File("a.zip") + " --log " + tmp.File("a.jsonl"));
     ASSERT_EQ(r.code, 0) << r.out;
     const std::string log = freeloc::testing::ReadText(tmp.File("a.jsonl"));
-    EXPECT_TRUE(Contains(log, std::string("\"matcher\":\"") + (std::string(preset) == "seed-mast3r" ? "mast3r+instances" : "mast3r")))
+    EXPECT_TRUE(Contains(
+        log, std::string("\"matcher\":\"") + (std::string(preset) == "seed-mast3r" ? "mast3r+instances" : "mast3r")))
         << log.substr(0, 600);
     EXPECT_TRUE(Contains(log, "\"status\":\"no-consensus\"") || Contains(log, "\"status\":\"too-few-matches\"")) << log;
     if (std::string(preset) == "mast3r") {
@@ -942,7 +951,8 @@ TEST(Cli, UnknownCpuGetsFastBlasKernels) {
   }
   r = RunFreeloc(cmd, "-u FREELOC_MODELS OPENBLAS_CORETYPE=Haswell FREELOC_BLAS_ASSUME_REPORTED=Prescott");
   EXPECT_TRUE(Contains(r.out, "OPENBLAS_CORETYPE=Haswell set by the user")) << r.out;
-  r = RunFreeloc(cmd, "-u FREELOC_MODELS -u OPENBLAS_CORETYPE FREELOC_BLAS_SELECT=0 FREELOC_BLAS_ASSUME_REPORTED=Prescott");
+  r = RunFreeloc(cmd,
+                 "-u FREELOC_MODELS -u OPENBLAS_CORETYPE FREELOC_BLAS_SELECT=0 FREELOC_BLAS_ASSUME_REPORTED=Prescott");
   EXPECT_TRUE(Contains(r.out, "OpenBLAS's own choice")) << r.out;
   r = RunFreeloc("-v eval --data /nonexistent --submission x.zip",
                  "-u FREELOC_MODELS -u OPENBLAS_CORETYPE FREELOC_BLAS_ASSUME_REPORTED=Prescott");
@@ -983,10 +993,10 @@ TEST(Cli, CommandsWithoutNetworksNeverLoadLibTorch) {
     EXPECT_EQ(loads(r, "libfreeloc_codecs.so"), c.decodes_photos) << c.args;
   }
   FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  const Result r = RunFreeloc("pointmap --model " + freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth") +
-                                  " --size 224 " + s + "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png --out " +
-                                  tmp.File("pm.safetensors"),
-                              env);
+  const Result r =
+      RunFreeloc("pointmap --model " + freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth") + " --size 224 " +
+                     s + "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png --out " + tmp.File("pm.safetensors"),
+                 env);
   EXPECT_EQ(r.code, 0);
   EXPECT_TRUE(loads(r, "libfreeloc_networks.so"));
   EXPECT_TRUE(loads(r, "libtorch_cpu.so"));
@@ -1087,8 +1097,9 @@ TEST(Cli, FlagsComeFromTheOptionRegistry) {
 // --check-args checks a command line without running it: valid lines exit 0 even when their files do not exist,
 // invalid ones exit 2 as they would without it.
 TEST(Cli, CheckArgsValidatesWithoutRunning) {
-  Result r = RunFreeloc("--check-args relocalize --ref a.jpg --query b.jpg --ref-intrinsics 1,1,0,0 "
-                        "--query-intrinsics 1,1,0,0 --preset seed --models /nonexistent");
+  Result r = RunFreeloc(
+      "--check-args relocalize --ref a.jpg --query b.jpg --ref-intrinsics 1,1,0,0 "
+      "--query-intrinsics 1,1,0,0 --preset seed --models /nonexistent");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "nothing was run")) << r.out;
   r = RunFreeloc("--check-args relocalize --ref a.jpg --query b.jpg --no-such-flag");
@@ -1136,9 +1147,9 @@ TEST(Cli, RunThatCannotWriteItsOutputsFailsAtOnceAndLeavesNothing) {
 TEST(Cli, NamesThatBecomeFileNamesAreNotPaths) {
   freeloc::testing::TempDir tmp;
   const std::string run = "run --data " + freeloc::testing::DemoPath() + " --out " + tmp.File("s.zip");
-  for (const char* bad : {" --preset precomputed:../../x-essential", " --preset precomputed:/etc/x-pnp",
-                          " --matcher precomputed:../SIFT", " --depth provided:../../s00002/seq0/frame_00000.sensor",
-                          " --depth provided:a/b"}) {
+  for (const char* bad :
+       {" --preset precomputed:../../x-essential", " --preset precomputed:/etc/x-pnp", " --matcher precomputed:../SIFT",
+        " --depth provided:../../s00002/seq0/frame_00000.sensor", " --depth provided:a/b"}) {
     const Result r = RunFreeloc(run + bad);
     EXPECT_EQ(r.code, 2) << bad << "\n" << r.out;
     EXPECT_TRUE(Contains(r.out, "not a path")) << bad << "\n" << r.out;
@@ -1163,11 +1174,14 @@ TEST(Cli, IntrinsicsFromFlagsAreCheckedAgainstTheImage) {
   EXPECT_TRUE(Contains(r.out, "exceeds 100 image widths")) << r.out;
   r = RunFreeloc(pair + "--ref-intrinsics " + k + " --query-intrinsics 535,539,5000,247");
   EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_TRUE(Contains(r.out, "query intrinsics: principal point (5000, 247) is far outside the 640x480 image")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "query intrinsics: principal point (5000, 247) is far outside the 640x480 image"))
+      << r.out;
   // depth --intrinsics: refused before any model is read (no weights needed to see it).
   freeloc::testing::TempDir tmp;
-  r = RunFreeloc("depth --model " + tmp.File("none.pth") + " --image " + s + "seq0/frame_00000.png --intrinsics "
-                 "1e308,1e308,320,240 --out " + tmp.File("d.png"));
+  r = RunFreeloc("depth --model " + tmp.File("none.pth") + " --image " + s +
+                 "seq0/frame_00000.png --intrinsics "
+                 "1e308,1e308,320,240 --out " +
+                 tmp.File("d.png"));
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "exceeds 100 image widths")) << r.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.File("d.png")));
@@ -1183,8 +1197,8 @@ TEST(Cli, EvalJsonAndTableAgreeOnExtremeEstimates) {
     sub["s00003"].push_back(
         {"seq1/frame_00000.png", freeloc::Rigid3d::FromWxyz({1, 0, 0, 0}, Eigen::Vector3d(t, t, t)), 1});
     freeloc::WriteSubmission(tmp.File("x.zip"), sub);
-    const Result j = RunFreeloc("-q eval --data " + data + " --scenes s00003 --submission " + tmp.File("x.zip") +
-                                " --json -");
+    const Result j =
+        RunFreeloc("-q eval --data " + data + " --scenes s00003 --submission " + tmp.File("x.zip") + " --json -");
     const Result m = RunFreeloc("-q eval --data " + data + " --scenes s00003 --submission " + tmp.File("x.zip"));
     ASSERT_EQ(j.code, 0) << j.out;
     ASSERT_EQ(m.code, 0) << m.out;
@@ -1192,12 +1206,13 @@ TEST(Cli, EvalJsonAndTableAgreeOnExtremeEstimates) {
     for (const char* metric : {"Average Median Translation Error", "Average Median Reprojection Error"}) {
       const size_t at = j.out.find(std::string("\"") + metric + "\": ");
       ASSERT_NE(at, std::string::npos) << j.out;
-      const std::string token = j.out.substr(at + std::strlen(metric) + 4, j.out.find_first_of(",\n}", at) -
-                                                                              (at + std::strlen(metric) + 4));
+      const std::string token =
+          j.out.substr(at + std::strlen(metric) + 4, j.out.find_first_of(",\n}", at) - (at + std::strlen(metric) + 4));
       const size_t row = m.out.find(std::string("| ") + metric + " | ");
       ASSERT_NE(row, std::string::npos) << m.out;
-      const std::string cell = m.out.substr(row + std::strlen(metric) + 5, m.out.find(' ', row + std::strlen(metric) + 5) -
-                                                                              (row + std::strlen(metric) + 5));
+      const std::string cell =
+          m.out.substr(row + std::strlen(metric) + 5,
+                       m.out.find(' ', row + std::strlen(metric) + 5) - (row + std::strlen(metric) + 5));
       if (token == "Infinity" || token == "NaN") {
         EXPECT_EQ(cell, token) << metric << " at t=" << t;
       } else {

@@ -1,16 +1,16 @@
 // Helpers shared by the subcommands: the option registry's rows as flags, flags in option errors, scene lists.
 #include <CLI/CLI.hpp>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <cerrno>
 #include <map>
 #include <sstream>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
 #include "freeloc/io/image_io.h"
-#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/run_controller.h"
 
 namespace freeloc::cli {
 
@@ -118,7 +118,8 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
   const pipeline::PipelineOptions d = pipeline::ResolvePreset(default_preset);
   for (const pipeline::OptionField& f : pipeline::OptionFields()) {
     if (!f.flag) continue;
-    const bool offered = f.scope == pipeline::FlagScope::kSolve || (stages && f.scope == pipeline::FlagScope::kStages) ||
+    const bool offered = f.scope == pipeline::FlagScope::kSolve ||
+                         (stages && f.scope == pipeline::FlagScope::kStages) ||
                          (run && f.scope == pipeline::FlagScope::kRun);
     if (!offered) continue;
     if (std::string(f.name) == "preset") {
@@ -181,7 +182,8 @@ std::vector<uint16_t> ReadLabels(const std::string& path, int width, int height)
 void ApplyMaskArgs(pipeline::PipelineOptions* o, bool ref_masks, bool query_masks) {
   if (!ref_masks && !query_masks) return;
   FREELOC_CHECK(ref_masks, "--query-masks needs --ref-masks (the reference's instances)");
-  FREELOC_CHECK(o->UsesInstances(), "--ref-masks: the matcher " << o->matcher.ToString()
+  FREELOC_CHECK(o->UsesInstances(), "--ref-masks: the matcher "
+                                        << o->matcher.ToString()
                                         << " takes no instances; use --matcher dust3r+instances or mast3r+instances");
   o->instance_source = query_masks ? pipeline::InstanceSource::kGiven : pipeline::InstanceSource::kPropagate;
 }

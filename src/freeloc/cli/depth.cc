@@ -11,7 +11,6 @@ namespace freeloc::cli {
 
 namespace {
 
-
 int RunDepth(pipeline::DepthCommand c, const GlobalOptions& g) {
   Camera::FromString(c.intrinsics, "--intrinsics");  // the flag named in its error, before any model loads
   c.runtime = g.Runtime();

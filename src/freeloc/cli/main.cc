@@ -3,8 +3,8 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <string>
 #include <vector>
@@ -108,7 +108,8 @@ int main(int argc, char** argv) {
     const std::string core = LoadedOpenBlasCore();
     const char* selected = std::getenv("FREELOC_BLAS_SELECTED");
     const char* user = std::getenv("OPENBLAS_CORETYPE");
-    FREELOC_LOG(DEBUG) << "BLAS: " << (core.empty() ? "not OpenBLAS (no core to select)" : "OpenBLAS, " + core + " kernels")
+    FREELOC_LOG(DEBUG) << "BLAS: "
+                       << (core.empty() ? "not OpenBLAS (no core to select)" : "OpenBLAS, " + core + " kernels")
                        << (selected ? std::string(" (selected by freeloc: OpenBLAS reported ") + selected + " on " +
                                           ThisCpu().model_name + ")"
                            : user ? std::string(" (OPENBLAS_CORETYPE=") + user + " set by the user)"

@@ -3,8 +3,8 @@
 // when instance label images are given — written one `x_ref y_ref x_query y_query` per line in original pixels,
 // the input format of `freeloc pose`.
 #include <CLI/CLI.hpp>
-#include <map>
 #include <cstdio>
+#include <map>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
@@ -25,11 +25,15 @@ struct MatchArgs {
 
 // match spells some option fields its own way.
 const std::map<std::string, std::string>& MatchFlags() {
-  static const std::map<std::string, std::string> flags = {
-      {"dust3r_model", "--model"},         {"mast3r_model", "--model"},        {"dust3r_config", "--config"},
-      {"dust3r_size", "--size"},           {"match_conf_threshold", "--conf-thr"},
-      {"mast3r_conf_threshold", "--conf-thr"}, {"match_subsample", "--subsample"},
-      {"mast3r_subsample", "--subsample"}, {"mast3r_border", "--border"}};
+  static const std::map<std::string, std::string> flags = {{"dust3r_model", "--model"},
+                                                           {"mast3r_model", "--model"},
+                                                           {"dust3r_config", "--config"},
+                                                           {"dust3r_size", "--size"},
+                                                           {"match_conf_threshold", "--conf-thr"},
+                                                           {"mast3r_conf_threshold", "--conf-thr"},
+                                                           {"match_subsample", "--subsample"},
+                                                           {"mast3r_subsample", "--subsample"},
+                                                           {"mast3r_border", "--border"}};
   return flags;
 }
 

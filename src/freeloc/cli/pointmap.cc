@@ -66,7 +66,8 @@ void RegisterPointmap(CLI::App& app, const GlobalOptions& global, RunFn* run) {
                   "with --matches: DUSt3R: keep every k-th query pixel (default 1); MASt3R: the seed grid step of "
                   "the fast reciprocal NN (upstream subsample_or_initxy1, default 8)")
       ->check(CLI::PositiveNumber);
-  sub->add_option("--border", o->command.border, "with --matches, MASt3R: drop matches this close to an edge (default 3)")
+  sub->add_option("--border", o->command.border,
+                  "with --matches, MASt3R: drop matches this close to an edge (default 3)")
       ->check(CLI::NonNegativeNumber);
   sub->callback([o, run, &global] { *run = [o, &global] { return RunPointmap(*o, global); }; });
 }

@@ -25,12 +25,14 @@ struct PoseArgs {
 // Without --preset: pipeline::CorrespondenceDefaults (precomputed:SIFT-essential, as a run on the benchmark's
 // correspondences); the correspondences are the file's, depth the files given (provided) or none.
 pipeline::PipelineOptions Options(const PoseArgs& a, const GlobalOptions& g) {
-  return ResolvePipelineArgs(a.pipeline, g, pipeline::CorrespondenceDefaults().preset, [&](pipeline::PipelineOptions* o) {
-    *o = pipeline::ForCorrespondences(*o, !a.ref_depth.empty());
-    FREELOC_CHECK(a.ref_depth.empty() == a.query_depth.empty() || o->solver == pipeline::SolverKind::kPnp,
-                  "give both --ref-depth and --query-depth (or neither); only --solver pnp uses the reference depth "
-                  "alone");
-  });
+  return ResolvePipelineArgs(
+      a.pipeline, g, pipeline::CorrespondenceDefaults().preset, [&](pipeline::PipelineOptions* o) {
+        *o = pipeline::ForCorrespondences(*o, !a.ref_depth.empty());
+        FREELOC_CHECK(
+            a.ref_depth.empty() == a.query_depth.empty() || o->solver == pipeline::SolverKind::kPnp,
+            "give both --ref-depth and --query-depth (or neither); only --solver pnp uses the reference depth "
+            "alone");
+      });
 }
 
 void PrintText(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o) {
@@ -40,10 +42,10 @@ void PrintText(const pipeline::QueryResult& q, const pipeline::PipelineOptions& 
   std::printf("status:      %s\n", q.StatusText().c_str());
   std::printf("qvec (wxyz): %.9f %.9f %.9f %.9f\n", qv[0], qv[1], qv[2], qv[3]);
   std::printf("tvec:        %.6f %.6f %.6f %s\n", t.x(), t.y(), t.z(),
-              q.metric()     ? "(metres)"
-              : q.prior()  ? "(the prior pose, submitted with confidence 0: not solved)"
-              : q.weak()   ? "(weak support: a low-confidence answer, ranked below every ok one)"
-                           : "(unit norm: no depth given, translation direction only)");
+              q.metric()  ? "(metres)"
+              : q.prior() ? "(the prior pose, submitted with confidence 0: not solved)"
+              : q.weak()  ? "(weak support: a low-confidence answer, ranked below every ok one)"
+                          : "(unit norm: no depth given, translation direction only)");
   std::printf("inliers:     %d of %d (%d agree on the scale)\n", q.inliers, q.matches, q.scale_inliers);
   std::printf("confidence:  %.6g\n", q.confidence);
 }

@@ -30,8 +30,8 @@ Camera CameraFromFile(const std::string& file, const std::string& image) {
   const std::string base = std::filesystem::path(image).filename().string();
   const MapfreeFrame* by_name = nullptr;
   for (const auto& f : frames) {
-    if (image == f.name || (image.size() > f.name.size() && image.compare(image.size() - f.name.size() - 1,
-                                                                         f.name.size() + 1, "/" + f.name) == 0))
+    if (image == f.name || (image.size() > f.name.size() &&
+                            image.compare(image.size() - f.name.size() - 1, f.name.size() + 1, "/" + f.name) == 0))
       return f.camera;
     if (!by_name && std::filesystem::path(f.name).filename().string() == base) by_name = &f;
   }
@@ -64,7 +64,8 @@ Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref
   Photo p;
   ExifInfo exif;
   p.image = ReadImage(path, &exif);
-  p.intrinsics = pipeline::ChooseIntrinsics(have ? &given : nullptr, source, exif, p.image, o.UsesPointmapModel(), path);
+  p.intrinsics =
+      pipeline::ChooseIntrinsics(have ? &given : nullptr, source, exif, p.image, o.UsesPointmapModel(), path);
   FREELOC_CHECK(p.intrinsics.source != pipeline::IntrinsicsSource::kNone,
                 path << ": no intrinsics (its EXIF: " << p.intrinsics.why << "); give " << flag
                      << " fx,fy,cx,cy or --intrinsics FILE, or use a dust3r or mast3r preset (they estimate the focal "
@@ -75,7 +76,8 @@ Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref
 pipeline::PipelineOptions Options(const RelocArgs& a, const GlobalOptions& g) {
   return ResolvePipelineArgs(a.pipeline, g, "sift-essential", [&](pipeline::PipelineOptions* o) {
     // No depth files and no --depth: the provided-depth presets answer with a unit translation.
-    if (a.ref_depth.empty() && a.query_depth.empty() && (a.pipeline.values.count("depth") == 0 || a.pipeline.values.at("depth").empty()) && o->UsesProvidedDepth())
+    if (a.ref_depth.empty() && a.query_depth.empty() &&
+        (a.pipeline.values.count("depth") == 0 || a.pipeline.values.at("depth").empty()) && o->UsesProvidedDepth())
       o->depth.kind = pipeline::DepthKind::kNone;
     FREELOC_OPTION_CHECK("matcher", !o->UsesPrecomputed(),
                          ": relocalize works on images: use sift, dust3r, dust3r+instances, mast3r or mast3r+instances "
@@ -94,7 +96,8 @@ std::string IntrinsicsText(const pipeline::FrameIntrinsics& f) {
     std::snprintf(buf, sizeof(buf), "; pointmap focal %.1f", f.pointmap_focal);
     s += buf;
   }
-  if (f.orientation >= 2) s += "; EXIF orientation " + std::to_string(f.orientation) + ": " + OrientationText(f.orientation);
+  if (f.orientation >= 2)
+    s += "; EXIF orientation " + std::to_string(f.orientation) + ": " + OrientationText(f.orientation);
   return s + ")";
 }
 
@@ -111,11 +114,12 @@ void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, b
       "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n"
       "intrinsics:  ref %s\n             query %s\n",
       o.Summary().c_str(), q.StatusText().c_str(), qv[0], qv[1], qv[2], qv[3], t.x(), t.y(), t.z(),
-      q.metric()     ? "(metres)"
-      : q.prior()  ? "(the prior pose, submitted with confidence 0: not solved)"
-      : q.weak()   ? "(weak support: a low-confidence answer, ranked below every ok one)"
-                   : "(unit norm: no depth)", q.confidence, q.matches, q.inliers, q.instances_used,
-      q.instances, q.depth_ms, q.match_ms, q.instance_ms, q.solve_ms, IntrinsicsText(q.ref_intrinsics).c_str(),
+      q.metric()  ? "(metres)"
+      : q.prior() ? "(the prior pose, submitted with confidence 0: not solved)"
+      : q.weak()  ? "(weak support: a low-confidence answer, ranked below every ok one)"
+                  : "(unit norm: no depth)",
+      q.confidence, q.matches, q.inliers, q.instances_used, q.instances, q.timings.depth_ms, q.timings.match_ms,
+      q.timings.instance_ms, q.timings.solve_ms, IntrinsicsText(q.ref_intrinsics).c_str(),
       IntrinsicsText(q.query_intrinsics).c_str());
 }
 
@@ -158,8 +162,9 @@ void RegisterRelocalize(CLI::App& app, const GlobalOptions& global, RunFn* run) 
   rs->add_option("--save-matches", a->save_matches, "write the correspondences (x_ref y_ref x_query y_query per line)");
   rs->add_option("--ref-depth", a->ref_depth, "reference depth PNG (uint16 mm)");
   rs->add_option("--query-depth", a->query_depth, "query depth PNG (uint16 mm)");
-  rs->add_option("--ref-masks", a->ref_masks,
-                 "reference instance label PNG (0 = background, k = instance k) for dust3r+instances or mast3r+instances");
+  rs->add_option(
+      "--ref-masks", a->ref_masks,
+      "reference instance label PNG (0 = background, k = instance k) for dust3r+instances or mast3r+instances");
   rs->add_option("--query-masks", a->query_masks, "query instance label PNG (same labels; else SegGPT propagates)");
   rs->add_flag("--json", a->json, "one JSON record (docs/formats.md) with the resolved options");
   AddPipelineArgs(rs, &a->pipeline, "sift-essential");

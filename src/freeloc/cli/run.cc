@@ -9,9 +9,9 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/eval/report.h"
-#include "freeloc/pipeline/run_controller.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/run_comm.h"
+#include "freeloc/pipeline/run_controller.h"
 
 #ifndef FREELOC_DEMO_DIR
 #define FREELOC_DEMO_DIR "data/demo"
@@ -34,7 +34,8 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
   const bool root = !comm || comm->rank() == 0;
   try {
     // Validated once, by ExecuteRun.
-    const pipeline::PipelineOptions o = ResolvePipelineArgs(a.pipeline, g, "sift-essential", nullptr, /*validate=*/false);
+    const pipeline::PipelineOptions o =
+        ResolvePipelineArgs(a.pipeline, g, "sift-essential", nullptr, /*validate=*/false);
     if (root) FREELOC_LOG(INFO) << o.Summary();
     pipeline::RunSpec spec;
     spec.data = a.data;
@@ -51,10 +52,11 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
     const pipeline::RunResult r = pipeline::ExecuteRun(spec, o, nullptr, comm.get());
     if (!root) return 0;
-    std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized,
-                r.queries, r.scenes.size(), a.out.c_str());
+    std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized, r.queries,
+                r.scenes.size(), a.out.c_str());
     std::string statuses;
-    for (const auto& [status, n] : r.statuses) statuses += (statuses.empty() ? "" : ", ") + status + " " + std::to_string(n);
+    for (const auto& [status, n] : r.statuses)
+      statuses += (statuses.empty() ? "" : ", ") + status + " " + std::to_string(n);
     std::printf("statuses: %s\n", statuses.c_str());
     if (r.input_errors == 0) return 0;
     // Queries that failed on input errors (damaged or unreadable files): the submission is written (they carry the
@@ -116,9 +118,10 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
   std::printf("freeloc demo — preset %s on the bundled TUM RGB-D scenes (%s)\n", o.preset.c_str(), data_dir.c_str());
   std::printf("(%s)\n", o.Summary().c_str());
   if (!missing.empty())
-    std::printf("(the full method, preset seed, needs the DUSt3R, SegGPT and Metric3D weights; not found:%s. Put the\n"
-                " published files in a folder and pass --models DIR or set FREELOC_MODELS; see docs/models.md)\n",
-                missing.c_str());
+    std::printf(
+        "(the full method, preset seed, needs the DUSt3R, SegGPT and Metric3D weights; not found:%s. Put the\n"
+        " published files in a folder and pass --models DIR or set FREELOC_MODELS; see docs/models.md)\n",
+        missing.c_str());
   std::printf("\n");
   pipeline::RunSpec spec;
   spec.data = data_dir;
@@ -148,14 +151,16 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
       }
     if (no_depth == 0) continue;
     if (submitted == no_depth)
-      std::printf("\n(%s has no depth maps: its %d queries got no metric pose (status no-depth) and were submitted "
-                  "with the prior pose, the reference camera's, at confidence 0: the metrics score the evaluated ones "
-                  "(every 5th frame) as estimates with the prior's error, not as failures.)\n",
-                  name.c_str(), no_depth);
+      std::printf(
+          "\n(%s has no depth maps: its %d queries got no metric pose (status no-depth) and were submitted "
+          "with the prior pose, the reference camera's, at confidence 0: the metrics score the evaluated ones "
+          "(every 5th frame) as estimates with the prior's error, not as failures.)\n",
+          name.c_str(), no_depth);
     else
-      std::printf("\n(%s has no depth maps: %d of its queries got no metric pose (status no-depth) and were left out "
-                  "of the submission; the metrics count them as failures.)\n",
-                  name.c_str(), no_depth - submitted);
+      std::printf(
+          "\n(%s has no depth maps: %d of its queries got no metric pose (status no-depth) and were left out "
+          "of the submission; the metrics count them as failures.)\n",
+          name.c_str(), no_depth - submitted);
   }
   return 0;
 }
@@ -171,8 +176,9 @@ void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--out", a->out, "submission ZIP (written atomically; <out>.json beside it holds the provenance)")
       ->required();
   sub->add_option("--log", a->log, "JSON-lines log: a header record, then one record per query");
-  sub->add_option("--save-matches", a->save_matches,
-                  "folder: each query's correspondences as <scene>/seq1/frame_XXXXX.matches.txt (the input of freeloc pose)");
+  sub->add_option(
+      "--save-matches", a->save_matches,
+      "folder: each query's correspondences as <scene>/seq1/frame_XXXXX.matches.txt (the input of freeloc pose)");
   sub->add_option("--report", a->report,
                   "folder: an HTML report of the run (index.html: metrics, every query, failures, match overlays of "
                   "the worst queries; docs/report.md)");
@@ -204,9 +210,8 @@ void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto* sub = app.add_subcommand("demo", "Relocalize the bundled TUM sample scenes and print errors and metrics");
   sub->add_option("--data", *data, "demo data (default: the repository's data/demo)");
   sub->add_option("--models", *models, "folder with the published weights (then $FREELOC_MODELS): runs preset seed");
-  sub->callback([data, models, run, &global] {
-    *run = [data, models, &global] { return RunDemo(*data, *models, global); };
-  });
+  sub->callback(
+      [data, models, run, &global] { *run = [data, models, &global] { return RunDemo(*data, *models, global); }; });
 }
 
 }  // namespace freeloc::cli

@@ -10,11 +10,10 @@ namespace freeloc::cli {
 
 namespace {
 
-
 int RunSegment(pipeline::SegmentCommand c, const GlobalOptions& g) {
-  FREELOC_CHECK(c.prompt_images.size() == c.prompt_masks.size(),
-                "give one --prompt-mask per --prompt-image (got " << c.prompt_images.size() << " images and "
-                                                                  << c.prompt_masks.size() << " masks)");
+  FREELOC_CHECK(c.prompt_images.size() == c.prompt_masks.size(), "give one --prompt-mask per --prompt-image (got "
+                                                                     << c.prompt_images.size() << " images and "
+                                                                     << c.prompt_masks.size() << " masks)");
   c.runtime = g.Runtime();
   return pipeline::Networks().segment(c);
 }

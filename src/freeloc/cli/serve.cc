@@ -1,9 +1,10 @@
 // `freeloc serve`: the relocalization service (service/server.h, docs/service.md). Bound to localhost unless told
 // otherwise; SIGTERM or SIGINT stops it cleanly — the admitted requests are answered — and it exits 0.
+#include <pthread.h>
+
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
-#include <pthread.h>
 #include <thread>
 
 #include "freeloc/cli/commands.h"
@@ -38,8 +39,8 @@ int RunServe(const ServeArgs& a, const GlobalOptions& g) {
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   service::Server server(o);
   const int port = server.Bind();
-  std::printf("freeloc serve: http://%s:%d/ (preset %s, %d workers)\n", o.host.c_str(), port,
-              o.pipeline.preset.c_str(), o.workers);
+  std::printf("freeloc serve: http://%s:%d/ (preset %s, %d workers)\n", o.host.c_str(), port, o.pipeline.preset.c_str(),
+              o.workers);
   std::fflush(stdout);
   std::thread waiter([&] {
     int sig = 0;

@@ -54,12 +54,12 @@ CpuDescription ThisCpu() {
 std::string ChooseOpenBlasCoretype(const CpuDescription& cpu, const std::string& reported) {
   if (reported.empty()) return "";  // not OpenBLAS
   // Cores whose kernels predate AVX: OpenBLAS reports them for CPUs it does not know (its fallback is by family).
-  static const char* kGeneric[] = {"prescott", "core2",     "penryn",     "dunnington", "nehalem", "atom",
-                                   "katmai",   "coppermine", "northwood", "banias",     "opteron", "opteron_sse3",
-                                   "barcelona", "bobcat",    "nano",      "unknown",    "generic"};
+  static const char* kGeneric[] = {"prescott",  "core2",      "penryn",    "dunnington", "nehalem", "atom",
+                                   "katmai",    "coppermine", "northwood", "banias",     "opteron", "opteron_sse3",
+                                   "barcelona", "bobcat",     "nano",      "unknown",    "generic"};
   const std::string r = Lower(reported);
-  const bool generic = std::find_if(std::begin(kGeneric), std::end(kGeneric),
-                                    [&](const char* g) { return r == g; }) != std::end(kGeneric);
+  const bool generic = std::find_if(std::begin(kGeneric), std::end(kGeneric), [&](const char* g) { return r == g; }) !=
+                       std::end(kGeneric);
   if (!generic) return "";
   const bool avx512 = cpu.Has("avx512f") && cpu.Has("avx512bw") && cpu.Has("avx512vl") && cpu.Has("avx512dq");
   if (avx512) return cpu.Has("avx512_bf16") ? "Cooperlake" : "SkylakeX";

@@ -40,8 +40,8 @@ void Camera::Validate(const std::string& what) const {
     // A generous box: the principal point within the image widened by its size on every side, the focal length
     // below 100 image widths (cx=1e6 for a 640-pixel image is a typo, not a lens).
     FREELOC_CHECK(cx >= -width && cx <= 2.0 * width && cy >= -height && cy <= 2.0 * height,
-                  what << ": principal point (" << cx << ", " << cy << ") is far outside the " << width << "x"
-                       << height << " image; check the intrinsics (cx, cy are pixels, not normalised)");
+                  what << ": principal point (" << cx << ", " << cy << ") is far outside the " << width << "x" << height
+                       << " image; check the intrinsics (cx, cy are pixels, not normalised)");
     const double size = std::max(width, height);
     FREELOC_CHECK(fx <= 100 * size && fy <= 100 * size,
                   what << ": focal length (" << fx << ", " << fy << ") exceeds 100 image widths; check the intrinsics");

@@ -65,13 +65,13 @@ namespace internal {
 
 // FREELOC_OPTION_CHECK(field, cond, detail): throws OptionError(field, detail) when `cond` is false; `detail` (a stream
 // expression) continues the message after the field's name: FREELOC_OPTION_CHECK("frames", f <= 9, ": " << f << …).
-#define FREELOC_OPTION_CHECK(field, cond, detail)                               \
-  do {                                                                          \
-    if (!(cond)) {                                                              \
-      std::ostringstream freeloc_option_os_;                                    \
-      freeloc_option_os_ << detail;                                             \
-      throw ::freeloc::OptionError((field), freeloc_option_os_.str());          \
-    }                                                                           \
+#define FREELOC_OPTION_CHECK(field, cond, detail)                      \
+  do {                                                                 \
+    if (!(cond)) {                                                     \
+      std::ostringstream freeloc_option_os_;                           \
+      freeloc_option_os_ << detail;                                    \
+      throw ::freeloc::OptionError((field), freeloc_option_os_.str()); \
+    }                                                                  \
   } while (0)
 
 // FREELOC_THROW(msg): unconditional error with the same formatting.

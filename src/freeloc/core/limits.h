@@ -10,11 +10,11 @@
 namespace freeloc {
 
 struct InputLimits {
-  int64_t max_image_pixels = 178'956'970;              // Pillow's MAX_IMAGE_PIXELS; checked from the header
-  int64_t max_zip_member_bytes = int64_t{1} << 30;     // a compressed ZIP member's decompressed size
-  int64_t max_submission_bytes = int64_t{256} << 20;   // one pose_*.txt in a submission
-  int64_t max_tensors = 200'000;                       // tensors in one safetensors/.pth/.npz file
-  int64_t max_pickle_objects = 2'000'000;              // values a .pth pickle may push (~250 bytes each)
+  int64_t max_image_pixels = 178'956'970;             // Pillow's MAX_IMAGE_PIXELS; checked from the header
+  int64_t max_zip_member_bytes = int64_t{1} << 30;    // a compressed ZIP member's decompressed size
+  int64_t max_submission_bytes = int64_t{256} << 20;  // one pose_*.txt in a submission
+  int64_t max_tensors = 200'000;                      // tensors in one safetensors/.pth/.npz file
+  int64_t max_pickle_objects = 2'000'000;             // values a .pth pickle may push (~250 bytes each)
 };
 
 // The limits in force (defaults, then FREELOC_LIMIT_* from the environment, then SetLimit).

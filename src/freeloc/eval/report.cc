@@ -45,7 +45,6 @@ nlohmann::ordered_json MetricsJson(const Metrics& m) {
   return j;
 }
 
-
 }  // namespace
 
 std::string EscapeMarkup(const std::string& text) {

@@ -10,8 +10,8 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "freeloc/eval/view3d.h"
 #include "freeloc/core/error.h"
+#include "freeloc/eval/view3d.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
 
@@ -65,10 +65,11 @@ std::string TopDownSvg(const ReportQuery& q) {
   r *= 1.2;
   auto px = [&](double v) { return Num(100 + 90 * v / r, "%.1f"); };
   auto pz = [&](double v) { return Num(100 - 90 * v / r, "%.1f"); };
-  std::string s = "<svg class=\"top\" width=\"200\" height=\"200\" viewBox=\"0 0 200 200\" "
-                  "xmlns=\"http://www.w3.org/2000/svg\"><rect width=\"200\" height=\"200\" fill=\"#fafafa\" "
-                  "stroke=\"#ccc\"/><circle cx=\"100\" cy=\"100\" r=\"4\" fill=\"#333\"/>"
-                  "<line x1=\"100\" y1=\"100\" x2=\"100\" y2=\"88\" stroke=\"#333\"/>";
+  std::string s =
+      "<svg class=\"top\" width=\"200\" height=\"200\" viewBox=\"0 0 200 200\" "
+      "xmlns=\"http://www.w3.org/2000/svg\"><rect width=\"200\" height=\"200\" fill=\"#fafafa\" "
+      "stroke=\"#ccc\"/><circle cx=\"100\" cy=\"100\" r=\"4\" fill=\"#333\"/>"
+      "<line x1=\"100\" y1=\"100\" x2=\"100\" y2=\"88\" stroke=\"#333\"/>";
   if (q.has_gt)
     s += "<circle cx=\"" + px(q.gt_centre.x()) + "\" cy=\"" + pz(q.gt_centre.z()) +
          "\" r=\"5\" fill=\"none\" stroke=\"#2e7d32\" stroke-width=\"2\"><title>ground truth</title></circle>";
@@ -87,13 +88,17 @@ std::string MetricsTable(const EvalRun& e) {
   std::string s = "<table class=\"metrics\"><tr><th>metric</th><th>value</th></tr>";
   for (int k = 0; k < 8; ++k)
     s += std::string("<tr><td>") + kMetricNames[k] + "</td><td>" +
-         Num(k == 7 ? 100 * v[k] : v[k], k == 7 ? "%.1f %%" : k == 2 ? "%.2f" : "%.4f") + "</td></tr>";
+         Num(k == 7 ? 100 * v[k] : v[k], k == 7   ? "%.1f %%"
+                                         : k == 2 ? "%.2f"
+                                                  : "%.4f") +
+         "</td></tr>";
   return s + "</table>";
 }
 
 std::string PerSceneTable(const EvalRun& e) {
-  std::string s = "<table class=\"sortable\"><thead><tr><th>scene</th><th>median t (m)</th><th>median R (°)</th>"
-                  "<th>median VCRE (px)</th><th>precision (25 cm, 5°)</th><th>estimates</th></tr></thead><tbody>";
+  std::string s =
+      "<table class=\"sortable\"><thead><tr><th>scene</th><th>median t (m)</th><th>median R (°)</th>"
+      "<th>median VCRE (px)</th><th>precision (25 cm, 5°)</th><th>estimates</th></tr></thead><tbody>";
   for (const auto& [name, m] : e.per_scene)
     s += "<tr><td>" + Escape(name) + "</td><td>" + Num(m.avg_median_trans, "%.4f") + "</td><td>" +
          Num(m.avg_median_rot, "%.3f") + "</td><td>" + Num(m.avg_median_vcre, "%.2f") + "</td><td>" +
@@ -109,20 +114,19 @@ std::string Anchor(const ReportQuery& q) {
 }
 
 std::string QueryTable(const std::vector<ReportQuery>& queries) {
-  std::string s = "<table class=\"sortable\" id=\"queries\"><thead><tr><th>scene</th><th>query</th><th>status</th>"
-                  "<th>t err (m)</th><th>R err (°)</th><th>VCRE (px)</th><th>confidence</th><th>inliers</th>"
-                  "<th>matches</th><th>instances used</th></tr></thead><tbody>";
+  std::string s =
+      "<table class=\"sortable\" id=\"queries\"><thead><tr><th>scene</th><th>query</th><th>status</th>"
+      "<th>t err (m)</th><th>R err (°)</th><th>VCRE (px)</th><th>confidence</th><th>inliers</th>"
+      "<th>matches</th><th>instances used</th></tr></thead><tbody>";
   for (const auto& q : queries) {
     auto err = [&](double v, const char* f) { return q.has_errors ? Num(v, f) : std::string(""); };
-    const std::string frame = q.visual.empty()
-                                  ? Escape(q.frame)
-                                  : "<a href=\"#" + Anchor(q) + "\">" + Escape(q.frame) + "</a>";
-    s += "<tr class=\"" + std::string(q.has_pose ? "ok" : "fail") + "\"><td>" + Escape(q.scene) + "</td><td>" +
-         frame + "</td><td>" + Escape(q.status) + "</td><td>" + err(q.err.trans_err, "%.4f") + "</td><td>" +
-         err(q.err.rot_err, "%.3f") + "</td><td>" + err(q.err.vcre, "%.1f") + "</td><td>" +
-         Num(q.confidence, "%.4g") + "</td><td>" + std::to_string(q.inliers) + "</td><td>" +
-         std::to_string(q.matches) + "</td><td>" + std::to_string(q.instances_used) + "/" +
-         std::to_string(q.instances) + "</td></tr>";
+    const std::string frame =
+        q.visual.empty() ? Escape(q.frame) : "<a href=\"#" + Anchor(q) + "\">" + Escape(q.frame) + "</a>";
+    s += "<tr class=\"" + std::string(q.has_pose ? "ok" : "fail") + "\"><td>" + Escape(q.scene) + "</td><td>" + frame +
+         "</td><td>" + Escape(q.status) + "</td><td>" + err(q.err.trans_err, "%.4f") + "</td><td>" +
+         err(q.err.rot_err, "%.3f") + "</td><td>" + err(q.err.vcre, "%.1f") + "</td><td>" + Num(q.confidence, "%.4g") +
+         "</td><td>" + std::to_string(q.inliers) + "</td><td>" + std::to_string(q.matches) + "</td><td>" +
+         std::to_string(q.instances_used) + "/" + std::to_string(q.instances) + "</td></tr>";
   }
   return s + "</tbody></table>";
 }
@@ -174,12 +178,12 @@ std::string Details(const std::string& dir, const std::vector<ReportQuery>& quer
                               " · VCRE " + Num(q->err.vcre, "%.1f px")
                         : std::string()) +
          (q->message.empty() ? "" : " · " + Escape(q->message)) + "</p>" + WindowTable(*q) +
-         "<div class=\"row\"><img src=\"" +
-         Escape(q->visual) + "\" alt=\"matches and depth of " + Escape(q->frame) + "\">" + TopDownSvg(*q) +
-         "</div>" +
+         "<div class=\"row\"><img src=\"" + Escape(q->visual) + "\" alt=\"matches and depth of " + Escape(q->frame) +
+         "\">" + TopDownSvg(*q) + "</div>" +
          (std::filesystem::exists(dir + "/" + q->visual + ".3d.js")
               ? "<p><button data-view=\"" + Escape(q->visual) +
-                    "\" onclick=\"freelocShow3d(this,this.dataset.view)\">3D view</button> the reference's points, its camera (green), the predicted (orange) and the "
+                    "\" onclick=\"freelocShow3d(this,this.dataset.view)\">3D view</button> the reference's points, its "
+                    "camera (green), the predicted (orange) and the "
                     "true (blue) query camera; drag to orbit</p><div class=\"v3d\"></div>"
               : std::string()) +
          "</div>";
@@ -221,7 +225,8 @@ void WriteQueryVisual(const std::string& path, const Image& ref, const Image& qu
                       const std::vector<int>& source, const DepthMap& depth_ref, const DepthMap& depth_query,
                       const ReportOptions& o) {
   const int pw = std::max(16, o.thumb_width / 2);
-  const double sr = static_cast<double>(pw) / std::max(1, ref.width), sq = static_cast<double>(pw) / std::max(1, query.width);
+  const double sr = static_cast<double>(pw) / std::max(1, ref.width),
+               sq = static_cast<double>(pw) / std::max(1, query.width);
   const int hr = std::max(1, static_cast<int>(std::lround(ref.height * sr)));
   const int hq = std::max(1, static_cast<int>(std::lround(query.height * sq)));
   const int h = std::max(hr, hq), depth_h = (depth_ref.empty() && depth_query.empty()) ? 0 : h / 2;
@@ -235,7 +240,9 @@ void WriteQueryVisual(const std::string& path, const Image& ref, const Image& qu
   for (size_t i = 0; i < matches.size(); i += stride) {
     const bool in = i < inlier.size() && inlier[i];
     const int src = i < source.size() ? source[i] : -1;
-    const cv::Scalar colour = !in ? cv::Scalar(220, 40, 40) : src >= 0 ? kInstanceColours[src % 8] : cv::Scalar(30, 170, 60);
+    const cv::Scalar colour = !in        ? cv::Scalar(220, 40, 40)
+                              : src >= 0 ? kInstanceColours[src % 8]
+                                         : cv::Scalar(30, 170, 60);
     const cv::Point p(static_cast<int>(matches[i](0) * sr), static_cast<int>(matches[i](1) * sr));
     const cv::Point q(pw + static_cast<int>(matches[i](2) * sq), static_cast<int>(matches[i](3) * sq));
     cv::line(canvas, p, q, colour, 1, cv::LINE_AA);
@@ -273,7 +280,8 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
                     const EvalRun* eval) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  FREELOC_CHECK(std::filesystem::is_directory(dir), dir << ": cannot create the report folder (" << ec.message() << ")");
+  FREELOC_CHECK(std::filesystem::is_directory(dir),
+                dir << ": cannot create the report folder (" << ec.message() << ")");
   // The 3D view's scripts beside index.html (three.js copied from libjs-three when it is installed; without it the
   // view says so).
   const std::string view3d = View3dScript();
@@ -284,8 +292,8 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
       std::filesystem::copy_file(from, std::filesystem::path(dir) / from.filename(),
                                  std::filesystem::copy_options::overwrite_existing, ec);
   }
-  std::string html = "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" + Escape(title) +
-                     "</title><style>" + kStyle + "</style></head><body><h1>" + Escape(title) + "</h1>";
+  std::string html = "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" + Escape(title) + "</title><style>" +
+                     kStyle + "</style></head><body><h1>" + Escape(title) + "</h1>";
   size_t answered = 0;
   for (const auto& q : queries) answered += q.has_pose;
   html += "<p>" + std::to_string(queries.size()) + " queries, " + std::to_string(answered) + " answered.</p>";
@@ -294,7 +302,8 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
     html += "<h2>Map-free metrics</h2>" + MetricsTable(*eval) +
             "<p><img class=\"cdf\" src=\"cdf_translation.svg\" alt=\"translation CDF\"><img class=\"cdf\" "
             "src=\"cdf_rotation.svg\" alt=\"rotation CDF\"><img class=\"cdf\" src=\"cdf_vcre.svg\" alt=\"VCRE CDF\">"
-            "</p><h2>Scenes</h2>" + PerSceneTable(*eval);
+            "</p><h2>Scenes</h2>" +
+            PerSceneTable(*eval);
   } else {
     html += "<p>No ground truth for these scenes: no metrics.</p>";
   }
@@ -303,7 +312,8 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
           "<h2>Details (worst first)</h2><p class=\"legend\">lines:<span style=\"background:#1eaa3c\"></span>inlier"
           "<span style=\"background:#dc2828\"></span>outlier<span style=\"background:#4287f5\"></span>instance "
           "matches (one colour per instance); depth maps below the photos (turbo: near blue, far red; grey: none)"
-          "</p>" + Details(dir, queries) + "<script>" + kScript + kScript3d + "</script></body></html>\n";
+          "</p>" +
+          Details(dir, queries) + "<script>" + kScript + kScript3d + "</script></body></html>\n";
   WriteFileAtomic(dir + "/index.html", html.data(), html.size());
 }
 

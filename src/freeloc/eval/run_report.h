@@ -23,12 +23,12 @@ struct ReportQuery {
   std::string status, message;  // the pipeline's status text, and the error message when there is one
   double confidence = 0;
   int matches = 0, inliers = 0, instances = 0, instances_used = 0;
-  bool has_pose = false;       // the query has an estimate, ok or weak-support (answered priors count as failures)
-  bool has_gt = false;         // the scene has this query's ground truth (gt_centre)
-  bool has_errors = false;     // … and the scene has ground truth: `err` holds the official errors
+  bool has_pose = false;    // the query has an estimate, ok or weak-support (answered priors count as failures)
+  bool has_gt = false;      // the scene has this query's ground truth (gt_centre)
+  bool has_errors = false;  // … and the scene has ground truth: `err` holds the official errors
   FrameErrors err;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero(), gt_centre = Eigen::Vector3d::Zero();  // in the reference frame
-  std::string visual;          // the detail image's file name in the report folder ("" = none)
+  std::string visual;  // the detail image's file name in the report folder ("" = none)
   // Multi-frame: how the window voted — a summary line, then one row per frame (frame, status, relation, used,
   // rotation deviation, depth distance).
   std::string window;
@@ -42,8 +42,8 @@ struct ReportOptions {
   int per_scene = 1;
   int failures = 10;
   int max_details = 200;
-  int thumb_width = 640;  // width of a detail image (both photos side by side)
-  int max_lines = 150;    // correspondences drawn per query (evenly subsampled)
+  int thumb_width = 640;              // width of a detail image (both photos side by side)
+  int max_lines = 150;                // correspondences drawn per query (evenly subsampled)
   Track track = Track::kSingleFrame;  // which frames the metrics score
 };
 

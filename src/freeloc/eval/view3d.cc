@@ -49,13 +49,13 @@ function freelocView3d(box, view) {
 )JS";
 }
 
-std::string View3dJson(const Image& image, const DepthMap& depth, const Camera& k, const std::vector<View3dCamera>& cameras,
-                       int max_points) {
+std::string View3dJson(const Image& image, const DepthMap& depth, const Camera& k,
+                       const std::vector<View3dCamera>& cameras, int max_points) {
   nlohmann::json pts = nlohmann::json::array(), cols = nlohmann::json::array();
   std::vector<float> zs;
   if (!depth.empty() && depth.width == image.width && depth.height == image.height && k.fx > 0 && k.fy > 0) {
-    const int step = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(depth.width) *
-                                                                      depth.height / std::max(1, max_points)))));
+    const int step = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(depth.width) * depth.height /
+                                                                      std::max(1, max_points)))));
     for (int y = 0; y < depth.height; y += step)
       for (int x = 0; x < depth.width; x += step) {
         const float z = depth.at(x, y);

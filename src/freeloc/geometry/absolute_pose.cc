@@ -1,8 +1,8 @@
 #include "freeloc/geometry/absolute_pose.h"
 
 #include <Eigen/Dense>
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <random>
 

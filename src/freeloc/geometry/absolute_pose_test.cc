@@ -96,7 +96,8 @@ TEST(PnP, FailureRules) {
   EXPECT_FALSE(r.status.success());
   DepthMap none(320, 240);
   EXPECT_EQ(EstimatePnP(c.p1, c.p2, none, c.s.ref, c.s.query).status.outcome, EstimatorOutcome::kTooFewMatches);
-  EXPECT_EQ(EstimateProcrustes(c.p1, c.p2, none, none, c.s.ref, c.s.query).status.outcome, EstimatorOutcome::kTooFewMatches);
+  EXPECT_EQ(EstimateProcrustes(c.p1, c.p2, none, none, c.s.ref, c.s.query).status.outcome,
+            EstimatorOutcome::kTooFewMatches);
   EXPECT_THROW(EstimatePnP(c.p1, a, c.s.depth_ref, c.s.ref, c.s.query), Error);
 }
 

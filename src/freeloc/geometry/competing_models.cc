@@ -16,7 +16,6 @@ constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 constexpr double kDistinctRotationDeg = 1.0;
 constexpr double kDistinctDirectionDeg = 5.0;
 
-
 double Median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
   return v[v.size() / 2];
@@ -26,7 +25,8 @@ bool ValidDepth(const std::vector<double>& d, size_t i) { return i < d.size() &&
 }  // namespace
 
 bool DistinctModels(const PoseRt& a, const PoseRt& b) {
-  return RotationDistanceDeg(a.R, b.R) >= kDistinctRotationDeg || DirectionDistanceDeg(a.t, b.t) >= kDistinctDirectionDeg;
+  return RotationDistanceDeg(a.R, b.R) >= kDistinctRotationDeg ||
+         DirectionDistanceDeg(a.t, b.t) >= kDistinctDirectionDeg;
 }
 
 double RotationDistanceDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
@@ -125,7 +125,8 @@ std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen:
       }
       const int s = support(p);
       if (s < 0.5 * min_support_ratio * best_support) continue;
-      auto c = std::find_if(clusters.begin(), clusters.end(), [&](const CompetingModel& m) { return !DistinctModels(m.pose, p); });
+      auto c = std::find_if(clusters.begin(), clusters.end(),
+                            [&](const CompetingModel& m) { return !DistinctModels(m.pose, p); });
       if (c == clusters.end()) {
         clusters.push_back({p, s});
       } else if (s > c->inliers) {
@@ -148,7 +149,8 @@ std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen:
     }
     const int s = support(p);
     if (s < min_support_ratio * best_support || !DistinctModels(p, best)) continue;
-    if (std::any_of(out.begin(), out.end(), [&](const CompetingModel& m) { return !DistinctModels(m.pose, p); })) continue;
+    if (std::any_of(out.begin(), out.end(), [&](const CompetingModel& m) { return !DistinctModels(m.pose, p); }))
+      continue;
     out.push_back({p, s * static_cast<int>(stride)});
     if (out.size() >= static_cast<size_t>(max_models)) break;
   }

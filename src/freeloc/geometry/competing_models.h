@@ -54,8 +54,9 @@ struct CompetingModel {
 
 // Distinct models (rotation ≥ 1° or direction ≥ 5° from `best`, after refinement) whose Sampson support is at
 // least `min_support_ratio` of the best's, most supported first, at most `max_models`. `near` (optional): the most
-// supported minimal-sample models that are not distinct from `best` (unrefined; the spread of a flat valley). `best_inliers`: the indices
-// of `best`'s inliers. Deterministic for a seed; costs ~`samples` 5-point solves and scoring on ≤ 4000 matches.
+// supported minimal-sample models that are not distinct from `best` (unrefined; the spread of a flat valley).
+// `best_inliers`: the indices of `best`'s inliers. Deterministic for a seed; costs ~`samples` 5-point solves and
+// scoring on ≤ 4000 matches.
 std::vector<CompetingModel> FindCompetingRelativeModels(const std::vector<Eigen::Vector3d>& x1,
                                                         const std::vector<Eigen::Vector3d>& x2, const PoseRt& best,
                                                         const std::vector<int>& best_inliers, double threshold_sq,

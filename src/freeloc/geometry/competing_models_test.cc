@@ -30,7 +30,8 @@ PlanarPair MakePlanarPair(uint32_t seed, int n, double off_plane_fraction) {
   PlanarPair pp;
   const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
   const Eigen::Quaterniond q(Eigen::AngleAxisd(0.17 * u(rng), axis));
-  const Eigen::Vector3d centre = Eigen::Vector3d(u(rng), 0.3 * u(rng), 0.3 * u(rng)).normalized() * (0.7 + 0.3 * u(rng));
+  const Eigen::Vector3d centre =
+      Eigen::Vector3d(u(rng), 0.3 * u(rng), 0.3 * u(rng)).normalized() * (0.7 + 0.3 * u(rng));
   pp.truth = Rigid3d(q, -(q * centre));
   const Eigen::Vector3d normal = Eigen::Vector3d(0.3 * u(rng), 0.3 * u(rng), -1).normalized();
   const double dist = 4 + u(rng);
@@ -69,20 +70,23 @@ TEST(CompetingModels, PlanarTwinRejectedWithDepthAndFlaggedWithout) {
     ASSERT_FALSE(nd.query_from_ref.translation.hasNaN());
     if (wd.status.competitors > 0 || nd.status.competitors > 0) ++twins_seen;
     // With exact depth: the truth, every time.
-    ASSERT_TRUE(wd.status.outcome == EstimatorOutcome::kOk || wd.status.outcome == EstimatorOutcome::kWeakSupport) << ToString(wd.status.outcome);
+    ASSERT_TRUE(wd.status.outcome == EstimatorOutcome::kOk || wd.status.outcome == EstimatorOutcome::kWeakSupport)
+        << ToString(wd.status.outcome);
     EXPECT_LT(Err(wd.query_from_ref, pp.truth), 1.0) << "decided by " << ToString(wd.status.decided_by);
     resolved_with_depth += Err(wd.query_from_ref, pp.truth) < 1.0 && wd.status.competitors > 0;
     // Without depth: a wrong answer must carry a plausible runner-up near the truth.
     if (nd.status.outcome != EstimatorOutcome::kOk && nd.status.outcome != EstimatorOutcome::kWeakSupport) continue;
     if (Err(nd.query_from_ref, pp.truth) > 1.0) {
       ++wrong_without_depth;
-      const bool flagged = nd.status.competitors > 0 && nd.status.runner_up_plausibility > 0.5 &&
-                           Err(nd.runner_up, pp.truth) < 1.0;
+      const bool flagged =
+          nd.status.competitors > 0 && nd.status.runner_up_plausibility > 0.5 && Err(nd.runner_up, pp.truth) < 1.0;
       wrong_unflagged += !flagged;
     }
   }
-  std::printf("planar pairs: %d with a competing model, %d resolved by depth; without depth %d wrong twins, %d "
-              "unflagged\n", twins_seen, resolved_with_depth, wrong_without_depth, wrong_unflagged);
+  std::printf(
+      "planar pairs: %d with a competing model, %d resolved by depth; without depth %d wrong twins, %d "
+      "unflagged\n",
+      twins_seen, resolved_with_depth, wrong_without_depth, wrong_unflagged);
   EXPECT_GE(twins_seen, 20);  // a plane gives a twin nearly always: the search must find it
   EXPECT_EQ(wrong_unflagged, 0);
 }
@@ -157,7 +161,7 @@ TEST(WeakSupport, RealButWeakModelIsReturnedRandomIsNot) {
   }
   std::printf("18 of 60: %d ok, %d weak-support (%d within 5°); random 60: %d weak-support of 20\n", ok, weak, close,
               random_models);
-  EXPECT_GE(weak + ok, 16);     // the real model is answered, not dropped to the prior
+  EXPECT_GE(weak + ok, 16);  // the real model is answered, not dropped to the prior
   EXPECT_GE(close, weak * 3 / 4);
   EXPECT_LE(random_models, 4);  // chance-level support is no model
 }

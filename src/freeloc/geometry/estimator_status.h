@@ -22,8 +22,8 @@ enum class CompetitorDecision { kNone, kSupport, kCheirality, kDepth };
 struct EstimatorStatus {
   EstimatorOutcome outcome = EstimatorOutcome::kNoConsensus;
   bool success() const { return outcome == EstimatorOutcome::kOk; }
-  int chance_inliers = 0;   // inliers of the final model on shuffled pairs (what chance alone gives)
-  int shuffled_best = -1;   // weak support only: the best search model's inliers on shuffled pairs (−1: not run)
+  int chance_inliers = 0;  // inliers of the final model on shuffled pairs (what chance alone gives)
+  int shuffled_best = -1;  // weak support only: the best search model's inliers on shuffled pairs (−1: not run)
   RansacStop stop = RansacStop::kNoModel;
   int num_matches = 0;
   int iterations = 0;

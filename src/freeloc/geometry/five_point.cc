@@ -191,7 +191,7 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
   const Eigen::Matrix<double, 9, 4> N = NullSpace(x1, x2);
   Eigen::Matrix<double, 10, 20> A = CubicConstraints(N);
   const Eigen::Matrix<double, 10, 20> A0 = A;  // the constraints before elimination, for polishing roots
-  if (!Eliminate(&A)) return 0;  // degenerate sample
+  if (!Eliminate(&A)) return 0;                // degenerate sample
   Poly M[3][3];
   HiddenVariableMatrix(A, M);
   const Poly det = PolyAdd(PolySub(PolyMul(M[0][0], PolySub(PolyMul(M[1][1], M[2][2]), PolyMul(M[1][2], M[2][1]))),

@@ -20,7 +20,8 @@
 namespace freeloc::geometry {
 
 void HybridPoseOptions::Validate() const {
-  FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px), "hybrid pose: threshold_px must be a positive number of pixels");
+  FREELOC_CHECK(threshold_px > 0 && std::isfinite(threshold_px),
+                "hybrid pose: threshold_px must be a positive number of pixels");
   FREELOC_CHECK(reprojection_px > 0 && std::isfinite(reprojection_px),
                 "hybrid pose: the reprojection threshold must be positive pixels");
   ransac.Validate("hybrid pose");
@@ -57,8 +58,14 @@ class Problem {
  public:
   Problem(std::vector<Eigen::Vector3d> x, std::vector<Eigen::Vector3d> y, std::vector<double> dr,
           std::vector<double> dq, double th_e, double th_r)
-      : x_(std::move(x)), y_(std::move(y)), dr_(std::move(dr)), dq_(std::move(dq)), the2_(th_e * th_e),
-        thr2_(th_r * th_r), th_e_(th_e), th_r_(th_r) {
+      : x_(std::move(x)),
+        y_(std::move(y)),
+        dr_(std::move(dr)),
+        dq_(std::move(dq)),
+        the2_(th_e * th_e),
+        thr2_(th_r * th_r),
+        th_e_(th_e),
+        th_r_(th_r) {
     for (size_t i = 0; i < x_.size(); ++i)
       if (dr_[i] > 0 && dq_[i] > 0) both_.push_back(static_cast<int>(i));
   }
@@ -76,9 +83,7 @@ class Problem {
     return ReprojSq(m.p.R.transpose() * (m.p.scale * (dq_[i] + m.p.shift_query) * y_[i] - m.p.t), x_[i]);
   }
   bool SampsonInlier(const Model& m, size_t i) const { return Sampson(m, i) < the2_; }
-  bool DepthInlier(const Model& m, size_t i) const {
-    return RefToQuery(m, i) < thr2_ && QueryToRef(m, i) < thr2_;
-  }
+  bool DepthInlier(const Model& m, size_t i) const { return RefToQuery(m, i) < thr2_ && QueryToRef(m, i) < thr2_; }
 
   // Hybrid MSAC cost: each term truncated at its threshold and normalised by it (missing depth: the maximum).
   double Score(const Model& m, double bail, int* n_sampson, int* n_depth) const {
@@ -228,8 +233,7 @@ class HybridRefinement {
  public:
   using Params = Model;
   static constexpr int kNumParams = Eigen::Dynamic;
-  HybridRefinement(const Problem& pb, const std::vector<int>& S, const std::vector<int>& D, bool shifts,
-                   double inv_thr)
+  HybridRefinement(const Problem& pb, const std::vector<int>& S, const std::vector<int>& D, bool shifts, double inv_thr)
       : pb_(pb), S_(S), D_(D), shifts_(shifts), inv_thr_(inv_thr), rows_(static_cast<int>(S.size() + 4 * D.size())) {}
   int num_params() const { return shifts_ ? 9 : 7; }
   double Cost(const Model& m) const {
@@ -426,7 +430,9 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
         res.num_depth = ld;
       }
       need5 = RequiredIterations(static_cast<size_t>(res.num_sampson), n, 5, opt.ransac.success_prob);
-      need3 = can3 ? RequiredIterations(static_cast<size_t>(res.num_depth), pb.both().size(), 3, opt.ransac.success_prob) : kInf;
+      need3 = can3
+                  ? RequiredIterations(static_cast<size_t>(res.num_depth), pb.both().size(), 3, opt.ransac.success_prob)
+                  : kInf;
       // What has been drawn so far counts against the new requirements.
       used5 = std::isfinite(need5) ? res.samples_5pt / std::max(need5, 1.0) : 0.0;
       used3 = std::isfinite(need3) ? res.samples_3pt / std::max(need3, 1.0) : 0.0;
@@ -441,9 +447,9 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
 }  // namespace
 
 HybridPoseResult EstimateHybridPose(const std::vector<Eigen::Vector2d>& px_ref,
-                                    const std::vector<Eigen::Vector2d>& px_query,
-                                    const std::vector<double>& depth_ref, const std::vector<double>& depth_query,
-                                    const Camera& ref, const Camera& query, const HybridPoseOptions& opt) {
+                                    const std::vector<Eigen::Vector2d>& px_query, const std::vector<double>& depth_ref,
+                                    const std::vector<double>& depth_query, const Camera& ref, const Camera& query,
+                                    const HybridPoseOptions& opt) {
   const auto t0 = std::chrono::steady_clock::now();
   opt.Validate();
   const size_t n = px_ref.size();
@@ -548,10 +554,10 @@ HybridPoseResult EstimateHybridPose(const std::vector<Eigen::Vector2d>& px_ref,
   if (n_in < std::max(3 * opt.min_inliers, static_cast<int>(0.25 * static_cast<double>(n)))) {
     HybridPoseOptions so = opt;
     if (opt.ransac.max_seconds > 0)
-      so.ransac.max_seconds = std::max(0.1, opt.ransac.max_seconds -
-                                                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    const SearchResult ss =
-        Search(pb.Shuffled(n / 2 + 1), so, std::max(found.iterations, opt.ransac.min_iterations), std::chrono::steady_clock::now());
+      so.ransac.max_seconds = std::max(
+          0.1, opt.ransac.max_seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    const SearchResult ss = Search(pb.Shuffled(n / 2 + 1), so, std::max(found.iterations, opt.ransac.min_iterations),
+                                   std::chrono::steady_clock::now());
     res.status.shuffled_best = std::isfinite(ss.score) ? ss.num_sampson : 0;
     if (n_in < 1.5 * res.status.shuffled_best + 4) {
       res.inliers.assign(n, 0);

@@ -169,8 +169,9 @@ TEST(HybridPose, WithoutDepthThereIsNoMetricModel) {
 // never an ok status without support.
 TEST(HybridPose, HostileDepthsAndDuplicatesStayFiniteAndSafe) {
   DepthView v = MakeDepthView(40, 200, 0.1, 0.5);
-  const double bad[] = {std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
-                        -3.0, 0.0, 1e300, 1e-300};
+  const double bad[] = {
+      std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), -3.0, 0.0, 1e300,
+      1e-300};
   for (size_t i = 0; i < v.d1.size(); i += 3) v.d1[i] = bad[i % 7];
   for (size_t i = 1; i < v.d2.size(); i += 3) v.d2[i] = bad[(i + 2) % 7];
   HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
@@ -191,7 +192,8 @@ TEST(HybridPose, HostileDepthsAndDuplicatesStayFiniteAndSafe) {
 
 TEST(HybridPose, TooFewMatchesAndBadInputs) {
   const DepthView v = MakeDepthView(11, 8, 0.0, 0.0);
-  EXPECT_EQ(EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query).status.outcome, EstimatorOutcome::kTooFewMatches);
+  EXPECT_EQ(EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query).status.outcome,
+            EstimatorOutcome::kTooFewMatches);
   std::vector<double> short_depth(3, 1.0);
   EXPECT_ANY_THROW(EstimateHybridPose(v.p1, v.p2, short_depth, v.d2, v.ref, v.query));
   HybridPoseOptions o;

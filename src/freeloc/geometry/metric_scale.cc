@@ -9,7 +9,6 @@
 
 namespace freeloc::geometry {
 
-
 void ScaleOptions::Validate() const {
   FREELOC_CHECK(official_threshold_m > 0 && relative_threshold > 0 && min_threshold_m >= 0,
                 "metric scale: thresholds must be positive");
@@ -148,7 +147,6 @@ void RobustVote(const Candidates& c, const ScaleOptions& opt, ScaleResult* res) 
   res->confidence = inlier_ratio / (res->relative_std_error + 1e-3);
 }
 
-
 // Per inlier, the log ratio of each map's depth to the unit-baseline triangulation's (lr: the reference map's, with
 // its parallax window; lq: the query map's), for the points whose triangulation is in front of both cameras.
 struct AnchorSamples {
@@ -174,8 +172,8 @@ AnchorSamples CollectAnchors(const std::vector<Eigen::Vector2d>& px_ref, const s
     if (dr > 0) {
       a.lr.push_back(std::log(dr / l1));
       a.depth_sum += dr;
-      const double parallax = std::max(1e-6, std::abs(std::asin(std::min(
-                                                 1.0, (unit.R * x1).normalized().cross(x2.normalized()).norm()))));
+      const double parallax =
+          std::max(1e-6, std::abs(std::asin(std::min(1.0, (unit.R * x1).normalized().cross(x2.normalized()).norm()))));
       a.window.push_back(0.1 + 3 * sigma / parallax);
     }
     if (dq > 0) a.lq.push_back(std::log(dq / l2));

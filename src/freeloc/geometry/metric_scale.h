@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "freeloc/core/camera.h"
-#include "freeloc/core/enum_table.h"
 #include "freeloc/core/depth_map.h"
+#include "freeloc/core/enum_table.h"
 #include "freeloc/core/rigid3d.h"
 
 namespace freeloc::geometry {

@@ -93,8 +93,8 @@ TEST(MetricScale, RobustScaleNeedsThreeAgreeingCorrespondences) {
     const std::vector<Eigen::Vector2d> a(c.p1.begin(), c.p1.begin() + static_cast<std::ptrdiff_t>(n));
     const std::vector<Eigen::Vector2d> b(c.p2.begin(), c.p2.begin() + static_cast<std::ptrdiff_t>(n));
     ScaleOptions o;
-    const ScaleResult r = EstimateMetricScale(a, b, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref,
-                                              c.scene.query, o);
+    const ScaleResult r =
+        EstimateMetricScale(a, b, c.unit, c.scene.depth_ref, c.scene.depth_query, c.scene.ref, c.scene.query, o);
     EXPECT_EQ(r.success(), n == 3) << n << ": " << ToString(r.outcome);
     if (n == 2) {
       EXPECT_EQ(r.outcome, ScaleOutcome::kNoConsensus);

@@ -31,7 +31,9 @@ namespace freeloc::geometry {
 struct RansacOptions {
   RansacOptions() = default;
   RansacOptions(double success_prob, int min_iterations, int max_iterations, double max_seconds)
-      : success_prob(success_prob), min_iterations(min_iterations), max_iterations(max_iterations),
+      : success_prob(success_prob),
+        min_iterations(min_iterations),
+        max_iterations(max_iterations),
         max_seconds(max_seconds) {}
   double success_prob = 0.9999;  // probability of drawing at least one all-inlier sample
   int min_iterations = 50;
@@ -172,7 +174,7 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double thresh
   if (!have) {
     st.stop = RansacStop::kNoModel;
   } else {
-    st.stop = out_of_time                                                   ? RansacStop::kTimeBudget
+    st.stop = out_of_time                                                  ? RansacStop::kTimeBudget
               : iter >= opt.max_iterations && needed >= opt.max_iterations ? RansacStop::kMaxIterations
                                                                            : RansacStop::kConfidence;
   }
@@ -186,8 +188,10 @@ template <>
 struct EnumTable<geometry::RansacStop> {
   static constexpr const char* kField = "ransac stop";
   static constexpr EnumEntry<geometry::RansacStop> kEntries[] = {
-      {geometry::RansacStop::kConfidence, "confidence"},   {geometry::RansacStop::kMaxIterations, "max-iterations"},
-      {geometry::RansacStop::kTimeBudget, "time-budget"}, {geometry::RansacStop::kTooFewData, "too-few-data"},
+      {geometry::RansacStop::kConfidence, "confidence"},
+      {geometry::RansacStop::kMaxIterations, "max-iterations"},
+      {geometry::RansacStop::kTimeBudget, "time-budget"},
+      {geometry::RansacStop::kTooFewData, "too-few-data"},
       {geometry::RansacStop::kNoModel, "no-model"}};
 };
 }  // namespace freeloc

@@ -352,8 +352,8 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
     RansacOptions rs = opt.ransac;
     rs.max_iterations = std::max(st.iterations, opt.ransac.min_iterations);
     if (opt.ransac.max_seconds > 0)  // what is left of the budget (at least 0.1 s)
-      rs.max_seconds = std::max(0.1, opt.ransac.max_seconds -
-                                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      rs.max_seconds = std::max(
+          0.1, opt.ransac.max_seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     RelModel m;
     const RansacStats ss = Ransac(shuffled, rs, threshold_sq, &m);
     res.status.shuffled_best = ss.stop == RansacStop::kNoModel ? 0 : ss.num_inliers;

@@ -163,7 +163,8 @@ TEST(RelativePoseSafety, CollinearPointsAreDegenerate) {
   }
   const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query);
   EXPECT_FALSE(r.status.success());
-  EXPECT_TRUE(r.status.outcome == EstimatorOutcome::kDegenerate || r.status.outcome == EstimatorOutcome::kNoConsensus) << ToString(r.status.outcome);
+  EXPECT_TRUE(r.status.outcome == EstimatorOutcome::kDegenerate || r.status.outcome == EstimatorOutcome::kNoConsensus)
+      << ToString(r.status.outcome);
 }
 
 TEST(RelativePoseSafety, RandomMatchesGiveNoConsensusWithinTheBudget) {
@@ -173,7 +174,7 @@ TEST(RelativePoseSafety, RandomMatchesGiveNoConsensusWithinTheBudget) {
     o.threshold_px = 3.0;
     const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, o);
     EXPECT_FALSE(r.status.success()) << "seed " << seed << ": " << r.status.num_inliers << " inliers, chance "
-                                   << r.status.chance_inliers;
+                                     << r.status.chance_inliers;
     EXPECT_EQ(r.status.outcome, EstimatorOutcome::kNoConsensus);
   }
   // A time budget stops a hopeless search (100 000 random matches once took 23 s to give "ok").
@@ -205,15 +206,15 @@ TEST(RelativePoseSafety, SearchOnShuffledPairsRejectsSelectedChanceModels) {
     o.ransac.max_seconds = 1.0;  // the hopeless search runs to its budget; keep the test short
     const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, o);
     EXPECT_FALSE(r.status.success()) << "seed " << seed << ": " << r.status.num_inliers << " inliers, shuffled best "
-                                   << r.status.shuffled_best;
+                                     << r.status.shuffled_best;
     refused += r.status.outcome == EstimatorOutcome::kNoConsensus;
   }
   EXPECT_EQ(refused, 4);
   for (uint32_t seed = 50; seed < 53; ++seed) {
     const TwoView weak = MakeTwoView(seed, 200, 0.8, 0.3);
     const RelativePoseResult r = EstimateRelativePose(weak.p1, weak.p2, weak.ref, weak.query);
-    ASSERT_TRUE(r.status.success()) << "seed " << seed << ": " << ToString(r.status.outcome) << ", " << r.status.num_inliers
-                                  << " inliers, shuffled best " << r.status.shuffled_best;
+    ASSERT_TRUE(r.status.success()) << "seed " << seed << ": " << ToString(r.status.outcome) << ", "
+                                    << r.status.num_inliers << " inliers, shuffled best " << r.status.shuffled_best;
     EXPECT_GE(r.status.shuffled_best, 0);  // the weak-support check ran
     EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, weak.truth.rotation), 1.0);
   }

@@ -32,8 +32,8 @@ bool AlignRigid(const Eigen::Vector3d* a, const Eigen::Vector3d* b, int n, Eigen
   return R->allFinite() && t->allFinite();
 }
 
-int RelPoseDepthScale3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3],
-                         const double dq[3], std::vector<DepthRelPose>* out) {
+int RelPoseDepthScale3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3], const double dq[3],
+                         std::vector<DepthRelPose>* out) {
   Eigen::Vector3d a[3], b[3];
   for (int i = 0; i < 3; ++i) {
     if (!(dr[i] > 0) || !(dq[i] > 0)) return 0;

@@ -25,8 +25,8 @@ struct DepthRelPose {
 
 // x[i], y[i]: normalised rays (z = 1) of correspondence i in the reference and the query; dr, dq: their depths
 // (> 0). Appends at most one solution; returns the number appended.
-int RelPoseDepthScale3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3],
-                         const double dq[3], std::vector<DepthRelPose>* out);
+int RelPoseDepthScale3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3], const double dq[3],
+                         std::vector<DepthRelPose>* out);
 
 // The rigid motion (R, t) minimising Σ‖b_i − (R·a_i + t)‖² (Kabsch/Horn with the reflection fixed); false when the
 // points span less than a plane (a line or a point).

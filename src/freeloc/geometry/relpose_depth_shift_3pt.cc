@@ -24,8 +24,8 @@ double Quad(const Poly& p, double x) { return p[0] + x * (p[1] + x * p[2]); }
 
 }  // namespace
 
-int RelPoseDepthShift3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3],
-                         const double dq[3], std::vector<DepthRelPose>* out) {
+int RelPoseDepthShift3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3], const double dq[3],
+                         std::vector<DepthRelPose>* out) {
   for (int i = 0; i < 3; ++i)
     if (!std::isfinite(dr[i]) || !std::isfinite(dq[i])) return 0;
   const Poly A12 = SideSquared(x[0], dr[0], x[1], dr[1]), A13 = SideSquared(x[0], dr[0], x[2], dr[2]),

@@ -19,7 +19,7 @@ namespace freeloc::geometry {
 
 // As RelPoseDepthScale3pt, with shift_ref and shift_query free. Appends every admissible solution (≤ 8); returns
 // their number.
-int RelPoseDepthShift3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3],
-                         const double dq[3], std::vector<DepthRelPose>* out);
+int RelPoseDepthShift3pt(const Eigen::Vector3d x[3], const double dr[3], const Eigen::Vector3d y[3], const double dq[3],
+                         std::vector<DepthRelPose>* out);
 
 }  // namespace freeloc::geometry

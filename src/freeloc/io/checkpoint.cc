@@ -1,8 +1,7 @@
 #include "freeloc/io/checkpoint.h"
 
-#include <filesystem>
-
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
 #include "freeloc/core/error.h"

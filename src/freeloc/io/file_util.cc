@@ -113,7 +113,8 @@ void CheckWritableFolder(const std::string& path, const std::string& what) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::exists(path, ec)) {
-    FREELOC_CHECK(fs::is_directory(path, ec), path << ": is a file, but " << what << " is a folder; give a folder path");
+    FREELOC_CHECK(fs::is_directory(path, ec),
+                  path << ": is a file, but " << what << " is a folder; give a folder path");
     CheckWritableFile((fs::path(path) / "probe").string(), what);
     return;
   }

@@ -69,19 +69,18 @@ TEST(HostileInput, NpyShapeCannotWrapTheSizeCheck) {
   std::string h = "{'descr': '<f8', 'fortran_order': False, 'shape': (1, 4611686018427387904, 4), }";
   while ((10 + h.size() + 1) % 64) h += ' ';
   h += '\n';
-  const std::string npy = std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(h.size()) + '\0' + h +
-                          std::string(64, '\0');
-  const std::string e = ErrorOf([&] {
-    ParseNpy(reinterpret_cast<const uint8_t*>(npy.data()), npy.size(), "c.npy");
-  });
+  const std::string npy =
+      std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(h.size()) + '\0' + h + std::string(64, '\0');
+  const std::string e = ErrorOf([&] { ParseNpy(reinterpret_cast<const uint8_t*>(npy.data()), npy.size(), "c.npy"); });
   EXPECT_NE(e.find("c.npy"), std::string::npos) << e;
   const std::string big = std::string("\x93NUMPY\x01\x00", 8);
   std::string h2 = "{'descr': '<f8', 'fortran_order': False, 'shape': (99999999999999999999999,), }";
   while ((10 + h2.size() + 1) % 64) h2 += ' ';
   h2 += '\n';
   const std::string npy2 = big + static_cast<char>(h2.size()) + '\0' + h2;
-  EXPECT_NE(ErrorOf([&] { ParseNpy(reinterpret_cast<const uint8_t*>(npy2.data()), npy2.size(), "d.npy"); })
-                .find("absurdly large"),
+  EXPECT_NE(ErrorOf([&] {
+              ParseNpy(reinterpret_cast<const uint8_t*>(npy2.data()), npy2.size(), "d.npy");
+            }).find("absurdly large"),
             std::string::npos);
 }
 
@@ -134,8 +133,7 @@ TEST(HostileInput, ZipMembersCannotDeclareMoreThanTheyHold) {
 TEST(HostileInput, AnEightBitPngIsNotADepthMap) {
   testing::TempDir tmp;
   WritePng8(tmp.File("d8.png"), 4, 3, std::vector<uint8_t>(12, 200));
-  EXPECT_NE(ErrorOf([&] { ReadDepthPng(tmp.File("d8.png")); }).find("8-bit PNG is not a depth map"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ReadDepthPng(tmp.File("d8.png")); }).find("8-bit PNG is not a depth map"), std::string::npos);
   WritePng16(tmp.File("d16.png"), 4, 3, std::vector<uint16_t>(12, 1500));
   EXPECT_FLOAT_EQ(ReadDepthPng(tmp.File("d16.png")).at(1, 1), 1.5f);
 }

@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-
 #include <string>
 
 #include "freeloc/core/camera.h"
@@ -23,9 +22,7 @@ namespace {
 using testing::ErrorOf;
 
 std::string ParseError(const std::string& pkl) {
-  return ErrorOf([&] {
-    ParsePickle(reinterpret_cast<const uint8_t*>(pkl.data()), pkl.size(), "t.pkl", nullptr);
-  });
+  return ErrorOf([&] { ParsePickle(reinterpret_cast<const uint8_t*>(pkl.data()), pkl.size(), "t.pkl", nullptr); });
 }
 
 // Restores a limit after a test lowers it.
@@ -88,10 +85,18 @@ TEST(HostilePickle, HugeIntegersAndForeignGlobalsAreRefused) {
   for (int k = 0; k < 4; ++k) long4 += static_cast<char>((n >> (8 * k)) & 0xff);
   long4 += std::string(n, '\x7f') + ".";
   EXPECT_NE(ParseError(long4).find("integer of 200000 bytes"), std::string::npos);
-  EXPECT_NE(ParseError("\x80\x02" "cos\nsystem\n(S'echo hi'\ntR.").find("global os.system"), std::string::npos);
-  EXPECT_NE(ParseError("\x80\x02" "cbuiltins\neval\n.").find("builtins.eval"), std::string::npos);
+  EXPECT_NE(ParseError("\x80\x02"
+                       "cos\nsystem\n(S'echo hi'\ntR.")
+                .find("global os.system"),
+            std::string::npos);
+  EXPECT_NE(ParseError("\x80\x02"
+                       "cbuiltins\neval\n.")
+                .find("builtins.eval"),
+            std::string::npos);
   // An escape code in a global's name is printed escaped, never raw.
-  const std::string e = ParseError("\x80\x02" "cx\x1b[2J\ny\n.");
+  const std::string e = ParseError(
+      "\x80\x02"
+      "cx\x1b[2J\ny\n.");
   EXPECT_EQ(e.find('\x1b'), std::string::npos);
   EXPECT_NE(e.find("\\x1b[2J"), std::string::npos);
   // What real checkpoints name stays accepted.
@@ -156,8 +161,9 @@ TEST(HostileLimits, TensorCountAndSubmissionSize) {
   EXPECT_EQ(SafetensorsFile::Parse(bytes.data(), bytes.size(), nullptr, "a.safetensors").names.size(), 50u);
   {
     ScopedLimit lower("max_tensors", 10, Limits().max_tensors);
-    EXPECT_NE(ErrorOf([&] { SafetensorsFile::Parse(bytes.data(), bytes.size(), nullptr, "a.safetensors"); })
-                  .find("max_tensors"),
+    EXPECT_NE(ErrorOf([&] {
+                SafetensorsFile::Parse(bytes.data(), bytes.size(), nullptr, "a.safetensors");
+              }).find("max_tensors"),
               std::string::npos);
   }
   // 10 million newlines: counted, the first 1000 kept, no vector of ten million strings.

@@ -191,9 +191,9 @@ void CheckPixelLimit(ImageFormat f, const std::vector<uint8_t>& b, const std::st
   uint64_t w = 0, h = 0;
   if (!HeaderDimensions(f, b, &w, &h)) return;
   const uint64_t limit = static_cast<uint64_t>(Limits().max_image_pixels);
-  FREELOC_CHECK(w <= limit && h <= limit && w * h <= limit,
-                what << ": " << ImageFormatName(f) << " declares " << w << " x " << h << " pixels, beyond the "
-                     << LimitHint("max_image_pixels"));
+  FREELOC_CHECK(w <= limit && h <= limit && w * h <= limit, what << ": " << ImageFormatName(f) << " declares " << w
+                                                                 << " x " << h << " pixels, beyond the "
+                                                                 << LimitHint("max_image_pixels"));
 }
 
 }  // namespace
@@ -269,8 +269,8 @@ std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height
   return DecodePng16(ReadFileBytes(path), path, width, height, bits);
 }
 
-std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, const std::string& what, int* width,
-                                  int* height, int* bits) {
+std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, const std::string& what, int* width, int* height,
+                                  int* bits) {
   FREELOC_CHECK(SniffImageFormat(bytes.data(), bytes.size()) == ImageFormat::kPng,
                 what << ": not a PNG file; depth maps must be 16-bit PNGs");
   CheckComplete(ImageFormat::kPng, bytes, what);

@@ -1,5 +1,6 @@
-// Image decoding (OpenCV's imgcodecs, loaded on first use: io/internal/codecs_api.h) honouring the EXIF orientation, as Pillow's ImageOps.exif_transpose does.
-// The format is detected from the content, not the extension; truncated files are refused.
+// Image decoding (OpenCV's imgcodecs, loaded on first use: io/internal/codecs_api.h) honouring the EXIF orientation, as
+// Pillow's ImageOps.exif_transpose does. The format is detected from the content, not the extension; truncated files
+// are refused.
 #pragma once
 
 #include <cstdint>
@@ -34,8 +35,8 @@ void WritePng16(const std::string& path, int width, int height, const std::vecto
 // Reads a single-channel 8- or 16-bit PNG without any conversion; `bits` (optional) receives 8 or 16.
 std::vector<uint16_t> ReadPng16(const std::string& path, int* width, int* height, int* bits = nullptr);
 // The same from the file's bytes (an upload); `what` names it in errors.
-std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, const std::string& what, int* width,
-                                  int* height, int* bits = nullptr);
+std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, const std::string& what, int* width, int* height,
+                                  int* bits = nullptr);
 
 // Baseline JPEG of an RGB8 image at `quality` (0-100); `what` names it in errors.
 std::vector<uint8_t> EncodeJpeg(const Image& rgb, int quality, const std::string& what);

@@ -226,7 +226,8 @@ TEST(ImageIo, GreyPngsDecodeAsOpenCvDoes) {
       cv::Mat ref;
       m->convertTo(ref, CV_16U);
       for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) ASSERT_EQ(v[static_cast<size_t>(y) * w + x], ref.at<uint16_t>(y, x)) << x << "," << y;
+        for (int x = 0; x < w; ++x)
+          ASSERT_EQ(v[static_cast<size_t>(y) * w + x], ref.at<uint16_t>(y, x)) << x << "," << y;
     }
   }
   // freeloc's writers → OpenCV's reader, exactly.
@@ -235,15 +236,17 @@ TEST(ImageIo, GreyPngsDecodeAsOpenCvDoes) {
   WritePng16(tmp.File("w16.png"), 53, 37, d);
   const cv::Mat back = cv::imread(tmp.File("w16.png"), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(back.type(), CV_16UC1);
-  for (size_t i = 0; i < d.size(); ++i) ASSERT_EQ(back.at<uint16_t>(static_cast<int>(i / 53), static_cast<int>(i % 53)), d[i]);
+  for (size_t i = 0; i < d.size(); ++i)
+    ASSERT_EQ(back.at<uint16_t>(static_cast<int>(i / 53), static_cast<int>(i % 53)), d[i]);
   Image rgb(5, 4);
   for (size_t i = 0; i < rgb.data.size(); ++i) rgb.data[i] = static_cast<uint8_t>(i * 37);
   WriteImagePng(tmp.File("rgb.png"), rgb);
   EXPECT_EQ(ReadImage(tmp.File("rgb.png")).data, rgb.data);
   // A colour PNG is not a depth map; a damaged image stream is an error naming the file.
   int w, h;
-  EXPECT_NE(testing::ErrorOf([&] { ReadPng16(tmp.File("rgb.png"), &w, &h); }).find("expected a single-channel PNG, got 3"),
-            std::string::npos);
+  EXPECT_NE(
+      testing::ErrorOf([&] { ReadPng16(tmp.File("rgb.png"), &w, &h); }).find("expected a single-channel PNG, got 3"),
+      std::string::npos);
   std::vector<uint8_t> buf;
   cv::imencode(".png", g16, buf, {cv::IMWRITE_PNG_COMPRESSION, 0});
   for (size_t i = 100; i < 400; ++i) buf[i] ^= 0x5A;  // inside IDAT: CRC and zlib errors

@@ -23,7 +23,8 @@ namespace {
 
 std::string ReadText(const std::string& path) {
   std::error_code ec;
-  FREELOC_CHECK(fs::is_regular_file(path, ec), path << ": not a readable file; check that the scene folder is complete");
+  FREELOC_CHECK(fs::is_regular_file(path, ec),
+                path << ": not a readable file; check that the scene folder is complete");
   std::ifstream f(path, std::ios::binary);
   FREELOC_CHECK(f.good(), path << ": cannot read; check that the scene folder is complete");
   std::stringstream ss;

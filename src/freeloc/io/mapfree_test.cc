@@ -159,7 +159,8 @@ TEST(MultiFrame, FrameNumbersAndWindowsByLinearPosition) {
   // 25 frames whose numbers skip (as val s00470: the first evaluated frame is frame_00011), listed out of order.
   testing::TempDir tmp;
   const std::string dir = tmp.path() + "/s00470";
-  std::vector<int> numbers = {0, 1, 3, 5, 6, 7, 8, 9, 10, 11, 12, 14, 15, 16, 17, 18, 19, 20, 21, 22, 30, 31, 32, 33, 34};
+  std::vector<int> numbers = {0,  1,  3,  5,  6,  7,  8,  9,  10, 11, 12, 14, 15,
+                              16, 17, 18, 19, 20, 21, 22, 30, 31, 32, 33, 34};
   std::string k = "seq0/frame_00000.jpg 500 500 270 360 540 720\n", p;
   for (auto it = numbers.rbegin(); it != numbers.rend(); ++it) {
     char name[64];

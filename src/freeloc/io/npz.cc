@@ -137,9 +137,9 @@ NpyArray ParseNpy(const uint8_t* b, size_t n, const std::string& what) {
   const size_t es = DTypeSize(dt);
   const size_t data_start = hstart + hlen;
   const int64_t need = CheckedMul(numel, static_cast<int64_t>(es), what);
-  FREELOC_CHECK(static_cast<uint64_t>(need) <= n - data_start,
-                what << ": .npy data holds " << (n - data_start) << " bytes, shape needs " << need
-                     << "; the file is truncated");
+  FREELOC_CHECK(static_cast<uint64_t>(need) <= n - data_start, what << ": .npy data holds " << (n - data_start)
+                                                                    << " bytes, shape needs " << need
+                                                                    << "; the file is truncated");
   // Values are held as doubles: a 1-byte dtype costs 8x its file size, so the element count is bounded too.
   FREELOC_CHECK(numel <= Limits().max_zip_member_bytes / 8,
                 what << ": " << numel << " elements would take " << numel * 8 << " bytes as doubles, beyond the "
@@ -171,8 +171,8 @@ std::map<std::string, NpyArray> ReadNpz(const std::string& path) {
   std::unique_ptr<zip_t, void (*)(zip_t*)> guard(z, [](zip_t* p) { zip_discard(p); });
   std::map<std::string, NpyArray> out;
   const zip_int64_t entries = zip_get_num_entries(z, 0);
-  FREELOC_CHECK(entries <= Limits().max_tensors, path << ": " << entries << " arrays; refused ("
-                                                      << LimitHint("max_tensors") << ")");
+  FREELOC_CHECK(entries <= Limits().max_tensors,
+                path << ": " << entries << " arrays; refused (" << LimitHint("max_tensors") << ")");
   uint64_t expanded = 0;
   for (zip_int64_t i = 0; i < entries; ++i) {
     const char* raw_name = zip_get_name(z, i, 0);

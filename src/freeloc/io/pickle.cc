@@ -65,13 +65,39 @@ bool IsAllowedPickleGlobal(const std::string& module, const std::string& name) {
       {"pathlib", "WindowsPath"},
       {"pathlib", "PureWindowsPath"},
   };
-  static const std::set<std::string> kBuiltins = {"set",   "frozenset", "list",  "tuple", "dict",      "slice", "int",
-                                                  "float", "bool",      "str",   "bytes", "bytearray", "complex", "object"};
-  static const std::set<std::string> kTorchTypes = {
-      "FloatStorage", "DoubleStorage", "HalfStorage", "BFloat16Storage", "LongStorage", "IntStorage", "ShortStorage",
-      "CharStorage", "ByteStorage", "BoolStorage", "float32", "float64", "float16", "bfloat16", "int64", "int32",
-      "int16", "int8", "uint8", "bool", "float", "double", "half", "long", "int", "short", "contiguous_format",
-      "channels_last", "preserve_format", "strided"};
+  static const std::set<std::string> kBuiltins = {"set",   "frozenset", "list",    "tuple", "dict",
+                                                  "slice", "int",       "float",   "bool",  "str",
+                                                  "bytes", "bytearray", "complex", "object"};
+  static const std::set<std::string> kTorchTypes = {"FloatStorage",
+                                                    "DoubleStorage",
+                                                    "HalfStorage",
+                                                    "BFloat16Storage",
+                                                    "LongStorage",
+                                                    "IntStorage",
+                                                    "ShortStorage",
+                                                    "CharStorage",
+                                                    "ByteStorage",
+                                                    "BoolStorage",
+                                                    "float32",
+                                                    "float64",
+                                                    "float16",
+                                                    "bfloat16",
+                                                    "int64",
+                                                    "int32",
+                                                    "int16",
+                                                    "int8",
+                                                    "uint8",
+                                                    "bool",
+                                                    "float",
+                                                    "double",
+                                                    "half",
+                                                    "long",
+                                                    "int",
+                                                    "short",
+                                                    "contiguous_format",
+                                                    "channels_last",
+                                                    "preserve_format",
+                                                    "strided"};
   if (kAllowed.count({module, name})) return true;
   if (module == "builtins" || module == "__builtin__") return kBuiltins.count(name) > 0;
   if (module == "torch") return kTorchTypes.count(name) > 0;
@@ -381,7 +407,13 @@ class Unpickler {
  public:
   Unpickler(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& pl, const ReduceHook& rh,
             const PickleLimits& limits)
-      : p_(data), end_(data + size), begin_(data), what_(what), persistent_load_(pl), reduce_hook_(rh), limits_(limits) {}
+      : p_(data),
+        end_(data + size),
+        begin_(data),
+        what_(what),
+        persistent_load_(pl),
+        reduce_hook_(rh),
+        limits_(limits) {}
   Unpickler(const Unpickler&) = delete;
   Unpickler& operator=(const Unpickler&) = delete;
   // A stream refused half-way may have built reference cycles (a list appended to itself): cut every container's
@@ -421,8 +453,8 @@ class Unpickler {
           return root;
         }
         case '(':
-          FREELOC_CHECK(marks_.size() < limits_.max_objects, what_ << ": pickle opens more than "
-                                                                   << limits_.max_objects << " MARKs; refused");
+          FREELOC_CHECK(marks_.size() < limits_.max_objects,
+                        what_ << ": pickle opens more than " << limits_.max_objects << " MARKs; refused");
           marks_.push_back(stack_.size());
           break;
         case '0': Pop(); break;
@@ -698,8 +730,8 @@ class Unpickler {
     stack_.push_back(std::move(v));
   }
   void Memo(size_t k) {
-    FREELOC_CHECK(memo_.size() < limits_.max_objects, what_ << ": pickle memo exceeds " << limits_.max_objects
-                                                            << " entries; refused as a memory bomb");
+    FREELOC_CHECK(memo_.size() < limits_.max_objects,
+                  what_ << ": pickle memo exceeds " << limits_.max_objects << " entries; refused as a memory bomb");
     memo_[k] = Top();
   }
   PyRef Track(PyRef o) {
@@ -739,8 +771,8 @@ class Unpickler {
         const PyObject* c = f.children[f.next++];
         auto [it, fresh] = info.try_emplace(c);
         if (fresh) {
-          FREELOC_CHECK(stack.size() < limits_.max_depth, what_ << ": pickle objects nest more than "
-                                                                << limits_.max_depth << " deep; refused");
+          FREELOC_CHECK(stack.size() < limits_.max_depth,
+                        what_ << ": pickle objects nest more than " << limits_.max_depth << " deep; refused");
           stack.push_back({c, children_of(c)});
         } else {
           FREELOC_CHECK(it->second.done, what_ << ": pickle holds a reference cycle (a container inside itself); "

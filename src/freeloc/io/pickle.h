@@ -77,10 +77,10 @@ using ReduceHook = std::function<PyRef(const std::string& module, const std::str
 // What a pickle may cost. The defaults are far beyond any real checkpoint (a DUSt3R state dict is about
 // 10 000 objects, nested 6 deep); every limit hit is a one-line error naming the stream.
 struct PickleLimits {
-  size_t max_objects = 2'000'000;   // values pushed, also the stack and memo sizes (~250 bytes each)
-  size_t max_depth = 1000;          // container nesting
-  size_t max_expanded = 20'000'000; // objects seen by a walk that follows every shared reference (DAG bombs)
-  size_t max_long_bytes = 1024;     // LONG1/LONG4 integers (Python itself caps int→str at 4300 digits)
+  size_t max_objects = 2'000'000;    // values pushed, also the stack and memo sizes (~250 bytes each)
+  size_t max_depth = 1000;           // container nesting
+  size_t max_expanded = 20'000'000;  // objects seen by a walk that follows every shared reference (DAG bombs)
+  size_t max_long_bytes = 1024;      // LONG1/LONG4 integers (Python itself caps int→str at 4300 digits)
 };
 
 // The classes a checkpoint may name by GLOBAL/STACK_GLOBAL (torch's tensor rebuilders and storage types, dtypes,

@@ -67,14 +67,15 @@ void CheckMagic(const MappedFile& bytes, const std::string& path) {
 }
 
 // The view (offset, size, stride) of a storage, checked to lie inside it; strided views are copied to contiguous.
-TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> shape, const std::vector<int64_t>& stride,
-                       const std::string& what, bool* contiguous) {
+TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> shape,
+                       const std::vector<int64_t>& stride, const std::string& what, bool* contiguous) {
   TensorView t;
   t.dtype = st.dtype;
   t.shape = std::move(shape);
   FREELOC_CHECK(stride.size() == t.shape.size(), what << ": tensor size and stride differ in length");
-  FREELOC_CHECK(offset >= 0 && offset <= st.numel, what << ": storage offset " << offset << " lies outside its storage of "
-                                                        << st.numel << " elements; the checkpoint is damaged");
+  FREELOC_CHECK(offset >= 0 && offset <= st.numel, what << ": storage offset " << offset
+                                                        << " lies outside its storage of " << st.numel
+                                                        << " elements; the checkpoint is damaged");
   const int64_t numel = CheckedNumel(t.shape, what);
   // Extent check, overflow-safe: every addressed element must lie inside the storage.
   int64_t max_index = offset;
@@ -86,9 +87,9 @@ TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> s
     expect = CheckedMul(expect, t.shape[d], what);
     if (t.shape[d] > 0) max_index = CheckedAdd(max_index, CheckedMul(t.shape[d] - 1, stride[d], what), what);
   }
-  FREELOC_CHECK(numel == 0 || max_index < st.numel,
-                what << ": tensor view (offset " << offset << ", size " << t.ShapeString()
-                     << ") reaches past its storage of " << st.numel << " elements; the checkpoint is damaged");
+  FREELOC_CHECK(numel == 0 || max_index < st.numel, what << ": tensor view (offset " << offset << ", size "
+                                                         << t.ShapeString() << ") reaches past its storage of "
+                                                         << st.numel << " elements; the checkpoint is damaged");
   const size_t es = DTypeSize(st.dtype);
   t.nbytes = static_cast<size_t>(CheckedMul(numel, static_cast<int64_t>(es), what));
   // A strided view is copied out. A transposed or sliced one addresses at most its storage's elements; one that
@@ -97,8 +98,9 @@ TensorView StorageView(const Storage& st, int64_t offset, std::vector<int64_t> s
   constexpr int64_t kMaxExpanded = int64_t{64} << 20;
   FREELOC_CHECK(*contiguous || numel <= st.numel || static_cast<int64_t>(t.nbytes) <= kMaxExpanded,
                 what << ": tensor view " << t.ShapeString() << " would expand " << st.numel << " stored elements into "
-                     << t.nbytes << " bytes (limit: its storage's size, or 64 MiB); the checkpoint is damaged or "
-                                    "hostile");
+                     << t.nbytes
+                     << " bytes (limit: its storage's size, or 64 MiB); the checkpoint is damaged or "
+                        "hostile");
   if (*contiguous) {
     t.data = st.bytes->data() + static_cast<size_t>(offset) * es;
     t.owner = st.bytes;
@@ -150,8 +152,8 @@ class PthReader {
     std::vector<uint8_t> bo;
     if (ReadRecord(prefix_ + "byteorder", &bo)) {
       const std::string order(bo.begin(), bo.end());
-      FREELOC_CHECK(order == "little",
-                    path_ << ": checkpoint byte order is '" << order << "'; only little-endian checkpoints are supported");
+      FREELOC_CHECK(order == "little", path_ << ": checkpoint byte order is '" << order
+                                             << "'; only little-endian checkpoints are supported");
     }
     std::vector<uint8_t> pkl;
     ReadRecord(prefix_ + "data.pkl", &pkl);
@@ -231,8 +233,8 @@ class PthReader {
       const int64_t need = CheckedMul(st.numel, static_cast<int64_t>(DTypeSize(st.dtype)),
                                       path_ + ": storage record '" + rec + "' size");
       FREELOC_CHECK(st.bytes->size() >= static_cast<uint64_t>(need),
-                    path_ << ": storage record '" << rec << "' holds " << st.bytes->size() << " bytes, but "
-                          << st.numel << " elements of " << DTypeName(st.dtype) << " need " << need
+                    path_ << ": storage record '" << rec << "' holds " << st.bytes->size() << " bytes, but " << st.numel
+                          << " elements of " << DTypeName(st.dtype) << " need " << need
                           << "; re-download the checkpoint");
       storages_.emplace(key->s, st);
     } else {

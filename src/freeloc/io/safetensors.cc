@@ -50,14 +50,13 @@ struct HeaderBounds {
 };
 
 // One tensor entry of the header: dtype, shape and data_offsets checked against each other and the data size.
-TensorView ParseEntry(const nlohmann::json& entry, const std::string& where, const std::string& fix,
-                      uint64_t data_size, uint64_t* begin, uint64_t* end) {
+TensorView ParseEntry(const nlohmann::json& entry, const std::string& where, const std::string& fix, uint64_t data_size,
+                      uint64_t* begin, uint64_t* end) {
   FREELOC_CHECK(entry.is_object(), where << "entry is not an object" << fix);
   FREELOC_CHECK(entry.contains("dtype") && entry["dtype"].is_string(), where << "missing dtype" << fix);
   FREELOC_CHECK(entry.contains("shape") && entry["shape"].is_array(), where << "missing shape" << fix);
-  FREELOC_CHECK(
-      entry.contains("data_offsets") && entry["data_offsets"].is_array() && entry["data_offsets"].size() == 2,
-      where << "missing data_offsets [begin, end]" << fix);
+  FREELOC_CHECK(entry.contains("data_offsets") && entry["data_offsets"].is_array() && entry["data_offsets"].size() == 2,
+                where << "missing data_offsets [begin, end]" << fix);
   TensorView t;
   const std::string dt = entry["dtype"].get<std::string>();
   FREELOC_CHECK(DTypeFromName(dt, &t.dtype),
@@ -128,9 +127,8 @@ SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::s
     FREELOC_THROW(bad << "header is not valid JSON (" << e.what() << ")" << fix);
   }
   FREELOC_CHECK(bounds.depth_exceeded == false, bad << "header nests deeper than a safetensors header does" << fix);
-  FREELOC_CHECK(bounds.values <= bounds.max_values, what << ": safetensors header holds more than "
-                                                         << bounds.max_values << " values; refused ("
-                                                         << LimitHint("max_tensors") << ")");
+  FREELOC_CHECK(bounds.values <= bounds.max_values, what << ": safetensors header holds more than " << bounds.max_values
+                                                         << " values; refused (" << LimitHint("max_tensors") << ")");
   FREELOC_CHECK(well_formed, bad << "header is not valid JSON (" << bounds.error << ")" << fix);
   nlohmann::json header;
   try {
@@ -162,9 +160,9 @@ SafetensorsFile SafetensorsFile::Parse(const uint8_t* bytes, size_t size, std::s
     t.owner = owner;
     ranges.push_back({b, e, name});
     f.tensors.emplace(name, std::move(t));
-    FREELOC_CHECK(static_cast<int64_t>(f.tensors.size()) <= Limits().max_tensors,
-                  what << ": more than " << Limits().max_tensors << " tensors; refused (" << LimitHint("max_tensors")
-                       << ")");
+    FREELOC_CHECK(
+        static_cast<int64_t>(f.tensors.size()) <= Limits().max_tensors,
+        what << ": more than " << Limits().max_tensors << " tensors; refused (" << LimitHint("max_tensors") << ")");
   }
   // Names in file (data) order, as they were written.
   std::vector<Range> order = ranges;

@@ -110,8 +110,8 @@ ZipContents ZipContents::Read(const std::string& path) {
     CheckZipMemberSize(st.size, st.comp_size, st.comp_method == ZIP_CM_STORE, path + ": member " + SafeText(name));
     total += st.size;
     FREELOC_CHECK(total <= static_cast<uint64_t>(Limits().max_submission_bytes),
-                  path << ": member " << SafeText(name) << " takes the contents past " << total
-                       << " bytes, beyond the " << LimitHint("max_submission_bytes"));
+                  path << ": member " << SafeText(name) << " takes the contents past " << total << " bytes, beyond the "
+                       << LimitHint("max_submission_bytes"));
     std::string data(static_cast<size_t>(st.size), '\0');
     if (st.size > 0) {
       zip_file_t* f = zip_fopen_index(z, i, 0);

@@ -20,10 +20,10 @@
 #include <algorithm>
 #include <chrono>
 #include <climits>
-#include <cstring>
-#include <memory>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <memory>
 #include <thread>
 
 #include "freeloc/core/checked_math.h"
@@ -54,8 +54,8 @@ bool CpuHasVnni() {
 
 namespace {
 
-constexpr int kLanes = 16;       // database points per block
-constexpr int kRows = 8;         // queries per register block
+constexpr int kLanes = 16;        // database points per block
+constexpr int kRows = 8;          // queries per register block
 constexpr int kTileBlocks = 256;  // blocks per cache tile (4096 points)
 // int8 layout: a block is a 4×4-pixel square; a super-block (the unit the bound prunes) a kSuperPx × kSuperPx tile.
 constexpr int kSuperPx = 8;
@@ -78,8 +78,9 @@ struct Candidate {
 };
 
 void CheckView(const DescriptorView& v, const char* which) {
-  FREELOC_CHECK(v.desc != nullptr && v.height > 0 && v.width > 0 && v.dim > 0,
-                "fast NN: " << which << " descriptors are empty (" << v.width << "x" << v.height << "x" << v.dim << ")");
+  FREELOC_CHECK(
+      v.desc != nullptr && v.height > 0 && v.width > 0 && v.dim > 0,
+      "fast NN: " << which << " descriptors are empty (" << v.width << "x" << v.height << "x" << v.dim << ")");
   const int64_t pixels = CheckedMul(v.height, v.width, "descriptor map");
   FREELOC_CHECK(pixels < (int64_t{1} << 30), "fast NN: " << which << " has " << pixels << " pixels; too many");
   (void)CheckedMul(pixels, v.dim, "descriptor map");
@@ -153,12 +154,14 @@ class Database {
     std::vector<std::vector<Candidate>> cand(static_cast<size_t>(nt));
     std::vector<double> best_screen(static_cast<size_t>(n), -std::numeric_limits<double>::infinity());
     std::vector<double> thr(static_cast<size_t>(n));
-    if (int8_) ScreenInt8All(queries, nt, &cand, &best_screen, &thr);
-    else ScreenFloatAll(queries, nt, &cand, &best_screen, &thr);
+    if (int8_)
+      ScreenInt8All(queries, nt, &cand, &best_screen, &thr);
+    else
+      ScreenFloatAll(queries, nt, &cand, &best_screen, &thr);
     // Exact scoring of the candidates within 2ε of the best screened value, each thread its own list, combined with ⊕
     // (any order gives the same answer).
-    std::vector<std::vector<double>> bv(static_cast<size_t>(nt), std::vector<double>(static_cast<size_t>(n),
-                                                                                    -std::numeric_limits<double>::infinity()));
+    std::vector<std::vector<double>> bv(
+        static_cast<size_t>(nt), std::vector<double>(static_cast<size_t>(n), -std::numeric_limits<double>::infinity()));
     std::vector<std::vector<int>> bi(static_cast<size_t>(nt), std::vector<int>(static_cast<size_t>(n), -1));
     std::vector<int64_t> scored_t(static_cast<size_t>(nt), 0);
     RunOnThreads(nt, [&](int t) {
@@ -260,8 +263,8 @@ class Database {
       if (!count[static_cast<size_t>(sb)]) continue;
       std::vector<float> c(static_cast<size_t>(Dp));
       for (int d = 0; d < Dp; ++d) {
-        c[static_cast<size_t>(d)] =
-            static_cast<float>(static_cast<double>(sum[static_cast<size_t>(sb) * Dp + d]) / count[static_cast<size_t>(sb)]);
+        c[static_cast<size_t>(d)] = static_cast<float>(static_cast<double>(sum[static_cast<size_t>(sb) * Dp + d]) /
+                                                       count[static_cast<size_t>(sb)]);
         sup_c_[static_cast<size_t>(d) * nsup_ + sb] = c[static_cast<size_t>(d)];  // dimension-major
       }
       // float arithmetic (24 squares of values below 255: relative error < 1e-5), covered by the rounding up below.
@@ -286,7 +289,8 @@ class Database {
 
   // Every kSampleStride-th block, screened first to give each query a running maximum close to its final one
   // (a real screened value, so never above it): far fewer stale candidates are recorded on the full scan.
-  static constexpr int kSampleStride = 8;  // 1/8 more screening; fewer stale records, more tiles skipped (bench/matching)
+  static constexpr int kSampleStride =
+      8;  // 1/8 more screening; fewer stale records, more tiles skipped (bench/matching)
   void PackSample8() {
     const size_t bytes = static_cast<size_t>(D4_) * 64;
     for (int b = 0; b < nblk8_; b += kSampleStride) {
@@ -351,7 +355,8 @@ void RecordLanes(const T* lanes, uint32_t mask, int b, const int32_t* pix, const
 }
 
 // What one int8 scan needs. The database is laid out in tiles: a block is a 4×4 pixel square (16 lanes), a super-block
-// the blocks of a kSuperPx × kSuperPx tile; `pix` maps block·16 + lane to the pixel (−1: padding beyond the image edge).
+// the blocks of a kSuperPx × kSuperPx tile; `pix` maps block·16 + lane to the pixel (−1: padding beyond the image
+// edge).
 struct Int8Scan {
   const uint8_t* packed;
   int D4;
@@ -378,8 +383,9 @@ struct Int8Scan {
 
 // Blocks [b_from, b_to) for the query rows q0 … q0 + kRows − 1 (r of them real).
 template <int kD4>
-__attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline void ScanBlocks(
-    const Int8Scan& s, int q0, int r, int32_t* limit, int b_from, int b_to) {
+__attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline void ScanBlocks(const Int8Scan& s, int q0,
+                                                                                             int r, int32_t* limit,
+                                                                                             int b_from, int b_to) {
   const int D4 = kD4 > 0 ? kD4 : s.D4;
   const int32_t* qb = s.q32 + static_cast<size_t>(q0) * D4;
   int b = b_from;
@@ -404,7 +410,8 @@ __attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline voi
     __m512i over = _mm512_sub_epi32(_mm512_max_epi32(acc[0], acc[kRows]), _mm512_set1_epi32(limit[0]));
 #pragma GCC unroll 16
     for (int i = 1; i < kRows; ++i)
-      over = _mm512_max_epi32(over, _mm512_sub_epi32(_mm512_max_epi32(acc[i], acc[kRows + i]), _mm512_set1_epi32(limit[i])));
+      over = _mm512_max_epi32(over,
+                              _mm512_sub_epi32(_mm512_max_epi32(acc[i], acc[kRows + i]), _mm512_set1_epi32(limit[i])));
     if (__builtin_expect(_mm512_cmpge_epi32_mask(over, _mm512_set1_epi32(0)) == 0, 1)) continue;
     // Slow path. The accumulators go to memory here (with constant indices), so that the hot loop keeps them in
     // registers.
@@ -447,8 +454,9 @@ __attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline voi
 // margin for the float arithmetic) — an upper bound of every value in it — is below the row's limit: then no value
 // there can come within thr of the row's final maximum, which is at least its running maximum.
 template <int kD4>
-__attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline void ScreenInt8RangeT(
-    const Int8Scan& s, int blk_begin, int blk_end) {
+__attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline void ScreenInt8RangeT(const Int8Scan& s,
+                                                                                                   int blk_begin,
+                                                                                                   int blk_end) {
   int32_t limit[kRows];
   for (int tb = blk_begin; tb < blk_end; tb += kTileBlocks) {
     const int te = std::min(blk_end, tb + kTileBlocks);
@@ -516,11 +524,12 @@ __attribute__((target("avx512f,avx512bw,avx512vnni"), always_inline)) inline voi
 template <typename T>
 void MergeRunningMax(const std::vector<std::vector<T>>& runmax, std::vector<double>* best) {
   for (const auto& per_thread : runmax)
-    for (size_t i = 0; i < per_thread.size(); ++i) (*best)[i] = std::max((*best)[i], static_cast<double>(per_thread[i]));
+    for (size_t i = 0; i < per_thread.size(); ++i)
+      (*best)[i] = std::max((*best)[i], static_cast<double>(per_thread[i]));
 }
 
 __attribute__((target("avx512f,avx512bw,avx512vnni"))) void ScreenInt8Range(const Int8Scan& s, int blk_begin,
-                                                                               int blk_end) {
+                                                                            int blk_end) {
   switch (s.D4) {
     case 2: return ScreenInt8RangeT<2>(s, blk_begin, blk_end);  // D ≤ 8
     case 4: return ScreenInt8RangeT<4>(s, blk_begin, blk_end);  // D ≤ 16
@@ -589,11 +598,19 @@ void Database::ScreenInt8All(const std::vector<const float*>& queries, int nt,
     // those blocks again).
     std::vector<Candidate> discard;
     const int s0 = (b0 + kSampleStride - 1) / kSampleStride, s1 = (b1 + kSampleStride - 1) / kSampleStride;
-    const Int8Scan sample{sample8_.data(), D4_, sample_pix_.data(), valid_.data(), M_, q32.data(), thr_i.data(),
-                          n, rm, &discard};
+    const Int8Scan sample{sample8_.data(), D4_, sample_pix_.data(), valid_.data(), M_, q32.data(), thr_i.data(), n, rm,
+                          &discard};
     ScreenInt8Range(sample, s0, s1);
-    Int8Scan full{packed8_.data(), D4_, pix_.data(), valid_.data(), M_, q32.data(), thr_i.data(),
-                  n, rm, &(*cand)[static_cast<size_t>(t)]};
+    Int8Scan full{packed8_.data(),
+                  D4_,
+                  pix_.data(),
+                  valid_.data(),
+                  M_,
+                  q32.data(),
+                  thr_i.data(),
+                  n,
+                  rm,
+                  &(*cand)[static_cast<size_t>(t)]};
     full.sup_cT = sup_c_.data();
     full.nsup = nsup_;
     full.sup_r = sup_r_.data();
@@ -622,8 +639,8 @@ typedef float V8f __attribute__((vector_size(32)));
 // it, SSE2 otherwise).
 constexpr int kFloatRows = 4;
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void ScreenFloatRange(
-    const float* packed, int D, int blk_begin, int blk_end, int M, const char* valid, const float* qs,
-    const float* thr, int n, float* runmax, std::vector<Candidate>* out) {
+    const float* packed, int D, int blk_begin, int blk_end, int M, const char* valid, const float* qs, const float* thr,
+    int n, float* runmax, std::vector<Candidate>* out) {
   alignas(64) float lanes[kLanes];
   float limit[kFloatRows];
   for (int tb = blk_begin; tb < blk_end; tb += kTileBlocks) {
@@ -682,14 +699,13 @@ void Database::ScreenFloatAll(const std::vector<const float*>& queries, int nt,
     thr_f[static_cast<size_t>(i)] = static_cast<float>(t);
     (*thr)[static_cast<size_t>(i)] = static_cast<float>(t) * 1.0000005;
   }
-  std::vector<std::vector<float>> runmax(static_cast<size_t>(nt), std::vector<float>(static_cast<size_t>(n),
-                                                                                     -std::numeric_limits<float>::max()));
+  std::vector<std::vector<float>> runmax(
+      static_cast<size_t>(nt), std::vector<float>(static_cast<size_t>(n), -std::numeric_limits<float>::max()));
   auto work = [&](int t) {
     const int b0 = static_cast<int>(static_cast<int64_t>(nblk_) * t / nt);
     const int b1 = static_cast<int>(static_cast<int64_t>(nblk_) * (t + 1) / nt);
     ScreenFloatRange(packedf_.data(), D_, b0, b1, M_, valid_.data(), qs.data(), thr_f.data(), n,
-                     runmax[static_cast<size_t>(t)].data(),
-                     &(*cand)[static_cast<size_t>(t)]);
+                     runmax[static_cast<size_t>(t)].data(), &(*cand)[static_cast<size_t>(t)]);
   };
   RunOnThreads(nt, work);
   MergeRunningMax(runmax, best);
@@ -712,8 +728,10 @@ std::vector<PixelMatch> Run(const DescriptorView& v1, const DescriptorView& v2, 
   std::thread packer;
   if (Threads(o.threads) > 1) packer = std::thread([&] { pack1 = std::make_unique<Database>(v1, kernel); });
   const Database db2(v2, kernel);  // answers NN₂ (view-1 queries)
-  if (packer.joinable()) packer.join();
-  else pack1 = std::make_unique<Database>(v1, kernel);
+  if (packer.joinable())
+    packer.join();
+  else
+    pack1 = std::make_unique<Database>(v1, kernel);
   const Database& db1 = *pack1;  // answers NN₁  // db2 answers NN₂ (view-1 queries), db1 answers NN₁
   st.kernel = exhaustive ? "exhaustive" : db2.int8() ? "int8-vnni" : "float32";
   st.invalid_pixels = db1.invalid() + db2.invalid();
@@ -730,7 +748,8 @@ std::vector<PixelMatch> Run(const DescriptorView& v1, const DescriptorView& v2, 
     }
   // Memoised lookups: NN₂ of a view-1 pixel, NN₁ of a view-2 pixel (−2 = not computed yet).
   std::vector<int> nn2(static_cast<size_t>(db1.size()), -2), nn1(static_cast<size_t>(db2.size()), -2);
-  auto lookup = [&](const std::vector<int>& from, const DescriptorView& qv, const Database& db, std::vector<int>* memo) {
+  auto lookup = [&](const std::vector<int>& from, const DescriptorView& qv, const Database& db,
+                    std::vector<int>* memo) {
     std::vector<int> todo;
     for (int p : from)
       if ((*memo)[static_cast<size_t>(p)] == -2) {
@@ -830,8 +849,8 @@ std::vector<PixelMatch> FastReciprocalNNBruteForce(const DescriptorView& view1, 
   return Run(view1, view2, options, stats, true);
 }
 
-std::vector<PixelMatch> FilterDescriptorMatches(const std::vector<PixelMatch>& matches, int w1, int h1, int w2,
-                                                int h2, const DescriptorMatchFilter& f) {
+std::vector<PixelMatch> FilterDescriptorMatches(const std::vector<PixelMatch>& matches, int w1, int h1, int w2, int h2,
+                                                const DescriptorMatchFilter& f) {
   f.Validate();
   const int b = f.border;
   std::vector<PixelMatch> out;

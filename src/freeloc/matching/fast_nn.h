@@ -40,12 +40,12 @@ struct FastNnStats {
   std::vector<int32_t> seeds;        // flat view-1 indices y·W₁ + x, ascending
   std::vector<int64_t> query_sizes;  // upstream's logical NN call sizes, in order
   int rounds = 0;
-  int dropped = 0;          // seeds not converged within max_rounds (or with no valid neighbour)
-  int invalid_pixels = 0;   // descriptors with a NaN/inf component (never selected, never seeded)
-  int64_t lookups = 0;      // NN lookups actually computed (after memoisation and deduplication)
-  int64_t candidates = 0;   // database points scored exactly after screening
+  int dropped = 0;           // seeds not converged within max_rounds (or with no valid neighbour)
+  int invalid_pixels = 0;    // descriptors with a NaN/inf component (never selected, never seeded)
+  int64_t lookups = 0;       // NN lookups actually computed (after memoisation and deduplication)
+  int64_t candidates = 0;    // database points scored exactly after screening
   double tiles_skipped = 0;  // int8 kernel: fraction of (8-query group, 16×16-pixel tile) pairs its bound skipped
-  std::string kernel;       // "int8-vnni" or "float32"
+  std::string kernel;        // "int8-vnni" or "float32"
   double ms = 0;
 };
 
@@ -66,8 +66,8 @@ struct DescriptorMatchFilter {
   double min_conf = 0;
   void Validate() const;
 };
-std::vector<PixelMatch> FilterDescriptorMatches(const std::vector<PixelMatch>& matches, int w1, int h1, int w2,
-                                                int h2, const DescriptorMatchFilter& filter);
+std::vector<PixelMatch> FilterDescriptorMatches(const std::vector<PixelMatch>& matches, int w1, int h1, int w2, int h2,
+                                                const DescriptorMatchFilter& filter);
 
 // Whether this CPU runs the int8 VNNI screening kernel.
 bool CpuHasVnni();

@@ -38,7 +38,8 @@ TEST(FastNn, EqualsUpstreamOnEveryFixtureList) {
   FREELOC_REQUIRE_SHARED("fixtures/mast3r/cases/land_s128.safetensors");
   int lists = 0;
   for (const char* name : {"land_s128", "mixed_s80", "odd_s112"}) {
-    const SafetensorsFile f = SafetensorsFile::Open(SharedPath(std::string("fixtures/mast3r/cases/") + name + ".safetensors"));
+    const SafetensorsFile f =
+        SafetensorsFile::Open(SharedPath(std::string("fixtures/mast3r/cases/") + name + ".safetensors"));
     const DescriptorView a = ViewOf(f.Get("pred1.desc"), f.Get("pred1.desc_conf"));
     const DescriptorView b = ViewOf(f.Get("pred2.desc"), f.Get("pred2.desc_conf"));
     for (int S : {8, 4}) {
@@ -130,7 +131,8 @@ TEST(FastNn, EqualsExhaustiveReferenceOnRandomDescriptors) {
         if (std::isfinite(d1[i])) mean[i % c.d] += d1[i];
       double n = 0;
       for (double m : mean) n += m * m;
-      for (size_t i = 0; i < d2.size(); ++i) d2[i] = static_cast<float>(-2.0 * mean[i % c.d] / std::sqrt(n) + 0.1 * d2[i]);
+      for (size_t i = 0; i < d2.size(); ++i)
+        d2[i] = static_cast<float>(-2.0 * mean[i % c.d] / std::sqrt(n) + 0.1 * d2[i]);
     }
     const DescriptorView a{d1.data(), nullptr, c.h1, c.w1, c.d}, b{d2.data(), nullptr, c.h2, c.w2, c.d};
     FastNnOptions o;

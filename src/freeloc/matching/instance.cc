@@ -9,7 +9,6 @@
 
 namespace freeloc::matching {
 
-
 void InstanceOptions::Validate() const {
   FREELOC_CHECK(crop_margin >= 0 && crop_margin <= 2, "instance matching: crop margin must be in [0, 2]");
   FREELOC_CHECK(min_mask_pixels >= 0 && min_matches >= 0, "instance matching: minimums must be >= 0");
@@ -137,9 +136,9 @@ Box ReferenceBox(const Image& ref, const std::vector<uint8_t>& mask, const Insta
 }  // namespace
 
 Dust3rInput InstanceReferenceInput(const Image& ref, const std::vector<uint8_t>& ref_mask, const InstanceOptions& o) {
-  FREELOC_CHECK(ref_mask.size() == ref.num_pixels(), "instance reference mask: " << ref_mask.size()
-                                                                                  << " pixels for a " << ref.width
-                                                                                  << "x" << ref.height << " image");
+  FREELOC_CHECK(ref_mask.size() == ref.num_pixels(), "instance reference mask: " << ref_mask.size() << " pixels for a "
+                                                                                 << ref.width << "x" << ref.height
+                                                                                 << " image");
   Image ir;
   std::vector<uint8_t> mr;
   Masked(ref, ref_mask, ReferenceBox(ref, ref_mask, o), &ir, &mr);

@@ -15,10 +15,10 @@
 
 #include "freeloc/core/enum_table.h"
 #include "freeloc/core/image.h"
-#include "freeloc/vision/dust3r_preprocess.h"
+#include "freeloc/matching/correspondences.h"
 #include "freeloc/matching/fast_nn.h"
 #include "freeloc/matching/reciprocal.h"
-#include "freeloc/matching/correspondences.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 
 namespace freeloc::matching {
 
@@ -40,7 +40,7 @@ struct InstanceMasks {
 // Pointmaps of a preprocessed pair: view 1's points and view 2's points in view 1's frame, with confidences; from a
 // MASt3R model also the dense descriptors and their confidence (empty otherwise).
 struct PairPointmaps {
-  std::vector<float> pts1, conf1, pts2, conf2;  // H×W×3 and H×W each
+  std::vector<float> pts1, conf1, pts2, conf2;              // H×W×3 and H×W each
   std::vector<float> desc1, desc_conf1, desc2, desc_conf2;  // H×W×D and H×W each (MASt3R)
   int h1 = 0, w1 = 0, h2 = 0, w2 = 0, desc_dim = 0;
 };

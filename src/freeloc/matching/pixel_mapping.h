@@ -5,9 +5,9 @@
 
 #include <vector>
 
-#include "freeloc/vision/dust3r_preprocess.h"
-#include "freeloc/matching/reciprocal.h"
 #include "freeloc/matching/correspondences.h"
+#include "freeloc/matching/reciprocal.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 
 namespace freeloc::matching {
 

@@ -15,8 +15,8 @@ namespace freeloc::networks {
 std::shared_ptr<void> LoadBoundNetwork(pipeline::BoundNetwork kind, const std::string& path, const std::string& config,
                                        const nn::RuntimeOptions& runtime);
 std::string BoundNetworkFamily(const std::shared_ptr<void>& network);
-pipeline::NamedTensors RunBoundPointmaps(const std::shared_ptr<void>& network, const Image& image_1, const Image& image_2,
-                               int size);
+pipeline::NamedTensors RunBoundPointmaps(const std::shared_ptr<void>& network, const Image& image_1,
+                                         const Image& image_2, int size);
 pipeline::NamedTensors RunBoundDepth(const std::shared_ptr<void>& network, const Image& image, const Camera& camera);
 std::vector<uint8_t> RunBoundSegment(const std::shared_ptr<void>& network, const std::vector<Image>& prompt_images,
                                      const std::vector<Image>& prompt_masks, const Image& target,

@@ -1,5 +1,7 @@
 // The work of the network commands `freeloc pointmap`, `segment` and `depth` (pipeline/networks.h); the CLI parses
 // their flags (cli/pointmap.cc, segment.cc, depth.cc) and calls these through the networks module.
+#include "freeloc/networks/commands.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -12,7 +14,6 @@
 #include "freeloc/matching/fast_nn.h"
 #include "freeloc/matching/pixel_mapping.h"
 #include "freeloc/matching/reciprocal.h"
-#include "freeloc/networks/commands.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
@@ -73,7 +74,8 @@ int Pointmap(const PointmapCommand& o) {
     for (size_t i = 0; i < kept.size(); ++i)
       orig.insert(orig.end(), {static_cast<float>(c.ref[i].x()), static_cast<float>(c.ref[i].y()),
                                static_cast<float>(c.query[i].x()), static_cast<float>(c.query[i].y())});
-    t.emplace_back("matches", MakeTensor(DType::kI32, {static_cast<int64_t>(raw.size()), 4}, net.data(), net.size() * 4));
+    t.emplace_back("matches",
+                   MakeTensor(DType::kI32, {static_cast<int64_t>(raw.size()), 4}, net.data(), net.size() * 4));
     t.emplace_back("matches_orig",
                    MakeTensor(DType::kF32, {static_cast<int64_t>(kept.size()), 4}, orig.data(), orig.size() * 4));
     std::string sizes;
@@ -129,15 +131,15 @@ int Pointmap(const PointmapCommand& o) {
   if (!match_info.empty()) meta["matching"] = match_info;
   WriteSafetensors(o.out, t, meta);
   std::printf("%s pointmaps %dx%d and %dx%d written to %s (encode %.0f ms, decode %.0f ms, heads %.0f ms)\n",
-              model->config().family(), a.width(),
-              a.height(), b.width(), b.height(), o.out.c_str(), pr.encode_ms, pr.decode_ms, pr.heads_ms);
+              model->config().family(), a.width(), a.height(), b.width(), b.height(), o.out.c_str(), pr.encode_ms,
+              pr.decode_ms, pr.heads_ms);
   return 0;
 }
 
 int Segment(const SegmentCommand& o) {
   FREELOC_CHECK(!o.prompt_images.empty() && o.prompt_images.size() == o.prompt_masks.size(),
                 "give one prompt mask per prompt image (got " << o.prompt_images.size() << " images and "
-                                                                  << o.prompt_masks.size() << " masks)");
+                                                              << o.prompt_masks.size() << " masks)");
   const nn::RuntimeOptions& rt = o.runtime;
   const auto model = nn::SegGptModel::Load(o.model, o.config, rt);
   std::vector<Image> pi, pm;

@@ -128,5 +128,4 @@ matching::PointmapFn CachingDust3r::Fn() {
   return [this](const Dust3rInput& a, const Dust3rInput& b) { return Run(a, b); };
 }
 
-
 }  // namespace freeloc::networks

@@ -6,11 +6,16 @@
 
 namespace {
 const freeloc::pipeline::NetworksApi kApi = {
-    freeloc::pipeline::kNetworksAbi,      freeloc::networks::MakeNetworkMatcher,
-    freeloc::networks::MakeNetworkDepthEstimator, freeloc::networks::Pointmap,
-    freeloc::networks::Segment,           freeloc::networks::Depth,
-    freeloc::networks::LoadBoundNetwork,  freeloc::networks::BoundNetworkFamily,
-    freeloc::networks::RunBoundPointmaps, freeloc::networks::RunBoundDepth,
+    freeloc::pipeline::kNetworksAbi,
+    freeloc::networks::MakeNetworkMatcher,
+    freeloc::networks::MakeNetworkDepthEstimator,
+    freeloc::networks::Pointmap,
+    freeloc::networks::Segment,
+    freeloc::networks::Depth,
+    freeloc::networks::LoadBoundNetwork,
+    freeloc::networks::BoundNetworkFamily,
+    freeloc::networks::RunBoundPointmaps,
+    freeloc::networks::RunBoundDepth,
     freeloc::networks::RunBoundSegment,
 };
 }  // namespace

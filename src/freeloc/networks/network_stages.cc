@@ -1,5 +1,7 @@
 // The network stages behind pipeline::MakeMatcher / MakeDepthEstimator (pipeline/stages.h), built into the networks
 // module (pipeline/networks.h) so that only presets that run a network load LibTorch.
+#include "freeloc/networks/network_stages.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -12,7 +14,6 @@
 #include "freeloc/matching/proposals.h"
 #include "freeloc/networks/dust3r_stage.h"
 #include "freeloc/networks/model_cache.h"
-#include "freeloc/networks/network_stages.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/instance_segmenter.h"
 #include "freeloc/nn/metric3d.h"
@@ -81,16 +82,16 @@ class Dust3rMatcher : public Matcher {
     const Dust3rInput& q_in = q_in_;
     const auto tp = std::chrono::steady_clock::now();
     last_ = fn_.Fn()(ref_in_, q_in);
-    r->pair_ms = MsSince(tp);
+    r->timings.pair_ms = MsSince(tp);
     have_last_ = true;
     have_swapped_ = false;
     std::vector<matching::Correspondence> merged = matching::GlobalCorrespondences(last_, ref_in_, q_in, instance_);
     r->global_matches = static_cast<int>(merged.size());
-    r->match_ms = MsSince(t0);
+    r->timings.match_ms = MsSince(t0);
     if (o_.UsesInstances() && !ref_masks_.empty()) {
       t0 = std::chrono::steady_clock::now();
       merged = MatchInstances(query, in, merged, r);
-      r->instance_ms = MsSince(t0);
+      r->timings.instance_ms = MsSince(t0);
     }
     matching::Correspondences c;
     for (const auto& m : merged) {
@@ -159,8 +160,7 @@ class Dust3rMatcher : public Matcher {
         pixels.emplace_back(xo, yo);
         points.emplace_back(p[0], p[1], p[2]);
       }
-    return geometry::FocalFromPointmap(pixels, points,
-                                       {(in.orig_width - 1) / 2.0, (in.orig_height - 1) / 2.0});
+    return geometry::FocalFromPointmap(pixels, points, {(in.orig_width - 1) / 2.0, (in.orig_height - 1) / 2.0});
   }
 
   // z of a network-resolution pointmap (view 1's own camera frame) at every pixel of the original image: the network
@@ -182,9 +182,8 @@ class Dust3rMatcher : public Matcher {
 
   static void CheckLabels(const std::vector<uint16_t>& labels, const Image& image, const char* frame) {
     FREELOC_CHECK(labels.size() == static_cast<size_t>(image.width) * image.height,
-                  "instance labels of the " << frame << ": " << labels.size() << " values for a " << image.width
-                                            << "x" << image.height
-                                            << " image; give a label image at the photo's resolution");
+                  "instance labels of the " << frame << ": " << labels.size() << " values for a " << image.width << "x"
+                                            << image.height << " image; give a label image at the photo's resolution");
   }
 
   // The (reference, query) mask pairs: the query's given labels with the same ids, or SegGPT's propagations.
@@ -211,22 +210,21 @@ class Dust3rMatcher : public Matcher {
                                                        QueryResult* r) {
     const auto ts = std::chrono::steady_clock::now();
     const std::vector<matching::InstanceMasks> pairs = InstancePairs(query, in);
-    r->segment_ms = o_.instance_source == InstanceSource::kGiven ? 0.0 : MsSince(ts);
+    r->timings.segment_ms = o_.instance_source == InstanceSource::kGiven ? 0.0 : MsSince(ts);
     // The masked pairs' network passes, timed and counted.
     const matching::PointmapFn model = fn_.Fn();
     const matching::PointmapFn timed = [&](const Dust3rInput& a, const Dust3rInput& b) {
       const auto t0 = std::chrono::steady_clock::now();
       matching::PairPointmaps pm = model(a, b);
-      r->instance_pass_ms += MsSince(t0);
-      ++r->instance_pairs;
+      r->timings.instance_pass_ms += MsSince(t0);
+      ++r->timings.instance_pairs;
       return pm;
     };
     std::vector<matching::InstanceResult> results;
     for (const auto& p : pairs) {
       results.push_back(matching::MatchInstance(ref_, query, p, timed, instance_));
       r->instances_used += results.back().used;
-      if (!results.back().used)
-        FREELOC_LOG(DEBUG) << "instance " << p.id << " not used: " << results.back().reason;
+      if (!results.back().used) FREELOC_LOG(DEBUG) << "instance " << p.id << " not used: " << results.back().reason;
     }
     r->instances = o_.instance_source == InstanceSource::kGiven ? static_cast<int>(pairs.size())
                                                                 : static_cast<int>(ref_masks_.size());

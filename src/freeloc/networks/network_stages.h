@@ -21,8 +21,9 @@ std::unique_ptr<pipeline::DepthEstimator> MakeNetworkDepthEstimator(const pipeli
 
 // The same stages on models already in memory (e.g. bench/relocalize's random full-size weights); the options'
 // model paths are not read. `seggpt` may be null when the matcher runs no SegGPT.
-std::unique_ptr<pipeline::Matcher> MakeNetworkMatcher(const pipeline::PipelineOptions& options, std::shared_ptr<nn::Dust3rModel> model,
-                                            std::shared_ptr<nn::SegGptModel> seggpt);
+std::unique_ptr<pipeline::Matcher> MakeNetworkMatcher(const pipeline::PipelineOptions& options,
+                                                      std::shared_ptr<nn::Dust3rModel> model,
+                                                      std::shared_ptr<nn::SegGptModel> seggpt);
 std::unique_ptr<pipeline::DepthEstimator> MakeNetworkDepthEstimator(std::shared_ptr<nn::Metric3dModel> model);
 
 }  // namespace freeloc::networks

@@ -80,13 +80,15 @@ TEST(Bf16, AccuracyCostOnTheParityFixtures) {
   const auto dust3r = Dust3rModel::Load(SharedPath("fixtures/dust3r/weights.safetensors"),
                                         SharedPath("fixtures/dust3r/config.json"), rt);
   for (const char* name : {"land_64x48", "png_s80", "png_s128"}) {
-    const SafetensorsFile f = SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
+    const SafetensorsFile f =
+        SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
     const auto view = [&](const char* k) {
       const TensorView& t = f.Get(k);
       return Dust3rView{t.as<float>(), static_cast<int>(t.shape[2]), static_cast<int>(t.shape[3])};
     };
     const Dust3rPrediction p = dust3r->Run(view("view1.img"), view("view2.img"));
-    const double e1 = RelRms(p.pts3d_1, f.Get("pred1.pts3d")), e2 = RelRms(p.pts3d_2, f.Get("pred2.pts3d_in_other_view"));
+    const double e1 = RelRms(p.pts3d_1, f.Get("pred1.pts3d")),
+                 e2 = RelRms(p.pts3d_2, f.Get("pred2.pts3d_in_other_view"));
     std::printf("bf16 DUSt3R %s: pts3d_1 %.2e, pts3d_2 %.2e relative RMS from the fp32 reference\n", name, e1, e2);
     EXPECT_LT(std::max(e1, e2), 3e-2) << name;
     EXPECT_GT(std::max(e1, e2), 1e-6) << name;  // bf16 did run
@@ -95,10 +97,10 @@ TEST(Bf16, AccuracyCostOnTheParityFixtures) {
                                         SharedPath("fixtures/seggpt/config.json"), rt);
   const SafetensorsFile s = SafetensorsFile::Open(SharedPath("fixtures/seggpt/cases/a_instance.safetensors"));
   const TensorView& imgs = s.Get("imgs");
-  const TensorView pred = seggpt->Forward(std::vector<float>(imgs.as<float>(), imgs.as<float>() + imgs.numel()),
-                                          std::vector<float>(s.Get("tgts").as<float>(),
-                                                             s.Get("tgts").as<float>() + s.Get("tgts").numel()),
-                                          static_cast<int>(imgs.shape[0]), SegType::kInstance, false);
+  const TensorView pred =
+      seggpt->Forward(std::vector<float>(imgs.as<float>(), imgs.as<float>() + imgs.numel()),
+                      std::vector<float>(s.Get("tgts").as<float>(), s.Get("tgts").as<float>() + s.Get("tgts").numel()),
+                      static_cast<int>(imgs.shape[0]), SegType::kInstance, false);
   const double es = RelRms(pred, s.Get("pred"));
   std::printf("bf16 SegGPT a_instance: pred %.2e relative RMS from the fp32 reference\n", es);
   EXPECT_LT(es, 3e-2);

@@ -139,7 +139,6 @@ void AddSecondDecoder(std::map<std::string, torch::Tensor>* tensors) {
 
 }  // namespace
 
-
 class Dust3rModel::Encoding {
  public:
   torch::Tensor tokens;  // [1, N, C] after enc_norm

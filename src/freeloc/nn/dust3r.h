@@ -2,9 +2,10 @@
 // decoders updated simultaneously with cross-attention, two DPT heads, pts3d/conf postprocessing
 // (spec/dust3r.md §4). The same class runs MASt3R (AsymmetricMASt3R, naver/mast3r; spec/mast3r.md §2): DUSt3R's
 // trunk plus the 'catmlp+dpt' local-feature head (per-token MLP on [encoder ‖ decoder] tokens, pixel-shuffled to
-// dense unit descriptors and their confidence), chosen from the checkpoint. Native portrait and mixed shapes; different token counts per view. The encoder output of
-// a view can be cached and reused against many others (`Encode` once, `Decode` per query). Torch-free interface:
-// inputs are normalised CHW floats (vision/dust3r_preprocess.h), outputs float32 TensorViews.
+// dense unit descriptors and their confidence), chosen from the checkpoint. Native portrait and mixed shapes; different
+// token counts per view. The encoder output of a view can be cached and reused against many others (`Encode` once,
+// `Decode` per query). Torch-free interface: inputs are normalised CHW floats (vision/dust3r_preprocess.h), outputs
+// float32 TensorViews.
 #pragma once
 
 #include <map>
@@ -50,8 +51,9 @@ class Dust3rModel {
   class Encoding;
 
   // `model_path`: the official .pth, an HF model.safetensors (config.json beside it is read when present; bare
-  // Infinity tokens accepted), or any safetensors with DUSt3R/MASt3R key names. `config_path` (optional): a config.json with the constructor arguments
-  // (top level, or under "constructor_args"). Throws freeloc::Error naming missing/unexpected tensors.
+  // Infinity tokens accepted), or any safetensors with DUSt3R/MASt3R key names. `config_path` (optional): a config.json
+  // with the constructor arguments (top level, or under "constructor_args"). Throws freeloc::Error naming
+  // missing/unexpected tensors.
   static std::shared_ptr<Dust3rModel> Load(const std::string& model_path, const std::string& config_path = "",
                                            const RuntimeOptions& runtime = {});
   // The same from a state dict already in memory (upstream key names) and constructor kwargs (may be empty).

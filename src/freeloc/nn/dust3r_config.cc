@@ -33,7 +33,7 @@ void Dust3rConfig::Validate() const {
                 "MASt3R: local_feat_dim " << local_feat_dim << " is out of range");
   FREELOC_CHECK(conf_max > conf_min && desc_conf_max > desc_conf_min,
                 "DUSt3R: a confidence mode has vmax <= vmin (conf " << conf_min << ".." << conf_max << ", desc_conf "
-                                                                   << desc_conf_min << ".." << desc_conf_max << ")");
+                                                                    << desc_conf_min << ".." << desc_conf_max << ")");
 }
 
 std::map<std::string, std::string> ParseConstructorKwargs(const std::string& call) {
@@ -119,7 +119,8 @@ bool BoolArg(const std::map<std::string, std::string>& kw, const std::string& ke
 bool IsNone(const std::string& v) { return v.empty() || v == "None" || v == "null"; }
 
 double ParseBound(std::string t, const std::string& key, const std::string& text) {
-  if (t == "inf" || t == "Infinity" || t == "+inf" || t == "float('inf')") return std::numeric_limits<double>::infinity();
+  if (t == "inf" || t == "Infinity" || t == "+inf" || t == "float('inf')")
+    return std::numeric_limits<double>::infinity();
   if (t == "-inf" || t == "-Infinity" || t == "-float('inf')") return -std::numeric_limits<double>::infinity();
   try {
     size_t used = 0;
@@ -208,8 +209,8 @@ Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const
   FREELOC_CHECK(head_type == "dpt" || head_type == "catmlp+dpt",
                 "DUSt3R/MASt3R: head_type '" << head_type << "' is not supported (dpt or catmlp+dpt)");
   FREELOC_CHECK((head_type == "catmlp+dpt") == has_local,
-                source << " says head_type '" << head_type << "' but the weights "
-                       << (has_local ? "have" : "have no") << " head_local_features tensors");
+                source << " says head_type '" << head_type << "' but the weights " << (has_local ? "have" : "have no")
+                       << " head_local_features tensors");
   if (auto it = kw.find("depth_mode"); it != kw.end())
     FREELOC_CHECK(it->second.find("exp") != std::string::npos,
                   "DUSt3R: depth_mode " << it->second << " is not supported");
@@ -223,15 +224,16 @@ Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const
   } else {
     // D and two_confs come from the configuration, never from fc2's shape: (D + two_confs)·p² is ambiguous.
     FREELOC_CHECK(output_mode.rfind("pts3d+desc", 0) == 0 && output_mode.size() > 10,
-                  "MASt3R: output_mode '" << output_mode << "' is not supported (pts3d+desc<D>); "
-                                          << source << " must give it (the descriptor size cannot be read from the "
-                                                       "weights)");
+                  "MASt3R: output_mode '" << output_mode << "' is not supported (pts3d+desc<D>); " << source
+                                          << " must give it (the descriptor size cannot be read from the "
+                                             "weights)");
     try {
       size_t used = 0;
       c.local_feat_dim = std::stoi(output_mode.substr(10), &used);
       FREELOC_CHECK(used == output_mode.size() - 10 && c.local_feat_dim > 0, "");
     } catch (...) {
-      FREELOC_THROW("MASt3R: output_mode '" << output_mode << "': the descriptor size after 'pts3d+desc' is not a "
+      FREELOC_THROW("MASt3R: output_mode '" << output_mode
+                                            << "': the descriptor size after 'pts3d+desc' is not a "
                                                "positive integer");
     }
     c.two_confs = BoolArg(kw, "two_confs", false);
@@ -248,9 +250,8 @@ Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const
     const TensorView& fc1 = Need(sd, lf + "fc1.weight");
     const TensorView& fc2 = Need(sd, lf + "fc2.weight");
     FREELOC_CHECK(fc1.shape.size() == 2 && fc1.shape[1] == c.enc_dim + c.dec_dim,
-                  "MASt3R weights: " << lf << "fc1.weight has shape " << fc1.ShapeString()
-                                     << ", expected [hidden, " << c.enc_dim + c.dec_dim
-                                     << "] (encoder + decoder width)");
+                  "MASt3R weights: " << lf << "fc1.weight has shape " << fc1.ShapeString() << ", expected [hidden, "
+                                     << c.enc_dim + c.dec_dim << "] (encoder + decoder width)");
     c.local_mlp_hidden = static_cast<int>(fc1.shape[0]);
     const int64_t rows = static_cast<int64_t>(c.local_feat_dim + (c.two_confs ? 1 : 0)) * c.patch_size * c.patch_size;
     FREELOC_CHECK(fc2.shape.size() == 2 && fc2.shape[0] == rows && fc2.shape[1] == c.local_mlp_hidden,

@@ -32,7 +32,7 @@ struct Dust3rConfig {
   // desc_conf = desc_conf_min + min(exp(x), desc_conf_max − desc_conf_min); desc_conf_mode defaults to conf_mode.
   double desc_conf_min = 1, desc_conf_max = std::numeric_limits<double>::infinity();
   std::string desc_conf_mode_source = "conf_mode";  // "desc_conf_mode" or "conf_mode" (the fallback)
-  std::string source;  // where the constructor arguments came from
+  std::string source;                               // where the constructor arguments came from
 
   bool is_mast3r() const { return local_feat_dim > 0; }
   const char* family() const { return is_mast3r() ? "MASt3R" : "DUSt3R"; }

@@ -10,9 +10,9 @@
 #include <filesystem>
 
 #include "freeloc/core/error.h"
-#include "freeloc/vision/dust3r_preprocess.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/safetensors.h"
+#include "freeloc/vision/dust3r_preprocess.h"
 #include "testing/tensor_compare.h"
 #include "testing/testing.h"
 

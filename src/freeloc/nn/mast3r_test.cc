@@ -1,8 +1,8 @@
 // Parity of the MASt3R port (Dust3rModel with the 'catmlp+dpt' head) with upstream on every case of
 // ../shared/fixtures/mast3r: every stored intermediate of the new head, pointmaps, descriptors and desc_conf, from the
 // stored network inputs and from the PNGs, with weights from safetensors + config.json, from the .pth (constructor
-// string) and from an HF folder (flat config.json with Infinity tokens, one name per shared tensor); the two_confs=False
-// variant and the desc_conf_mode fallback.
+// string) and from an HF folder (flat config.json with Infinity tokens, one name per shared tensor); the
+// two_confs=False variant and the desc_conf_mode fallback.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -170,8 +170,8 @@ TEST(Mast3r, TwoConfsFalseVariant) {
     sd[n] = t;
   }
   std::map<std::string, std::string> kw = {{"output_mode", "pts3d+desc8"}, {"head_type", "catmlp+dpt"},
-                                           {"enc_num_heads", "2"},          {"dec_num_heads", "2"},
-                                           {"two_confs", "False"},          {"desc_conf_mode", "('exp', 0, inf)"}};
+                                           {"enc_num_heads", "2"},         {"dec_num_heads", "2"},
+                                           {"two_confs", "False"},         {"desc_conf_mode", "('exp', 0, inf)"}};
   const auto m = Dust3rModel::Create(sd, kw, "two_confs=False variant");
   EXPECT_FALSE(m->config().two_confs);
   const SafetensorsFile f = SafetensorsFile::Open(Fixture("cases/mixed_s80.safetensors"));
@@ -328,7 +328,8 @@ TEST(Mast3r, OtherDescriptorSizesAndWidths) {
           for (int c = 0; c < v.D; ++c) n2 += static_cast<double>(row[c * 256 + k0]) * row[c * 256 + k0];
           for (int c = 0; c < v.D; ++c) {
             const double want = row[c * 256 + k0] / std::sqrt(n2);
-            worst = std::max(worst, std::abs(desc.as<float>()[(y * W + x) * v.D + c] - want) / (1e-5 + 1e-4 * std::abs(want)));
+            worst = std::max(worst,
+                             std::abs(desc.as<float>()[(y * W + x) * v.D + c] - want) / (1e-5 + 1e-4 * std::abs(want)));
           }
           const double wc = v.two_confs ? std::exp(row[v.D * 256 + k0]) : conf.as<float>()[y * W + x];
           worst = std::max(worst, std::abs(dconf.as<float>()[y * W + x] - wc) / (1e-5 + 1e-4 * std::abs(wc)));

@@ -12,9 +12,9 @@
 #include "freeloc/core/camera.h"
 #include "freeloc/core/depth_map.h"
 #include "freeloc/core/image.h"
-#include "freeloc/vision/metric3d_preprocess.h"
 #include "freeloc/io/tensor.h"
 #include "freeloc/nn/runtime.h"
+#include "freeloc/vision/metric3d_preprocess.h"
 
 namespace freeloc::nn {
 

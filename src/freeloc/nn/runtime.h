@@ -16,7 +16,7 @@ enum class Precision { kFp32, kBf16 };
 struct RuntimeOptions {
   Device device = Device::kCpu;
   Precision precision = Precision::kFp32;
-  int threads = 0;        // 0 = LibTorch default
+  int threads = 0;  // 0 = LibTorch default
   // Throws freeloc::Error naming the field. Light (no LibTorch): whether CUDA exists is checked when a model loads.
   void Validate() const;
   std::string Key() const;  // "cpu|fp32|0": what makes two runtimes different (model caches key on it)

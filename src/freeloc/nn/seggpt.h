@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "freeloc/core/image.h"
-#include "freeloc/vision/seggpt_preprocess.h"
 #include "freeloc/io/tensor.h"
 #include "freeloc/nn/runtime.h"
+#include "freeloc/vision/seggpt_preprocess.h"
 
 namespace freeloc::nn {
 

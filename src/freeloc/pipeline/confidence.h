@@ -1,6 +1,6 @@
-// The confidence of a metric pose estimate — essential + scale, hybrid, PnP, Procrustes (docs/architecture.md §1): the map-free AUCs rank
-// estimates by it, so it should order them by their actual error. freeloc predicts the pose error from what the stages
-// measured and ranks by it:
+// The confidence of a metric pose estimate — essential + scale, hybrid, PnP, Procrustes (docs/architecture.md §1): the
+// map-free AUCs rank estimates by it, so it should order them by their actual error. freeloc predicts the pose error
+// from what the stages measured and ranks by it:
 //   angular noise of one correspondence   σ = RMS Sampson residual of the essential inliers / focal  (radians)
 //   rotation error                        σ_R ≈ σ / √n                                    (n essential inliers)
 //   translation error from the direction  σ_dir ≈ σ · Z̄ / √n   (metres; Z̄ = mean depth of the scale inliers:
@@ -17,14 +17,14 @@
 namespace freeloc::pipeline {
 
 struct PoseEvidence {
-  int matches = 0;              // correspondences into the essential estimator
-  int inliers = 0;              // its inliers
-  double residual_px = 0;       // RMS Sampson error of the inliers, pixels
-  double focal_px = 0;          // mean focal of the two cameras
-  double mean_depth_m = 0;      // mean depth of the points that voted for the scale
-  int scale_candidates = 0;     // correspondences with depth in both images
-  int scale_inliers = 0;        // … that agreed on the scale
-  double scale_std_error_m = 0; // standard error of |t|
+  int matches = 0;               // correspondences into the essential estimator
+  int inliers = 0;               // its inliers
+  double residual_px = 0;        // RMS Sampson error of the inliers, pixels
+  double focal_px = 0;           // mean focal of the two cameras
+  double mean_depth_m = 0;       // mean depth of the points that voted for the scale
+  int scale_candidates = 0;      // correspondences with depth in both images
+  int scale_inliers = 0;         // … that agreed on the scale
+  double scale_std_error_m = 0;  // standard error of |t|
   // A competing model (geometry/competing_models.h) the evidence could not rule out: how plausible it stayed
   // (0–1, its evidence ÷ the winner's) and how far it is from the answer. A runner-up nearly as plausible puts a
   // floor under the predicted error: the distance to it.

@@ -39,9 +39,9 @@ TEST(Confidence, PredictedErrorFollowsTheEvidence) {
   EXPECT_TRUE(worse([](PoseEvidence& e) { e.inliers = 40, e.matches = 50; }));  // few inliers, even if most agree
   EXPECT_TRUE(worse([](PoseEvidence& e) { e.residual_px = 3; }));
   EXPECT_TRUE(worse([](PoseEvidence& e) { e.scale_std_error_m = 0.05; }));
-  EXPECT_TRUE(worse([](PoseEvidence& e) { e.matches = 2000; }));       // a lower inlier ratio
-  EXPECT_TRUE(worse([](PoseEvidence& e) { e.scale_inliers = 60; }));   // a split scale vote
-  EXPECT_TRUE(worse([](PoseEvidence& e) { e.mean_depth_m = 30; }));  // farther points: a direction error costs more
+  EXPECT_TRUE(worse([](PoseEvidence& e) { e.matches = 2000; }));      // a lower inlier ratio
+  EXPECT_TRUE(worse([](PoseEvidence& e) { e.scale_inliers = 60; }));  // a split scale vote
+  EXPECT_TRUE(worse([](PoseEvidence& e) { e.mean_depth_m = 30; }));   // farther points: a direction error costs more
   // Degenerate evidence stays finite and positive.
   const double c = ConfidenceFromPredictedError(PredictPoseError(PoseEvidence{}));
   EXPECT_TRUE(std::isfinite(c));
@@ -90,10 +90,10 @@ TEST(Confidence, RanksBetterThanTheInlierCountOnSyntheticQueries) {
     const auto ours = testing::ScoreStudy(all, testing::StudyConfidence::kFreeloc);
     const auto inl = testing::ScoreStudy(all, testing::StudyConfidence::kInlierCount);
     const auto oracle = testing::ScoreStudy(all, testing::StudyConfidence::kOracle);
-    std::printf("%s, %zu queries: AUC pose %.4f (inliers %.4f, oracle %.4f), AUC VCRE %.4f (inliers %.4f, oracle "
-                "%.4f)\n",
-                solver, all.size(), ours.auc_pose, inl.auc_pose, oracle.auc_pose, ours.auc_vcre, inl.auc_vcre,
-                oracle.auc_vcre);
+    std::printf(
+        "%s, %zu queries: AUC pose %.4f (inliers %.4f, oracle %.4f), AUC VCRE %.4f (inliers %.4f, oracle "
+        "%.4f)\n",
+        solver, all.size(), ours.auc_pose, inl.auc_pose, oracle.auc_pose, ours.auc_vcre, inl.auc_vcre, oracle.auc_vcre);
     ASSERT_GE(ours.estimates, static_cast<int>(all.size()) * 85 / 100) << solver;
     ASSERT_LT(ours.precision_pose, 1.0) << solver;  // some estimates are wrong: there is something to rank
     EXPECT_GT(ours.auc_pose, inl.auc_pose) << solver;

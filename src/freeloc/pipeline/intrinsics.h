@@ -10,6 +10,7 @@
 #include "freeloc/core/image.h"
 #include "freeloc/io/exif.h"
 #include "freeloc/pipeline/options.h"
+#include "freeloc/pipeline/query_result.h"
 #include "freeloc/pipeline/stages.h"
 
 namespace freeloc::pipeline {

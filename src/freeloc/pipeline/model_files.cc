@@ -36,8 +36,7 @@ std::vector<std::string> PublishedNames(Network n) {
     case Network::kSegGpt:  // BAAI/SegGPT release; HF BAAI/seggpt-vit-large
       return {"seggpt_vit_large.pth", "seggpt-vit-large/model.safetensors"};
     case Network::kMetric3d:  // HF JUGGHM/Metric3D: the most accurate variant present first
-      return {"metric_depth_vit_giant2_800k.pth", "metric_depth_vit_large_800k.pth",
-              "metric_depth_vit_small_800k.pth"};
+      return {"metric_depth_vit_giant2_800k.pth", "metric_depth_vit_large_800k.pth", "metric_depth_vit_small_800k.pth"};
   }
   return {};
 }

@@ -10,7 +10,7 @@
 namespace freeloc::pipeline {
 
 enum class Network { kDust3r, kMast3r, kSegGpt, kMetric3d };
-const char* NetworkName(Network n);  // "DUSt3R", "MASt3R", "SegGPT", "Metric3D v2"
+const char* NetworkName(Network n);    // "DUSt3R", "MASt3R", "SegGPT", "Metric3D v2"
 const char* NetworkOption(Network n);  // the PipelineOptions field: "dust3r_model", "mast3r_model", …
 
 // The published file names freeloc looks for, in order of preference (relative to a models folder).

@@ -17,12 +17,16 @@ class ScopedModelsEnv {
  public:
   explicit ScopedModelsEnv(const char* value) {
     if (const char* old = getenv("FREELOC_MODELS")) old_ = old, had_ = true;
-    if (value) setenv("FREELOC_MODELS", value, 1);
-    else unsetenv("FREELOC_MODELS");
+    if (value)
+      setenv("FREELOC_MODELS", value, 1);
+    else
+      unsetenv("FREELOC_MODELS");
   }
   ~ScopedModelsEnv() {
-    if (had_) setenv("FREELOC_MODELS", old_.c_str(), 1);
-    else unsetenv("FREELOC_MODELS");
+    if (had_)
+      setenv("FREELOC_MODELS", old_.c_str(), 1);
+    else
+      unsetenv("FREELOC_MODELS");
   }
 
  private:

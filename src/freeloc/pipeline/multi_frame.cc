@@ -59,15 +59,15 @@ bool DeviceAgrees(const FrameEvidence& f) {
 }
 
 struct Vote {
-  size_t k = 0;                  // index into the window
-  Eigen::Quaterniond q_from_r;   // the evaluated frame's rotation as this frame votes it
-  bool metric_relation = false;  // c is in metres
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();  // this frame's centre in the evaluated frame's coordinates
-  Eigen::Vector3d d = Eigen::Vector3d::UnitZ(); // unit ray from c towards the reference camera's centre
-  double range = 0;              // metric: |t| of this frame's own answer (along d), else 0
-  double rel_sigma = 0;          // its predicted relative error
-  double weight = 1;             // 1 / variance of its rotation and ray (degrees²): its own and its relation's
-  double position_sigma = 0;     // its relation's position error (metres)
+  size_t k = 0;                                  // index into the window
+  Eigen::Quaterniond q_from_r;                   // the evaluated frame's rotation as this frame votes it
+  bool metric_relation = false;                  // c is in metres
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();   // this frame's centre in the evaluated frame's coordinates
+  Eigen::Vector3d d = Eigen::Vector3d::UnitZ();  // unit ray from c towards the reference camera's centre
+  double range = 0;                              // metric: |t| of this frame's own answer (along d), else 0
+  double rel_sigma = 0;                          // its predicted relative error
+  double weight = 1;          // 1 / variance of its rotation and ray (degrees²): its own and its relation's
+  double position_sigma = 0;  // its relation's position error (metres)
   double ref_anchor = 0, query_anchor = 0;  // its |t| anchored by the reference's / its own depth map alone (0: none)
 };
 
@@ -122,8 +122,8 @@ double Miss(const Eigen::Vector3d& p, const Eigen::Vector3d& c, const Eigen::Vec
 // Triangulate on the rays that agree: every pair of rays proposes a point, the one that most rays pass within 3°
 // wins (ties: the smaller total miss), then the least-squares point of those rays, whose misses decide once more
 // (3° or three times the rays' noise). A ray whose frame answered wrongly cannot drag the rig's point away.
-bool RobustTriangulate(const std::vector<Eigen::Vector3d>& c, const std::vector<Eigen::Vector3d>& d,
-                       Eigen::Vector3d* p, double* rel_sigma, double* ray_sigma) {
+bool RobustTriangulate(const std::vector<Eigen::Vector3d>& c, const std::vector<Eigen::Vector3d>& d, Eigen::Vector3d* p,
+                       double* rel_sigma, double* ray_sigma) {
   const size_t n = c.size();
   if (n < 2) return false;
   constexpr double kTau = 3 * kDeg;
@@ -141,7 +141,8 @@ bool RobustTriangulate(const std::vector<Eigen::Vector3d>& c, const std::vector<
         const double m = Miss(x, c[j], d[j]);
         if (m <= kTau) ++count, total += m;
       }
-      if (count > best_count || (count == best_count && total < best_miss)) best_count = count, best_miss = total, best = x;
+      if (count > best_count || (count == best_count && total < best_miss))
+        best_count = count, best_miss = total, best = x;
     }
   if (best_count < 2) return false;
   for (int round = 0; round < 2; ++round) {
@@ -189,9 +190,9 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
     w.device = "off";
   } else if (with_device == 0) {
     w.device = "absent";
-  } else if (frames[qi].has_device && (RotationAngleDeg(frames[qi].device.rotation, Eigen::Quaterniond::Identity()) >
-                                           1e-7 ||
-                                       frames[qi].device.translation.norm() > 1e-9)) {
+  } else if (frames[qi].has_device &&
+             (RotationAngleDeg(frames[qi].device.rotation, Eigen::Quaterniond::Identity()) > 1e-7 ||
+              frames[qi].device.translation.norm() > 1e-9)) {
     w.device = "ignored (the evaluated frame's line is not the identity)";
   } else if (use == DevicePoseUse::kUse) {
     device_ok = true;
@@ -200,10 +201,11 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
     w.device = "ignored (too few frames to check them against the images)";
   } else if (agree >= kTrustFraction * comparable) {
     device_ok = true;
-    w.device = "used (" + std::to_string(agree) + " of " + std::to_string(comparable) + " frames agree with the images)";
+    w.device =
+        "used (" + std::to_string(agree) + " of " + std::to_string(comparable) + " frames agree with the images)";
   } else {
-    w.device = "ignored (" + std::to_string(agree) + " of " + std::to_string(comparable) +
-               " frames agree with the images)";
+    w.device =
+        "ignored (" + std::to_string(agree) + " of " + std::to_string(comparable) + " frames agree with the images)";
   }
 
   // 2. Every answered frame with a relation votes for the evaluated frame's pose.
@@ -216,8 +218,7 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
     double rel_rot_deg = 0, rel_pos_m = 0;  // the relation's own uncertainty
     if (k == qi) {
       wv.relation = "self";
-    } else if (device_ok && f.has_device &&
-               (use == DevicePoseUse::kUse || agrees[k] || !f.has_image_relation)) {
+    } else if (device_ok && f.has_device && (use == DevicePoseUse::kUse || agrees[k] || !f.has_image_relation)) {
       // The tracker's relation where it agrees with the images: over a few centimetres it is the more precise
       // (millimetres of drift against an essential matrix's degrees), and metric.
       rel = f.device;
@@ -333,7 +334,8 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
     // Every frame's depth answer leans on the same reference depth map, so their errors are largely shared and
     // averaging them gains little; the evaluated frame's own answer carries no relation error. It is the depth
     // maps' distance when it is metric and not far from the others (the median otherwise).
-    const bool self_metric = !kept.empty() && kept.back().k == qi && kept.back().range > 0 && kept.back().metric_relation;
+    const bool self_metric =
+        !kept.empty() && kept.back().k == qi && kept.back().range > 0 && kept.back().metric_relation;
     const double self_log = self_metric ? log_depth.back() : med;
     double dep_log = std::abs(self_log - med) <= std::max(3 * spread, 0.05) ? self_log : med;
     // The query depth maps are the window's independent evidence: each frame's distance anchored by its own map
@@ -464,8 +466,7 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
 }
 
 QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames, matching::Correspondences* matches) {
-  FREELOC_CHECK(!frames.empty() && frames.size() <= 9,
-                "a window holds 1 to 9 frames, got " << frames.size());
+  FREELOC_CHECK(!frames.empty() && frames.size() <= 9, "a window holds 1 to 9 frames, got " << frames.size());
   const PipelineOptions& o = reloc.options();
   const size_t n = frames.size(), qi = n - 1;
   std::vector<FrameEvidence> ev(n);
@@ -489,8 +490,8 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
         if (r.inlier_mask[i]) pr.push_back(c.ref[i]), pq.push_back(c.query[i]);
       const Camera kr = reloc.reference_intrinsics().known() ? reloc.reference_intrinsics().camera : f.camera;
       const Camera kq = r.query_intrinsics.known() ? r.query_intrinsics.camera : f.camera;
-      ev[k].anchors = geometry::AnchorScales(pr, pq, r.query_from_ref, reloc.reference_depth(),
-                                             reloc.last_query_depth(), kr, kq);
+      ev[k].anchors =
+          geometry::AnchorScales(pr, pq, r.query_from_ref, reloc.reference_depth(), reloc.last_query_depth(), kr, kq);
     }
     if (k == qi && matches) *matches = std::move(c);
   }
@@ -516,7 +517,7 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
       in.depth = frames[k].inputs.depth;
       in.intrinsics_source = frames[k].inputs.intrinsics_source;
       const QueryResult rel = local.Relocalize(frames[k].image, frames[k].camera, std::move(in));
-      relation_ms += rel.depth_ms + rel.match_ms + rel.solve_ms;
+      relation_ms += rel.timings.depth_ms + rel.timings.match_ms + rel.timings.solve_ms;
       if (!rel.ok()) continue;
       ev[k].has_image_relation = true;
       ev[k].image_relation_metric = rel.metric();
@@ -527,14 +528,14 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
   }
   QueryResult r = FuseWindow(ev, o.device_poses);
   // The cost of the whole window: every frame's stages, the relations counted as solving.
-  r.depth_ms = r.match_ms = r.instance_ms = r.solve_ms = 0;
+  r.timings.depth_ms = r.timings.match_ms = r.timings.instance_ms = r.timings.solve_ms = 0;
   for (const FrameEvidence& e : ev) {
-    r.depth_ms += e.to_ref.depth_ms;
-    r.match_ms += e.to_ref.match_ms;
-    r.instance_ms += e.to_ref.instance_ms;
-    r.solve_ms += e.to_ref.solve_ms;
+    r.timings.depth_ms += e.to_ref.timings.depth_ms;
+    r.timings.match_ms += e.to_ref.timings.match_ms;
+    r.timings.instance_ms += e.to_ref.timings.instance_ms;
+    r.timings.solve_ms += e.to_ref.timings.solve_ms;
   }
-  r.solve_ms += relation_ms;
+  r.timings.solve_ms += relation_ms;
   if (!r.ok()) AnswerUnsolved(o, &r);
   return r;
 }

@@ -23,6 +23,7 @@
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/pipeline/options.h"
+#include "freeloc/pipeline/query_result.h"
 #include "freeloc/pipeline/stages.h"
 
 namespace freeloc::pipeline {
@@ -42,14 +43,14 @@ struct WindowFrame {
 // What the fusion gets per frame (the evaluated frame last).
 struct FrameEvidence {
   std::string name;
-  QueryResult to_ref;                // the frame against the reference
-  bool has_image_relation = false;   // the frame against the evaluated frame, from the images
+  QueryResult to_ref;               // the frame against the reference
+  bool has_image_relation = false;  // the frame against the evaluated frame, from the images
   bool image_relation_metric = false;
-  Rigid3d image_relation;            // frame_from_query
+  Rigid3d image_relation;                                                        // frame_from_query
   double image_relation_rot_sigma_deg = 0, image_relation_position_sigma_m = 0;  // its predicted errors
   bool has_device = false;
-  Rigid3d device;                    // frame_from_query by the tracker
-  geometry::ScaleAnchors anchors;    // metric to_ref: its |t| as each depth map alone anchors it
+  Rigid3d device;                  // frame_from_query by the tracker
+  geometry::ScaleAnchors anchors;  // metric to_ref: its |t| as each depth map alone anchors it
 };
 
 // Fuses a window's evidence into the evaluated frame's result (its own to_ref when nothing else is usable). Pure

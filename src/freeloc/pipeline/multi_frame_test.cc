@@ -105,9 +105,8 @@ std::vector<FrameEvidence> MakeEvidence(const Truth& t, const EvidenceOptions& o
       e.image_relation = Perturb(t.j_from_q[k], 0.05, 0.002, rng);
       e.image_relation.translation *= o.query_scale;
       e.image_relation_rot_sigma_deg = 0.05;
-      e.image_relation_position_sigma_m = o.relation_position_sigma >= 0
-                                              ? o.relation_position_sigma
-                                              : 0.003 + 0.05 * t.j_from_q[k].translation.norm();
+      e.image_relation_position_sigma_m =
+          o.relation_position_sigma >= 0 ? o.relation_position_sigma : 0.003 + 0.05 * t.j_from_q[k].translation.norm();
     }
     if (o.device != EvidenceOptions::kNone) {
       e.has_device = true;
@@ -244,7 +243,8 @@ TEST(FuseWindow, AFrameThatDisagreesLosesItsVote) {
   const QueryResult clean = FuseWindow(ev, DevicePoseUse::kAuto);
   // Frame 2 answers with a rotation 20° off, frame 5 with a ray 30° off.
   ev[2].to_ref.query_from_ref.rotation =
-      Eigen::Quaterniond(Eigen::AngleAxisd(20 * M_PI / 180, Eigen::Vector3d::UnitY())) * ev[2].to_ref.query_from_ref.rotation;
+      Eigen::Quaterniond(Eigen::AngleAxisd(20 * M_PI / 180, Eigen::Vector3d::UnitY())) *
+      ev[2].to_ref.query_from_ref.rotation;
   ev[5].to_ref.query_from_ref.translation =
       Eigen::AngleAxisd(30 * M_PI / 180, Eigen::Vector3d::UnitX()) * ev[5].to_ref.query_from_ref.translation;
   const QueryResult r = FuseWindow(ev, DevicePoseUse::kAuto);

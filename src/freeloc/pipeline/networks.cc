@@ -6,9 +6,10 @@
 namespace freeloc::pipeline {
 
 const NetworksApi& Networks() {
-  static const NetworksApi& api = [] () -> const NetworksApi& {
+  static const NetworksApi& api = []() -> const NetworksApi& {
     const bool linked = ModuleLoaded(kNetworksLibrary);
-    const NetworksApi& a = LoadModuleTable<NetworksApi>(kNetworksLibrary, kNetworksEntry, kNetworksAbi, "running a network");
+    const NetworksApi& a =
+        LoadModuleTable<NetworksApi>(kNetworksLibrary, kNetworksEntry, kNetworksAbi, "running a network");
     if (!linked) FREELOC_LOG(DEBUG) << "loaded the networks module (LibTorch) from " << ModuleDirectory();
     return a;
   }();

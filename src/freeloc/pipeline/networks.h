@@ -21,7 +21,7 @@ namespace freeloc::pipeline {
 // `freeloc pointmap`: DUSt3R/MASt3R pointmaps of an image pair (and matches) written as safetensors.
 struct PointmapCommand {
   std::string model, config, out;
-  int size1 = 512, size2 = 512;  // load_images size of each image
+  int size1 = 512, size2 = 512;     // load_images size of each image
   std::vector<std::string> images;  // exactly two
   bool matches = false;
   double conf_thr = 0;

@@ -5,6 +5,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/pipeline/model_files.h"
+#include "freeloc/pipeline/query_result.h"
 
 namespace freeloc::pipeline {
 
@@ -30,12 +31,12 @@ MatcherSpec MatcherSpec::FromString(const std::string& text) {
   MatcherSpec m;
   FREELOC_OPTION_CHECK("matcher", TryParseEnum(head, &m.kind), ": '" << text << "' is not one of " << kMatcherChoices);
   FREELOC_OPTION_CHECK("matcher", (m.kind == MatcherKind::kPrecomputed) == (text.find(':') != std::string::npos),
-                ": '" << text << "' is not one of " << kMatcherChoices);
+                       ": '" << text << "' is not one of " << kMatcherChoices);
   FREELOC_OPTION_CHECK("matcher", m.kind != MatcherKind::kPrecomputed || !tail.empty(),
-                ": '" << text << "' names no correspondences; write precomputed:<name> (SIFT, SG, LoFTR, …)");
+                       ": '" << text << "' names no correspondences; write precomputed:<name> (SIFT, SG, LoFTR, …)");
   // The name becomes a file name (correspondences_<name>.npz): never a path.
   FREELOC_OPTION_CHECK("matcher", m.kind != MatcherKind::kPrecomputed || IsFileNamePart(tail),
-                ": '" << SafeText(text, 100) << "': the correspondence name must be letters, digits, '_', '-', "
+                       ": '" << SafeText(text, 100) << "': the correspondence name must be letters, digits, '_', '-', "
                              << "'.' or '+' (it names correspondences_<name>.npz), not a path");
   m.correspondences = tail;
   return m;
@@ -50,13 +51,13 @@ DepthSpec DepthSpec::FromString(const std::string& text) {
   DepthSpec d;
   FREELOC_OPTION_CHECK("depth", TryParseEnum(head, &d.kind), ": '" << text << "' is not one of " << kDepthChoices);
   FREELOC_OPTION_CHECK("depth", (d.kind == DepthKind::kProvided) == (text.find(':') != std::string::npos),
-                ": '" << text << "' is not one of " << kDepthChoices);
+                       ": '" << text << "' is not one of " << kDepthChoices);
   FREELOC_OPTION_CHECK("depth", d.kind != DepthKind::kProvided || !tail.empty(),
-                ": '" << text << "' names no suffix; write provided:<suffix> (e.g. provided:sensor)");
+                       ": '" << text << "' names no suffix; write provided:<suffix> (e.g. provided:sensor)");
   // The suffix becomes a file name (frame_xxxxx.<suffix>.png): never a path.
   FREELOC_OPTION_CHECK("depth", d.kind != DepthKind::kProvided || IsFileNamePart(tail),
-                ": '" << SafeText(text, 100) << "': the suffix must be letters, digits, '_', '-', '.' or '+' "
-                           << "(it names frame_xxxxx.<suffix>.png), not a path");
+                       ": '" << SafeText(text, 100) << "': the suffix must be letters, digits, '_', '-', '.' or '+' "
+                             << "(it names frame_xxxxx.<suffix>.png), not a path");
   d.suffix = d.kind == DepthKind::kProvided ? tail : "";
   return d;
 }
@@ -71,30 +72,38 @@ std::string QueryResult::StatusText() const {
 
 void PipelineOptions::Validate() const {
   FREELOC_OPTION_CHECK("matcher", matcher.kind != MatcherKind::kPrecomputed || !matcher.correspondences.empty(),
-                ": precomputed needs a name (precomputed:<SIFT|SG|LoFTR|…>)");
+                       ": precomputed needs a name (precomputed:<SIFT|SG|LoFTR|…>)");
   FREELOC_OPTION_CHECK("depth", depth.kind != DepthKind::kProvided || !depth.suffix.empty(),
-                ": provided needs a suffix (provided:<suffix>, e.g. provided:sensor)");
+                       ": provided needs a suffix (provided:<suffix>, e.g. provided:sensor)");
   FREELOC_OPTION_CHECK("threshold_px", threshold_px == -1 || (std::isfinite(threshold_px) && threshold_px > 0),
-                ": " << threshold_px << " is not a positive number of pixels (or -1 for the solver's default)");
+                       ": " << threshold_px << " is not a positive number of pixels (or -1 for the solver's default)");
   FREELOC_OPTION_CHECK("reprojection_px", std::isfinite(reprojection_px) && reprojection_px > 0,
-                ": " << reprojection_px << " is not a positive number of pixels");
-  FREELOC_OPTION_CHECK("depth_shifts", depth_shifts == 0 || depth_shifts == 1, ": " << depth_shifts << " is not 0 or 1");
-  FREELOC_OPTION_CHECK("always_answer", always_answer == 0 || always_answer == 1, ": " << always_answer << " is not 0 or 1");
+                       ": " << reprojection_px << " is not a positive number of pixels");
+  FREELOC_OPTION_CHECK("depth_shifts", depth_shifts == 0 || depth_shifts == 1,
+                       ": " << depth_shifts << " is not 0 or 1");
+  FREELOC_OPTION_CHECK("always_answer", always_answer == 0 || always_answer == 1,
+                       ": " << always_answer << " is not 0 or 1");
   FREELOC_OPTION_CHECK("check_intrinsics", check_intrinsics == 0 || check_intrinsics == 1,
-                ": " << check_intrinsics << " is not 0 or 1");
-  FREELOC_OPTION_CHECK("dust3r_size", dust3r_size >= 224, ": " << dust3r_size << " is too small; use 224, or a multiple of 16 up from it (512 for the released models)");
+                       ": " << check_intrinsics << " is not 0 or 1");
+  FREELOC_OPTION_CHECK(
+      "dust3r_size", dust3r_size >= 224,
+      ": " << dust3r_size << " is too small; use 224, or a multiple of 16 up from it (512 for the released models)");
   FREELOC_OPTION_CHECK("match_subsample", match_subsample >= 1, ": " << match_subsample << " must be >= 1");
-  FREELOC_OPTION_CHECK("mast3r_subsample", mast3r_subsample >= 1, ": " << mast3r_subsample << " must be >= 1 (the seed grid step)");
+  FREELOC_OPTION_CHECK("mast3r_subsample", mast3r_subsample >= 1,
+                       ": " << mast3r_subsample << " must be >= 1 (the seed grid step)");
   FREELOC_OPTION_CHECK("mast3r_border", mast3r_border >= 0, ": " << mast3r_border << " must be >= 0 pixels");
   FREELOC_OPTION_CHECK("mast3r_conf_threshold", std::isfinite(mast3r_conf_threshold),
-                ": " << mast3r_conf_threshold << " is not a finite number");
+                       ": " << mast3r_conf_threshold << " is not a finite number");
   FREELOC_OPTION_CHECK("depth", depth.kind != DepthKind::kMast3r || UsesMast3r(),
-                ": mast3r comes from the MASt3R matcher's pointmaps; use matcher mast3r or mast3r+instances "
-                "(or depth metric3d / provided:<suffix>)");
-  FREELOC_OPTION_CHECK("min_instance_matches", min_instance_matches >= 0, ": " << min_instance_matches << " is negative");
-  FREELOC_OPTION_CHECK("solver", solver == SolverKind::kEssential || solver == SolverKind::kHybrid || depth.kind != DepthKind::kNone,
-                ": " << ToString(solver) << " needs depth (depth provided:<suffix> or metric3d)");
-  FREELOC_OPTION_CHECK("frames", frames >= 1 && frames <= 9, ": " << frames << " is not in 1..9 (a window holds 9 frames)");
+                       ": mast3r comes from the MASt3R matcher's pointmaps; use matcher mast3r or mast3r+instances "
+                       "(or depth metric3d / provided:<suffix>)");
+  FREELOC_OPTION_CHECK("min_instance_matches", min_instance_matches >= 0,
+                       ": " << min_instance_matches << " is negative");
+  FREELOC_OPTION_CHECK(
+      "solver", solver == SolverKind::kEssential || solver == SolverKind::kHybrid || depth.kind != DepthKind::kNone,
+      ": " << ToString(solver) << " needs depth (depth provided:<suffix> or metric3d)");
+  FREELOC_OPTION_CHECK("frames", frames >= 1 && frames <= 9,
+                       ": " << frames << " is not in 1..9 (a window holds 9 frames)");
   proposals.Validate();
   runtime.Validate();
   const auto dirs = ModelDirs(models_dir);
@@ -105,9 +114,8 @@ void PipelineOptions::Validate() const {
 }
 
 std::string PipelineOptions::Summary() const {
-  std::string s = "preset " + preset + ": matcher " + matcher.ToString() + ", depth " + depth.ToString() +
-                  ", solver " + ToString(solver) +
-                  (solver == SolverKind::kEssential ? ", scale " + ToString(scale) : "") +
+  std::string s = "preset " + preset + ": matcher " + matcher.ToString() + ", depth " + depth.ToString() + ", solver " +
+                  ToString(solver) + (solver == SolverKind::kEssential ? ", scale " + ToString(scale) : "") +
                   (solver == SolverKind::kHybrid ? ", reprojection " + std::to_string(reprojection_px) + " px" +
                                                        (depth_shifts ? ", depth shifts" : "")
                                                  : "") +
@@ -116,8 +124,7 @@ std::string PipelineOptions::Summary() const {
   if (UsesMast3r())
     s += ", mast3r " + mast3r_model + " at " + std::to_string(dust3r_size) + " (subsample " +
          std::to_string(mast3r_subsample) + ")";
-  if (UsesInstances())
-    s += ", instances " + ToString(instance_source) + ", instance-mode " + ToString(instance_mode);
+  if (UsesInstances()) s += ", instances " + ToString(instance_source) + ", instance-mode " + ToString(instance_mode);
   if (UsesSegGpt()) s += ", seggpt " + seggpt_model;
   if (track == Track::kMultiFrame)
     s += ", track multi-frame (" + std::to_string(frames) + " frames, device poses " + ToString(device_poses) + ")";

@@ -1,6 +1,6 @@
-// The pipeline's plain types (docs/architecture.md §2): typed options (each enum with one string table; text is parsed
-// once, where it enters — CLI, preset table, JSON, Python), a query's result with its status enum, and the per-scene
-// cache counters. Light header.
+// The pipeline's options (docs/architecture.md §2): typed (each enum with one string table; text is parsed once, where
+// it enters — CLI, preset table, JSON, Python), the option registry that names every field, and the presets. What a
+// query gives back is in query_result.h. Light header.
 #pragma once
 
 #include <string>
@@ -72,7 +72,7 @@ struct PipelineOptions {
   // essential (and hybrid's fallback): anchored — the depths anchor |t| (the vote's error grows with
   // depth ÷ baseline); robust — freeloc's scale vote; official — the benchmark's vote.
   geometry::ScaleMethod scale = geometry::ScaleMethod::kAnchored;
-  double threshold_px = -1;                                      // < 0: the solver's default
+  double threshold_px = -1;     // < 0: the solver's default
   double reprojection_px = 16;  // hybrid: two-way reprojection threshold through the depths, pixels
   int depth_shifts = 0;         // hybrid: 1 = also estimate an additive shift of each depth map
   // Every query gets a pose in the submission: a weak-support model is submitted with its pose and a confidence
@@ -85,12 +85,12 @@ struct PipelineOptions {
   // Networks. Paths left empty are looked up by their published file names in `models_dir`, then in the folders of
   // $FREELOC_MODELS (FindModels); Validate names what is still missing.
   std::string models_dir;
-  std::string dust3r_model;    // official .pth or model.safetensors (+ config.json beside it)
-  std::string dust3r_config;   // optional config.json with the constructor arguments
-  std::string mast3r_model;    // MASt3R .pth (constructor string inside) or HF model.safetensors + config.json
-  std::string seggpt_model;    // seggpt_vit_large.pth or HF model.safetensors
-  std::string metric3d_model;  // metric_depth_vit_{small,large,giant2}_800k.pth or safetensors
-  int dust3r_size = 512;       // load_images size (long side)
+  std::string dust3r_model;         // official .pth or model.safetensors (+ config.json beside it)
+  std::string dust3r_config;        // optional config.json with the constructor arguments
+  std::string mast3r_model;         // MASt3R .pth (constructor string inside) or HF model.safetensors + config.json
+  std::string seggpt_model;         // seggpt_vit_large.pth or HF model.safetensors
+  std::string metric3d_model;       // metric_depth_vit_{small,large,giant2}_800k.pth or safetensors
+  int dust3r_size = 512;            // load_images size (long side)
   double match_conf_threshold = 0;  // reciprocal matching: a pixel is valid if conf >= this
   int match_subsample = 1;          // keep every k-th query pixel
   // MASt3R descriptor matching (spec/mast3r.md §4): seed grid step S of the fast reciprocal NN, the border filter
@@ -128,109 +128,9 @@ struct PipelineOptions {
   std::string Summary() const;  // one line for people: "preset …: matcher …, depth …, solver …"
 };
 
-// What happened to a query: one text form each (EnumTable<QueryStatus>), used by the log, JSON records, the CLI
-// and the submission (ok poses are submitted; with always_answer every other query too: weak-support with its pose
-// and low confidence, the rest as the prior pose with confidence 0).
-enum class QueryStatus {
-  kOk,                 // metric pose
-  kOkUnitTranslation,  // essential without depth: rotation + translation direction (unit norm)
-  kWeakSupport,        // a model whose support is not clearly beyond chance: its pose, with a confidence below
-                       // every ok answer; submitted under always_answer (never counted as solved)
-  kTooFewMatches,
-  kNoConsensus,        // the robust estimator found no model
-  kDegenerate,         // the inliers span (almost) a single pixel: no geometry
-  kNoDepth,            // the depth stage needs provided depth and a frame has none
-  kScaleNoValidDepth,  // essential: no inlier has depth in both frames
-  kScaleNoConsensus,   // essential: the depths disagree on the scale
-  kError,              // an exception inside the query (bad image, bad depth, a network error): see `message`
-};
-
-// Where a frame's intrinsics came from, in the order freeloc prefers them: handed in (flags, Python), a file
-// (intrinsics.txt), the photo's EXIF, the pointmap's focal (DUSt3R/MASt3R). docs/geometry.md "Intrinsics without a
-// calibration".
-enum class IntrinsicsSource { kNone, kGiven, kFile, kExif, kPointmap };
-
-struct FrameIntrinsics {
-  Camera camera;  // all zero while kNone
-  IntrinsicsSource source = IntrinsicsSource::kNone;
-  int orientation = 0;        // the EXIF orientation the decoder applied to the photo (0: no tag, 1: as stored)
-  double pointmap_focal = 0;  // the pointmap's focal when one was estimated (estimate or check), else 0
-  bool known() const { return source != IntrinsicsSource::kNone; }
-};
-
-// Multi-frame (pipeline/multi_frame.h): what each frame of an evaluated frame's window contributed.
-struct WindowVote {
-  std::string frame;                        // e.g. "seq1/frame_00011.jpg"
-  QueryStatus status = QueryStatus::kError; // its own relocalization against the reference
-  std::string relation = "none";            // how it is tied to the evaluated frame: self | device | images | none
-  bool used = false;                        // its rotation and its ray entered the fused pose
-  double rotation_dev_deg = -1;             // its rotation vote's distance from the fused rotation (-1: no vote)
-  double distance_m = 0;                    // its depth-based distance to the reference camera (0: none)
-};
-struct WindowSummary {
-  int frames = 0, used = 0;
-  // The device poses' fate in this window: used | ignored (<why>) | absent | off
-  std::string device;
-  std::string scale;  // where the metric distance came from: depth | tracker | images | depth+tracker | depth+images
-  double depth_distance_m = 0, rig_distance_m = 0;  // the depth maps' and the rig's triangulated distance (0: none)
-  std::vector<WindowVote> votes;  // oldest first, the evaluated frame last
-  bool empty() const { return frames == 0; }
-};
-
-struct QueryResult {
-  std::string frame;
-  QueryStatus status = QueryStatus::kError;
-  std::string message;  // kError: which file and what went wrong
-  bool ok() const { return status == QueryStatus::kOk || status == QueryStatus::kOkUnitTranslation; }
-  bool metric() const { return status == QueryStatus::kOk; }
-  std::string StatusText() const;  // "ok", "no-consensus", "error: <message>" — for people
-  Rigid3d query_from_ref;
-  // !ok() with always_answer: submitted anyway — a weak-support pose with its (low) confidence, else the prior
-  // (identity) with confidence 0.
-  bool answered = false;
-  bool weak() const { return status == QueryStatus::kWeakSupport; }
-  bool prior() const { return answered && !weak(); }  // the submitted pose is the prior
-  bool submitted() const { return ok() || answered; }
-  std::string route;  // the solver's route: "essential", "hybrid", "hybrid>essential" (fell back), "pnp", …
-  // The confidence model (confidence.h) for every solver; official scale: its support; unit translation: the inlier
-  // count; answered: 0.
-  double confidence = 0;
-  int matches = 0, inliers = 0;
-  std::vector<char> inlier_mask;          // per correspondence into the solver (not in the JSON records)
-  int global_matches = 0;                 // dust3r matchers: before the instance merge
-  int instances = 0, instances_used = 0;  // reference instances tried / whose matches replaced global ones
-  int scale_inliers = 0;                  // correspondences agreeing on the metric scale
-  double predicted_translation_m = 0;     // the predicted error (confidence.h)
-  double predicted_rotation_deg = 0;
-  double depth_ms = 0, match_ms = 0, instance_ms = 0, solve_ms = 0;
-  // Inside match_ms / instance_ms (network matchers): the global pair's network pass, SegGPT's propagation, the
-  // masked pairs' network passes and how many masked pairs ran.
-  double pair_ms = 0, segment_ms = 0, instance_pass_ms = 0;
-  int instance_pairs = 0;
-  FrameIntrinsics ref_intrinsics, query_intrinsics;  // what the solver used, and where it came from
-  WindowSummary window;                               // multi-frame only: how the window voted
-};
-
-// What the per-scene caches did (for logs and tests).
-struct CacheStats {
-  int reference_encodings = 0;  // DUSt3R encoder passes of reference-side inputs (global + masked instances)
-  int reference_reuses = 0;     // … and the passes saved by reusing them
-  int reference_instances = 0;  // instance proposals of the current reference
-  int depth_estimates = 0;      // Metric3D passes (reference once per scene + one per query)
-  double reference_ms = 0;      // time spent on the current reference's own work
-};
-
 }  // namespace freeloc::pipeline
 
 namespace freeloc {
-template <>
-struct EnumTable<pipeline::IntrinsicsSource> {
-  static constexpr const char* kField = "intrinsics source";
-  static constexpr EnumEntry<pipeline::IntrinsicsSource> kEntries[] = {
-      {pipeline::IntrinsicsSource::kNone, "none"},       {pipeline::IntrinsicsSource::kGiven, "given"},
-      {pipeline::IntrinsicsSource::kFile, "file"},       {pipeline::IntrinsicsSource::kExif, "exif"},
-      {pipeline::IntrinsicsSource::kPointmap, "pointmap"}};
-};
 template <>
 struct EnumTable<pipeline::MatcherKind> {
   static constexpr const char* kField = "matcher";
@@ -271,21 +171,6 @@ struct EnumTable<pipeline::DevicePoseUse> {
                                                                     {pipeline::DevicePoseUse::kUse, "use"},
                                                                     {pipeline::DevicePoseUse::kIgnore, "ignore"}};
 };
-template <>
-struct EnumTable<pipeline::QueryStatus> {
-  static constexpr const char* kField = "status";
-  static constexpr EnumEntry<pipeline::QueryStatus> kEntries[] = {
-      {pipeline::QueryStatus::kOk, "ok"},
-      {pipeline::QueryStatus::kOkUnitTranslation, "ok-unit-translation"},
-      {pipeline::QueryStatus::kWeakSupport, "weak-support"},
-      {pipeline::QueryStatus::kTooFewMatches, "too-few-matches"},
-      {pipeline::QueryStatus::kNoConsensus, "no-consensus"},
-      {pipeline::QueryStatus::kDegenerate, "degenerate"},
-      {pipeline::QueryStatus::kNoDepth, "no-depth"},
-      {pipeline::QueryStatus::kScaleNoValidDepth, "scale-no-valid-depth"},
-      {pipeline::QueryStatus::kScaleNoConsensus, "scale-no-consensus"},
-      {pipeline::QueryStatus::kError, "error"}};
-};
 }  // namespace freeloc
 
 namespace freeloc::pipeline {
@@ -304,9 +189,9 @@ inline constexpr const char* kDepthChoices = "provided:<suffix>, metric3d, mast3
 enum class FlagScope { kNone, kGlobal, kSolve, kStages, kRun };
 struct OptionField {
   const char* name;
-  const char* flag;  // the command-line flag that sets it, nullptr: only `--set NAME=…`
-  FlagScope scope;   // where the flag is offered (kNone without a flag)
-  const char* alias; // a second spelling of the flag (e.g. --dust3r-model), nullptr: none
+  const char* flag;   // the command-line flag that sets it, nullptr: only `--set NAME=…`
+  FlagScope scope;    // where the flag is offered (kNone without a flag)
+  const char* alias;  // a second spelling of the flag (e.g. --dust3r-model), nullptr: none
   OptionType type;
   const char* help;
   std::string choices;  // "a, b, c" for the fields with a fixed set of values (from their enum tables), else empty

@@ -1,9 +1,10 @@
 // Typed options: every enum and spec round-trips through its one text form; errors name the field and the choices;
 // the field table sets and reads every field; presets resolve; the JSON records round-trip.
+#include "freeloc/pipeline/options.h"
+
 #include <gtest/gtest.h>
 
 #include "freeloc/core/error.h"
-#include "freeloc/pipeline/options.h"
 #include "freeloc/pipeline/record.h"
 #include "testing/testing.h"
 
@@ -23,8 +24,9 @@ TEST(Options, SpecsRoundTripThroughTheirTextForm) {
 }
 
 TEST(Options, BadTextNamesTheFieldAndTheChoicesNotAFlag) {
-  EXPECT_EQ(ErrorOf([] { MatcherSpec::FromString("orb"); }),
-            "matcher: 'orb' is not one of sift, dust3r, dust3r+instances, mast3r, mast3r+instances, precomputed:<name>");
+  EXPECT_EQ(
+      ErrorOf([] { MatcherSpec::FromString("orb"); }),
+      "matcher: 'orb' is not one of sift, dust3r, dust3r+instances, mast3r, mast3r+instances, precomputed:<name>");
   EXPECT_EQ(ErrorOf([] { MatcherSpec::FromString("sift:x"); }).rfind("matcher: 'sift:x'", 0), 0u);
   EXPECT_NE(ErrorOf([] { MatcherSpec::FromString("precomputed:"); }).find("names no correspondences"),
             std::string::npos);

@@ -46,18 +46,20 @@ std::string AvailablePresets() {
 PipelineOptions ResolvePrecomputed(const std::string& name) {
   const std::string rest = name.substr(12);
   const size_t dash = rest.rfind('-');
-  FREELOC_OPTION_CHECK("preset", dash != std::string::npos && dash > 0, ": '" << name << "' is not of the form " << kPrecomputedForm);
+  FREELOC_OPTION_CHECK("preset", dash != std::string::npos && dash > 0,
+                       ": '" << name << "' is not of the form " << kPrecomputedForm);
   PipelineOptions o;
   o.preset = name;
   o.matcher.kind = MatcherKind::kPrecomputed;
   o.matcher.correspondences = rest.substr(0, dash);
   FREELOC_OPTION_CHECK("preset", IsFileNamePart(o.matcher.correspondences),
-                ": '" << SafeText(name, 100) << "': the correspondence name must be letters, digits, '_', '-', "
-                            << "'.' or '+' (it names correspondences_<name>.npz), not a path");
-  FREELOC_OPTION_CHECK("preset", TryParseEnum(rest.substr(dash + 1), &o.solver),
-                ": '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of "
-                            << EnumNames<SolverKind>());
-  if (o.solver == SolverKind::kEssential || o.solver == SolverKind::kHybrid) o.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
+                       ": '" << SafeText(name, 100) << "': the correspondence name must be letters, digits, '_', '-', "
+                             << "'.' or '+' (it names correspondences_<name>.npz), not a path");
+  FREELOC_OPTION_CHECK(
+      "preset", TryParseEnum(rest.substr(dash + 1), &o.solver),
+      ": '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of " << EnumNames<SolverKind>());
+  if (o.solver == SolverKind::kEssential || o.solver == SolverKind::kHybrid)
+    o.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
   return o;
 }
 

@@ -69,7 +69,10 @@ namespace {
 
 // {"fx", "fy", "cx", "cy", "source"} (+ "orientation" when the photo had the tag, "pointmap_focal" when estimated).
 Json IntrinsicsObject(const FrameIntrinsics& f) {
-  Json j = {{"fx", f.camera.fx}, {"fy", f.camera.fy}, {"cx", f.camera.cx}, {"cy", f.camera.cy},
+  Json j = {{"fx", f.camera.fx},
+            {"fy", f.camera.fy},
+            {"cx", f.camera.cx},
+            {"cy", f.camera.cy},
             {"source", ToString(f.source)}};
   if (f.orientation > 0) j["orientation"] = f.orientation;
   if (f.pointmap_focal > 0) j["pointmap_focal"] = f.pointmap_focal;
@@ -114,24 +117,32 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["scale_inliers"] = r.scale_inliers;
   j["predicted_translation_m"] = r.predicted_translation_m;
   j["predicted_rotation_deg"] = r.predicted_rotation_deg;
-  j["depth_ms"] = r.depth_ms;
-  j["match_ms"] = r.match_ms;
-  j["instance_ms"] = r.instance_ms;
-  j["solve_ms"] = r.solve_ms;
-  j["pair_ms"] = r.pair_ms;
-  j["segment_ms"] = r.segment_ms;
-  j["instance_pass_ms"] = r.instance_pass_ms;
-  j["instance_pairs"] = r.instance_pairs;
+  j["depth_ms"] = r.timings.depth_ms;
+  j["match_ms"] = r.timings.match_ms;
+  j["instance_ms"] = r.timings.instance_ms;
+  j["solve_ms"] = r.timings.solve_ms;
+  j["pair_ms"] = r.timings.pair_ms;
+  j["segment_ms"] = r.timings.segment_ms;
+  j["instance_pass_ms"] = r.timings.instance_pass_ms;
+  j["instance_pairs"] = r.timings.instance_pairs;
   if (r.ref_intrinsics.known() || r.query_intrinsics.known())
     j["intrinsics"] = {{"ref", IntrinsicsObject(r.ref_intrinsics)}, {"query", IntrinsicsObject(r.query_intrinsics)}};
   if (!r.window.empty()) {
     const WindowSummary& w = r.window;
     Json votes = Json::array();
     for (const WindowVote& v : w.votes)
-      votes.push_back({{"frame", v.frame}, {"status", ToString(v.status)}, {"relation", v.relation}, {"used", v.used},
-                       {"rotation_dev_deg", v.rotation_dev_deg}, {"distance_m", v.distance_m}});
-    j["window"] = {{"frames", w.frames}, {"used", w.used}, {"device", w.device}, {"scale", w.scale},
-                   {"depth_distance_m", w.depth_distance_m}, {"rig_distance_m", w.rig_distance_m},
+      votes.push_back({{"frame", v.frame},
+                       {"status", ToString(v.status)},
+                       {"relation", v.relation},
+                       {"used", v.used},
+                       {"rotation_dev_deg", v.rotation_dev_deg},
+                       {"distance_m", v.distance_m}});
+    j["window"] = {{"frames", w.frames},
+                   {"used", w.used},
+                   {"device", w.device},
+                   {"scale", w.scale},
+                   {"depth_distance_m", w.depth_distance_m},
+                   {"rig_distance_m", w.rig_distance_m},
                    {"votes", votes}};
   }
   if (options) j["options"] = OptionsObject(*options);
@@ -157,18 +168,18 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.route = j.value("route", std::string());
     r.predicted_translation_m = j.value("predicted_translation_m", 0.0);
     r.predicted_rotation_deg = j.value("predicted_rotation_deg", 0.0);
-    r.depth_ms = j.value("depth_ms", 0.0);
-    r.match_ms = j.value("match_ms", 0.0);
-    r.instance_ms = j.value("instance_ms", 0.0);
-    r.solve_ms = j.value("solve_ms", 0.0);
+    r.timings.depth_ms = j.value("depth_ms", 0.0);
+    r.timings.match_ms = j.value("match_ms", 0.0);
+    r.timings.instance_ms = j.value("instance_ms", 0.0);
+    r.timings.solve_ms = j.value("solve_ms", 0.0);
     if (j.contains("intrinsics")) {
       r.ref_intrinsics = IntrinsicsFromJson(j.at("intrinsics").at("ref"));
       r.query_intrinsics = IntrinsicsFromJson(j.at("intrinsics").at("query"));
     }
-    r.pair_ms = j.value("pair_ms", 0.0);
-    r.segment_ms = j.value("segment_ms", 0.0);
-    r.instance_pass_ms = j.value("instance_pass_ms", 0.0);
-    r.instance_pairs = j.value("instance_pairs", 0);
+    r.timings.pair_ms = j.value("pair_ms", 0.0);
+    r.timings.segment_ms = j.value("segment_ms", 0.0);
+    r.timings.instance_pass_ms = j.value("instance_pass_ms", 0.0);
+    r.timings.instance_pairs = j.value("instance_pairs", 0);
     if (j.contains("window")) {
       const Json& w = j.at("window");
       r.window.frames = w.at("frames").get<int>();

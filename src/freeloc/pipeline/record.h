@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "freeloc/pipeline/options.h"
+#include "freeloc/pipeline/query_result.h"
 
 namespace freeloc::pipeline {
 

@@ -2,8 +2,8 @@
 
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <filesystem>
+#include <functional>
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
@@ -91,7 +91,6 @@ void CheckCameraFitsImage(const Camera& camera, const Image& image, const char* 
   camera.ValidateForImage(image.width, image.height, what);
 }
 
-
 bool IsZero(const Camera& c) { return c.fx == 0 && c.fy == 0 && c.cx == 0 && c.cy == 0; }
 
 // A camera of focal `f` with the principal point at the centre of `image` (pixel centres at integers).
@@ -147,8 +146,8 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameIn
   m.have_ref = false;
   if (in.intrinsics_source != IntrinsicsSource::kPointmap) CheckCameraFitsImage(camera, image, "reference intrinsics");
   m.matcher->SetReference(image, camera, in.instance_labels);
-  m.ref_intrinsics = ResolveIntrinsics(camera, in, image, m.o, [&] { return m.matcher->ReferenceFocal(); },
-                                       "reference");
+  m.ref_intrinsics = ResolveIntrinsics(
+      camera, in, image, m.o, [&] { return m.matcher->ReferenceFocal(); }, "reference");
   m.k_ref = m.ref_intrinsics.camera;
   m.d_ref = m.depth->Depth(image, m.k_ref, std::move(in.depth));
   m.stats.reference_ms = MsSince(t0);
@@ -167,7 +166,7 @@ matching::Correspondences Relocalizer::Match(const Image& image, const Camera& c
 void AnswerUnsolved(const PipelineOptions& o, QueryResult* r) {
   if (r->ok() || !o.always_answer) return;
   r->answered = true;
-  if (r->weak()) return;  // its own pose, with its (low) confidence
+  if (r->weak()) return;          // its own pose, with its (low) confidence
   r->query_from_ref = Rigid3d();  // the prior: the reference camera's pose
   r->confidence = 0;
   r->predicted_translation_m = r->predicted_rotation_deg = 0;
@@ -196,18 +195,19 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   DepthMap provided = std::move(in.depth);
   const matching::Correspondences c = m.matcher->Match(image, camera, in, &r);
   const auto tf = std::chrono::steady_clock::now();
-  r.query_intrinsics = ResolveIntrinsics(camera, in, image, m.o, [&] { return m.matcher->QueryFocal(); }, "query");
-  r.match_ms += MsSince(tf);
+  r.query_intrinsics = ResolveIntrinsics(
+      camera, in, image, m.o, [&] { return m.matcher->QueryFocal(); }, "query");
+  r.timings.match_ms += MsSince(tf);
   const Camera& k_query = r.query_intrinsics.camera;
   const auto t0 = std::chrono::steady_clock::now();
   m.d_query = m.depth->Depth(image, k_query, std::move(provided));
-  r.depth_ms = m.depth->needs_provided() ? 0.0 : MsSince(t0);
+  r.timings.depth_ms = m.depth->needs_provided() ? 0.0 : MsSince(t0);
   if (m.o.UsesMast3rDepth()) {
     // MASt3R's own metric depth of this pair (the reference's changes with the query: pointmaps are per pair).
     const auto t1 = std::chrono::steady_clock::now();
     FREELOC_CHECK(m.matcher->PairDepth(m.o.solver != SolverKind::kPnp, &m.d_ref, &m.d_query),
                   "depth mast3r: the matcher " << m.o.matcher.ToString() << " gives no depth");
-    r.depth_ms = MsSince(t1);
+    r.timings.depth_ms = MsSince(t1);
   }
   m.solver->Solve(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
   if (matches) *matches = c;

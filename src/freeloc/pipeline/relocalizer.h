@@ -16,6 +16,7 @@
 #include "freeloc/io/mapfree.h"
 #include "freeloc/matching/correspondences.h"
 #include "freeloc/pipeline/options.h"
+#include "freeloc/pipeline/query_result.h"
 #include "freeloc/pipeline/stages.h"
 
 namespace freeloc::pipeline {
@@ -58,8 +59,7 @@ class Relocalizer {
     return Relocalize(image, camera, std::move(in), matches);
   }
   // Only the matching stage (what `freeloc match` runs): the correspondences of the query against the reference.
-  matching::Correspondences Match(const Image& image, const Camera& camera, const FrameInputs& inputs,
-                                  QueryResult* r);
+  matching::Correspondences Match(const Image& image, const Camera& camera, const FrameInputs& inputs, QueryResult* r);
 
   const CacheStats& stats() const;
   const PipelineOptions& options() const;

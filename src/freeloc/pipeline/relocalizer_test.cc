@@ -21,7 +21,7 @@ namespace {
 // sift-essential with the sensor depth on the real TUM scenes: errors near the geometry engine's (s00002: 3.7 cm
 // baseline with unmodelled lens distortion; s00003: pseudo ground truth).
 TEST(Relocalizer, SiftEssentialOnTumScenes) {
-    const PipelineOptions o = ResolvePreset("sift-essential");
+  const PipelineOptions o = ResolvePreset("sift-essential");
   for (const char* name : {"s00002", "s00003"}) {
     SCOPED_TRACE(name);
     const MapfreeScene s = MapfreeScene::Load(testing::DemoPath(std::string("val/") + name));
@@ -172,8 +172,9 @@ TEST(Relocalizer, IntrinsicsFromThePointmapAndTheirCheck) {
   q_in = FrameInputs();
   q_in.depth = scene.depth_query;
   q_in.intrinsics_source = IntrinsicsSource::kPointmap;
-  EXPECT_NE(testing::ErrorOf([&] { reloc.Relocalize(Image(320, 240), Camera(), std::move(q_in)); })
-                .find("query: no intrinsics were given and its pointmap gives no focal length"),
+  EXPECT_NE(testing::ErrorOf([&] {
+              reloc.Relocalize(Image(320, 240), Camera(), std::move(q_in));
+            }).find("query: no intrinsics were given and its pointmap gives no focal length"),
             std::string::npos);
 
   // check_intrinsics 0: no focal is asked for a given camera.
@@ -193,8 +194,7 @@ TEST(Relocalizer, IntrinsicsFromThePointmapAndTheirCheck) {
   FrameInputs none;
   none.intrinsics_source = IntrinsicsSource::kPointmap;
   const std::string e = testing::ErrorOf([&] { plain.SetReference(Image(320, 240), Camera(), std::move(none)); });
-  EXPECT_NE(e.find("reference: no intrinsics were given and the matcher sift has no pointmap"), std::string::npos)
-      << e;
+  EXPECT_NE(e.find("reference: no intrinsics were given and the matcher sift has no pointmap"), std::string::npos) << e;
 }
 
 // The hybrid solver through the pipeline (precomputed correspondences, provided depth): metric and exact to the
@@ -352,10 +352,11 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
   int used = 0;
   for (const auto& q : res) {
     SCOPED_TRACE(q.frame);
-    EXPECT_TRUE(q.ok() || q.status == QueryStatus::kNoConsensus || ToString(q.status).rfind("scale-", 0) == 0) << q.StatusText();
+    EXPECT_TRUE(q.ok() || q.status == QueryStatus::kNoConsensus || ToString(q.status).rfind("scale-", 0) == 0)
+        << q.StatusText();
     EXPECT_EQ(q.instances, st.reference_instances);
     EXPECT_GT(q.global_matches, 0);
-    EXPECT_GT(q.depth_ms, 0);
+    EXPECT_GT(q.timings.depth_ms, 0);
     used += q.instances_used;
     if (q.ok()) {
       EXPECT_EQ(ToString(q.status), "ok");  // metric: Metric3D gave the depth
@@ -411,7 +412,8 @@ TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
     // Random weights: a status, never a confident pose.
     EXPECT_FALSE(r.ok()) << r.StatusText();
     const Dust3rInput qn = PreprocessForDust3r(qi, pre);
-    const auto p = model->Run({ri.normalized.data(), ri.height(), ri.width()}, {qn.normalized.data(), qn.height(), qn.width()});
+    const auto p =
+        model->Run({ri.normalized.data(), ri.height(), ri.width()}, {qn.normalized.data(), qn.height(), qn.width()});
     const int D = static_cast<int>(p.desc_1.shape.back());
     const auto raw = matching::FastReciprocalNN({p.desc_1.as<float>(), nullptr, ri.height(), ri.width(), D},
                                                 {p.desc_2.as<float>(), nullptr, qn.height(), qn.width(), D}, {});
@@ -423,7 +425,8 @@ TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
     const DepthMap& dq = reloc.last_query_depth();
     ASSERT_EQ(dr.width, ref.width);
     ASSERT_EQ(dq.width, qi.width);
-    const auto sw = model->Run({qn.normalized.data(), qn.height(), qn.width()}, {ri.normalized.data(), ri.height(), ri.width()});
+    const auto sw =
+        model->Run({qn.normalized.data(), qn.height(), qn.width()}, {ri.normalized.data(), ri.height(), ri.width()});
     int compared = 0;
     for (int y = 5; y < ref.height; y += 97)
       for (int x = 3; x < ref.width; x += 89) {

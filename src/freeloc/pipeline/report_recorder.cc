@@ -48,8 +48,9 @@ eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r)
   if (!r.window.empty()) {
     const WindowSummary& w = r.window;
     char line[256];
-    std::snprintf(line, sizeof(line), "%d of %d frames used; distance from %s (depth maps %.3f m, rig %.3f m); device poses %s",
-                  w.used, w.frames, w.scale.empty() ? "the evaluated frame" : w.scale.c_str(), w.depth_distance_m,
+    std::snprintf(line, sizeof(line),
+                  "%d of %d frames used; distance from %s (depth maps %.3f m, rig %.3f m); device poses %s", w.used,
+                  w.frames, w.scale.empty() ? "the evaluated frame" : w.scale.c_str(), w.depth_distance_m,
                   w.rig_distance_m, w.device.c_str());
     q.window = line;
     for (const WindowVote& v : w.votes) {
@@ -67,9 +68,9 @@ eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r)
   for (const MapfreeFrame& f : scene.queries) {
     if (f.name != r.frame) continue;
     const std::array<float, 4> k = {static_cast<float>(f.camera.fx), static_cast<float>(f.camera.fy),
-                                     static_cast<float>(f.camera.cx), static_cast<float>(f.camera.cy)};
-    q.err = eval::ComputeFrameErrors(Official(gt->second), Official(r.query_from_ref), k, f.camera.width,
-                                     f.camera.height);
+                                    static_cast<float>(f.camera.cx), static_cast<float>(f.camera.cy)};
+    q.err =
+        eval::ComputeFrameErrors(Official(gt->second), Official(r.query_from_ref), k, f.camera.width, f.camera.height);
     q.has_errors = true;
   }
   return q;
@@ -122,8 +123,8 @@ void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, c
                            reloc.last_query_depth(), o_);
     // The 3D view's data (eval/view3d.h): the reference's points, its camera, the predicted and the true query camera.
     std::vector<eval::View3dCamera> cams;
-    Camera kr = reloc.reference_intrinsics().camera, kq = r.query_intrinsics.known() ? r.query_intrinsics.camera
-                                                                                   : f->camera;
+    Camera kr = reloc.reference_intrinsics().camera,
+           kq = r.query_intrinsics.known() ? r.query_intrinsics.camera : f->camera;
     kr.width = ref_.width;
     kr.height = ref_.height;
     kq.width = query.width;
@@ -132,8 +133,8 @@ void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, c
     if (q.has_pose) cams.push_back({r.query_from_ref, kq, "#ff9922", "predicted"});
     const auto gt = scene.gt.find(r.frame);
     if (gt != scene.gt.end()) cams.push_back({gt->second, kq, "#3399ff", "true"});
-    const std::string js = "window.freelocViews=window.freelocViews||{};freelocViews[" + nlohmann::json(name).dump() + "]=" +
-                           eval::View3dJson(ref_, reloc.reference_depth(), kr, cams, 6000) + ";\n";
+    const std::string js = "window.freelocViews=window.freelocViews||{};freelocViews[" + nlohmann::json(name).dump() +
+                           "]=" + eval::View3dJson(ref_, reloc.reference_depth(), kr, cams, 6000) + ";\n";
     WriteFileAtomic(dir_ + "/" + name + ".3d.js", js.data(), js.size());
   } catch (const std::exception& e) {
     FREELOC_LOG(WARNING) << "report: " << scene.name << "/" << r.frame << ": no detail image (" << e.what() << ")";

@@ -12,6 +12,7 @@
 
 #include "freeloc/eval/run_report.h"
 #include "freeloc/io/mapfree.h"
+#include "freeloc/pipeline/query_result.h"
 #include "freeloc/pipeline/relocalizer.h"
 
 namespace freeloc::pipeline {
@@ -30,11 +31,11 @@ class ReportRecorder {
  private:
   std::string dir_;
   eval::ReportOptions o_;
-  std::map<std::string, int> per_scene_;                      // queries rendered as the first of their scene
+  std::map<std::string, int> per_scene_;  // queries rendered as the first of their scene
   int failures_ = 0;
-  std::multimap<double, std::string> worst_;                   // badness → file, the worst kept so far
-  std::set<std::string> pinned_;                               // files kept for the per-scene and failure samples
-  std::string ref_scene_;                                      // the scene whose reference image `ref_` holds
+  std::multimap<double, std::string> worst_;  // badness → file, the worst kept so far
+  std::set<std::string> pinned_;              // files kept for the per-scene and failure samples
+  std::string ref_scene_;                     // the scene whose reference image `ref_` holds
   Image ref_;
 };
 

@@ -112,10 +112,11 @@ std::unique_ptr<RunComm> MpiCommFromEnvironment() {
 
 std::unique_ptr<RunComm> MpiCommFromEnvironment() {
   const int n = LaunchedWorldSize();
-  FREELOC_CHECK(n <= 1, "run: launched as one of " << n << " processes by an MPI launcher, but this freeloc was built "
-                                                   "without MPI; each process would run the whole split. Install "
-                                                   "libopenmpi-dev (scripts/install-deps.sh) and rebuild, or split "
-                                                   "the run into shards and merge their submissions");
+  FREELOC_CHECK(n <= 1, "run: launched as one of " << n
+                                                   << " processes by an MPI launcher, but this freeloc was built "
+                                                      "without MPI; each process would run the whole split. Install "
+                                                      "libopenmpi-dev (scripts/install-deps.sh) and rebuild, or split "
+                                                      "the run into shards and merge their submissions");
   return nullptr;
 }
 

@@ -14,13 +14,14 @@
 #include "freeloc/eval/run_report.h"
 #include "freeloc/io/mapfree.h"
 #include "freeloc/pipeline/options.h"
+#include "freeloc/pipeline/query_result.h"
 #include "freeloc/pipeline/relocalizer.h"
 
 namespace freeloc::pipeline {
 
 // Shard i of n takes every n-th scene of the sorted list, starting at the i-th (1 ≤ i ≤ n).
 struct Shard {
-  int index = 0, count = 0;  // count 0: the whole split
+  int index = 0, count = 0;                          // count 0: the whole split
   static Shard FromString(const std::string& text);  // "i/n"; throws naming the field "shard"
   std::string ToString() const;                      // "i/n", or "" for the whole split
   bool whole() const { return count == 0; }
@@ -30,7 +31,7 @@ struct Shard {
 class RunComm;
 
 struct RunSpec {
-  std::string data;                 // dataset root (holding val/, test/) or a split folder
+  std::string data;  // dataset root (holding val/, test/) or a split folder
   std::string split = "val";
   std::vector<std::string> scenes;  // empty: every scene of the split
   std::string out;                  // submission ZIP
@@ -38,15 +39,15 @@ struct RunSpec {
   std::string save_matches;         // folder (optional): <scene>/<frame>.matches.txt per query, full precision
   std::string report;               // folder (optional): the HTML report of the run (eval/run_report.h)
   eval::ReportOptions report_options;
-  bool resume = false;              // continue from <out>.progress.jsonl
+  bool resume = false;  // continue from <out>.progress.jsonl
   Shard shard;
-  bool progress_bar = true;         // one bar over the queries on stderr (when it is a terminal)
+  bool progress_bar = true;  // one bar over the queries on stderr (when it is a terminal)
   // Called after each query (and once for each resumed scene) with the queries done and the total.
   std::function<void(int64_t done, int64_t total)> on_progress;
   // Called on each rank of a multi-process run once its scenes are assigned (tests/mpi/fault_run.cc kills a rank
   // there, as a crashed node would).
   std::function<void(const RunComm& comm)> on_assigned;
-  void Validate() const;            // throws naming the field
+  void Validate() const;  // throws naming the field
 };
 
 struct RunResult {
@@ -71,7 +72,7 @@ using RelocalizerFactory = std::function<std::unique_ptr<Relocalizer>(const Pipe
 // With `comm` of more than one rank (run_comm.h: MPI), the scenes are split over the ranks and rank 0 writes the
 // outputs (the same bytes as one process); the other ranks return their own scenes' results only.
 RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const RelocalizerFactory& factory = nullptr,
-                       RunComm* comm = nullptr);
+                     RunComm* comm = nullptr);
 
 // The split folder under `data` (or `data` itself) and the scenes to process: all of them, or `only` (each must
 // exist). Throws freeloc::Error naming what is missing.

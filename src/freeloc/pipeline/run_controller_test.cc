@@ -3,13 +3,13 @@
 #include "freeloc/pipeline/run_controller.h"
 
 #include <c10/util/Exception.h>
-#include <gtest/gtest.h>
-#include <csignal>
-#include <unistd.h>
-#include <sys/wait.h>
-#include <sys/file.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/file.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <filesystem>
 
 #include "freeloc/core/error.h"
@@ -30,7 +30,8 @@ struct Split {
   std::string root() const { return tmp.File("data"); }
   std::string out() const { return tmp.File("sub.zip"); }
   Split() {
-    for (uint32_t s : {3u, 4u}) testing::WriteSyntheticMapfreeScene(tmp.File("data/val/s0000" + std::to_string(s)), 90 + s);
+    for (uint32_t s : {3u, 4u})
+      testing::WriteSyntheticMapfreeScene(tmp.File("data/val/s0000" + std::to_string(s)), 90 + s);
   }
 };
 
@@ -62,7 +63,8 @@ TEST(RunController, WritesSubmissionLogAndProvenance) {
       ok += res[i].metric();
       if (!res[i].metric()) continue;
       const Rigid3d& gt = r.loaded.at(name).gt.at(res[i].frame);
-      EXPECT_LT(RotationAngleDeg(res[i].query_from_ref.rotation, gt.rotation), 5.0) << res[i].frame;  // 160×120 px, 30 % outliers
+      EXPECT_LT(RotationAngleDeg(res[i].query_from_ref.rotation, gt.rotation), 5.0)
+          << res[i].frame;  // 160×120 px, 30 % outliers
     }
     EXPECT_GE(ok, 2) << name;
   }

@@ -31,7 +31,7 @@ class SiftMatcher : public Matcher {
   matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs&, QueryResult* r) override {
     const auto t0 = std::chrono::steady_clock::now();
     auto c = matching::MatchSiftFeatures(ref_, matching::ExtractSift(query));
-    r->match_ms = MsSince(t0);
+    r->timings.match_ms = MsSince(t0);
     return c;
   }
 
@@ -82,10 +82,10 @@ void CheckDepthCovers(const std::vector<Eigen::Vector2d>& px, const DepthMap& d,
       ++outside;
       far = far.cwiseMax(p);
     }
-  FREELOC_CHECK(outside * 5 <= px.size(),
-                frame << " depth: the map is " << d.width << "x" << d.height << " but " << outside << " of " << px.size()
-                      << " " << frame << " correspondences lie outside it (up to " << far.x() << ", " << far.y()
-                      << "); give the depth map at its image's resolution");
+  FREELOC_CHECK(outside * 5 <= px.size(), frame << " depth: the map is " << d.width << "x" << d.height << " but "
+                                                << outside << " of " << px.size() << " " << frame
+                                                << " correspondences lie outside it (up to " << far.x() << ", "
+                                                << far.y() << "); give the depth map at its image's resolution");
 }
 
 // The estimator's reason text → the status enum ("ok", "too-few-matches", "no-consensus", "degenerate").
@@ -172,7 +172,7 @@ class EssentialSolver : public PoseSolver {
         geometry::EstimateRelativePose(c.ref, c.query, k_ref, k_query, ro, SampleDepths(c, d_ref, d_query));
     r->inliers = rel.status.num_inliers;
     r->inlier_mask = rel.inliers;
-    r->solve_ms = MsSince(t0);
+    r->timings.solve_ms = MsSince(t0);
     r->status = StatusOf(rel.status.outcome);
     const bool weak = r->weak();
     if (!rel.status.success() && !weak) return;
@@ -188,7 +188,7 @@ class EssentialSolver : public PoseSolver {
       r->status = QueryStatus::kWeakSupport;
       r->confidence = WeakSupportConfidence(r->confidence);
     }
-    r->solve_ms = MsSince(t0);
+    r->timings.solve_ms = MsSince(t0);
   }
 
  private:
@@ -252,7 +252,7 @@ class HybridSolver : public PoseSolver {
     if (!fits) {
       *r = ess;
       r->route = "hybrid>essential";
-      r->solve_ms = MsSince(t0);
+      r->timings.solve_ms = MsSince(t0);
       return;
     }
     r->matches = static_cast<int>(c.size());
@@ -282,7 +282,7 @@ class HybridSolver : public PoseSolver {
     r->predicted_translation_m = pe.translation_m;
     r->predicted_rotation_deg = pe.rotation_deg;
     r->confidence = ConfidenceFromPredictedError(pe);
-    r->solve_ms = MsSince(t0);
+    r->timings.solve_ms = MsSince(t0);
   }
 
  private:
@@ -311,14 +311,14 @@ class AbsoluteSolver : public PoseSolver {
     r->query_from_ref = m.query_from_ref;
     r->confidence = m.confidence;
     if (r->ok()) Confidence(c, k_ref, k_query, d_ref, d_query, r);
-    r->solve_ms = MsSince(t0);
+    r->timings.solve_ms = MsSince(t0);
   }
 
  private:
   // The confidence model of every solver (confidence.h) from the inliers' residuals: PnP's reprojection error in
   // the query, Procrustes' 3D distance seen from the query (as an angle); the depth's common scale error as prior.
-  void Confidence(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query,
-                  const DepthMap& d_ref, const DepthMap& d_query, QueryResult* r) const {
+  void Confidence(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
+                  const DepthMap& d_query, QueryResult* r) const {
     const Rigid3d& T = r->query_from_ref;
     double sq = 0, depth = 0;
     int n = 0;

@@ -16,12 +16,14 @@
 #include "freeloc/core/image.h"
 #include "freeloc/matching/correspondences.h"
 #include "freeloc/pipeline/options.h"
+#include "freeloc/pipeline/query_result.h"
 
 namespace freeloc::pipeline {
 
 // What a frame brings besides its image and camera; everything optional.
 struct FrameInputs {
-  DepthMap depth;  // provided depth (used when the depth stage is provided:<suffix>), in the image's displayed orientation
+  DepthMap
+      depth;  // provided depth (used when the depth stage is provided:<suffix>), in the image's displayed orientation
   // Instance label image at the frame's resolution (0 = none, k = instance k): the reference's instances for
   // dust3r+instances (instead of proposals), and the query's with instance_source given.
   const std::vector<uint16_t>* instance_labels = nullptr;
@@ -42,8 +44,7 @@ class Matcher {
  public:
   virtual ~Matcher() = default;
   // `instance_labels`: the reference's label image, or nullptr.
-  virtual void SetReference(const Image& image, const Camera& camera,
-                            const std::vector<uint16_t>* instance_labels) = 0;
+  virtual void SetReference(const Image& image, const Camera& camera, const std::vector<uint16_t>* instance_labels) = 0;
   // Correspondences in original pixels; fills r->global_matches, instances, instances_used, match_ms, instance_ms.
   virtual matching::Correspondences Match(const Image& query, const Camera& camera, const FrameInputs& inputs,
                                           QueryResult* r) = 0;

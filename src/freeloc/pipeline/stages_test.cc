@@ -1,11 +1,12 @@
 // The pipeline's solver stages on their own (MakePoseSolver): each kind on seeded synthetic rooms with exact depth
 // gives the true pose within its bounds, names its route and reports a confidence; with the query depth unusable the
 // hybrid falls back to the essential route; unrelated pairs are not solved; too few matches say so.
+#include "freeloc/pipeline/stages.h"
+
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "freeloc/pipeline/stages.h"
 #include "testing/synthetic_scene.h"
 
 namespace freeloc::pipeline {

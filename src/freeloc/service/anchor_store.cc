@@ -123,8 +123,9 @@ std::shared_ptr<Anchor> AnchorStore::Add(PhotoUpload upload) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (static_cast<int>(anchors_.size()) >= max_anchors_)
-      throw StoreFull("the service holds its maximum of " + std::to_string(max_anchors_) +
-                      " anchors (max_anchors); delete some (DELETE /v1/anchors/{id}) or start the service with a larger limit");
+      throw StoreFull(
+          "the service holds its maximum of " + std::to_string(max_anchors_) +
+          " anchors (max_anchors); delete some (DELETE /v1/anchors/{id}) or start the service with a larger limit");
   }
   std::shared_ptr<Anchor> a = Make(NewId(), std::move(upload));
   Persist(*a);

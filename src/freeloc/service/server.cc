@@ -13,9 +13,9 @@
 #include <fstream>
 #include <functional>
 #include <future>
-#include <thread>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
@@ -193,9 +193,9 @@ PhotoUpload UploadOf(const httplib::Request& req) {
   FREELOC_CHECK(req.is_multipart_form_data(),
                 "request: expected multipart/form-data with the fields 'image' (the photo), optional 'depth' "
                 "(16-bit PNG, millimetres) and 'intrinsics' (fx,fy,cx,cy); got "
-                    << (req.get_header_value("Content-Type").empty() ? "no Content-Type"
-                                                                    : "'" + SafeText(req.get_header_value(
-                                                                                         "Content-Type"), 80) + "'"));
+                    << (req.get_header_value("Content-Type").empty()
+                            ? "no Content-Type"
+                            : "'" + SafeText(req.get_header_value("Content-Type"), 80) + "'"));
   FREELOC_CHECK(req.has_file("image"), "image: missing; send the photo as the multipart field 'image'");
   PhotoUpload u;
   const std::string& img = req.get_file_value("image").content;
@@ -205,13 +205,15 @@ PhotoUpload UploadOf(const httplib::Request& req) {
     u.depth.assign(d.begin(), d.end());
   }
   if (req.has_file("intrinsics")) u.intrinsics = req.get_file_value("intrinsics").content;
-  FREELOC_CHECK(u.intrinsics.size() <= 200, "intrinsics: " << u.intrinsics.size()
-                                                            << " bytes; expected fx,fy,cx,cy");
+  FREELOC_CHECK(u.intrinsics.size() <= 200, "intrinsics: " << u.intrinsics.size() << " bytes; expected fx,fy,cx,cy");
   return u;
 }
 
 Json IntrinsicsJson(const pipeline::FrameIntrinsics& f) {
-  return {{"fx", f.camera.fx}, {"fy", f.camera.fy}, {"cx", f.camera.cx}, {"cy", f.camera.cy},
+  return {{"fx", f.camera.fx},
+          {"fy", f.camera.fy},
+          {"cx", f.camera.cx},
+          {"cy", f.camera.cy},
           {"source", ToString(f.source)}};
 }
 
@@ -286,8 +288,9 @@ struct Server::Impl {
     three_js = ReadStatic(o.static_dir + "/build/three.min.js");
     orbit_js = ReadStatic(o.static_dir + "/examples/js/controls/OrbitControls.js");
     if (three_js.empty())
-      FREELOC_LOG(WARNING) << o.static_dir << "/build/three.min.js: not found (install libjs-three); the page's "
-                                              "3D view is off";
+      FREELOC_LOG(WARNING) << o.static_dir
+                           << "/build/three.min.js: not found (install libjs-three); the page's "
+                              "3D view is off";
     Routes();
   }
 
@@ -309,8 +312,9 @@ struct Server::Impl {
     const auto t0 = std::chrono::steady_clock::now();
     if (!admission.Enter(o.queue_timeout_s)) {
       res.set_header("Retry-After", "1");
-      SendError(res, 503, "busy: " + std::to_string(o.workers) + " workers and " + std::to_string(o.max_queue) +
-                              " queued requests; retry later");
+      SendError(res, 503,
+                "busy: " + std::to_string(o.workers) + " workers and " + std::to_string(o.max_queue) +
+                    " queued requests; retry later");
       return;
     }
     const double queue_ms = MsSince(t0);
@@ -417,7 +421,8 @@ struct Server::Impl {
     });
     http.Delete(id, [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
-      if (!store.Remove(req.matches[1])) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      if (!store.Remove(req.matches[1]))
+        return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
       SendJson(res, 200, {{"deleted", std::string(req.matches[1])}});
     });
     http.Get(id + "/image", [this](const httplib::Request& req, httplib::Response& res) {
@@ -460,8 +465,7 @@ struct Server::Impl {
     });
   }
 
-  void Relocalize(const httplib::Request& req, httplib::Response& res,
-                  std::chrono::steady_clock::time_point t0) {
+  void Relocalize(const httplib::Request& req, httplib::Response& res, std::chrono::steady_clock::time_point t0) {
     const auto a = store.Get(req.matches[1]);
     if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
     PhotoUpload u;
@@ -530,8 +534,9 @@ int Server::Bind() {
     FREELOC_CHECK(m.port > 0, m.o.host << ": cannot bind to any port");
   } else {
     FREELOC_CHECK(m.http.bind_to_port(m.o.host, m.o.port),
-                  m.o.host << ":" << m.o.port << ": cannot bind (in use, or not an address of this machine); choose "
-                                                 "another port");
+                  m.o.host << ":" << m.o.port
+                           << ": cannot bind (in use, or not an address of this machine); choose "
+                              "another port");
     m.port = m.o.port;
   }
   return m.port;

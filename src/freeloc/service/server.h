@@ -15,14 +15,14 @@ namespace freeloc::service {
 struct ServiceOptions {
   pipeline::PipelineOptions pipeline;  // the preset and overrides every anchor and query runs with
   std::string host = "127.0.0.1";
-  int port = 8080;  // 0: any free port (Server::port() says which)
-  int workers = 1;  // requests doing work at once (each runs the networks with the pipeline's threads)
+  int port = 8080;     // 0: any free port (Server::port() says which)
+  int workers = 1;     // requests doing work at once (each runs the networks with the pipeline's threads)
   int max_queue = 64;  // requests waiting for a worker; more are answered 503
   int max_upload_mb = 64;
   int max_anchors = 1000;
-  std::string token;      // non-empty: every /v1 request needs "Authorization: Bearer <token>"
-  std::string store_dir;  // non-empty: anchors persisted there and reloaded at start
-  double queue_timeout_s = 120;  // a request waiting longer for a worker is answered 503
+  std::string token;                           // non-empty: every /v1 request needs "Authorization: Bearer <token>"
+  std::string store_dir;                       // non-empty: anchors persisted there and reloaded at start
+  double queue_timeout_s = 120;                // a request waiting longer for a worker is answered 503
   std::string static_dir = eval::kThreeJsDir;  // three.js (libjs-three) for the page's 3D view
   void Validate() const;
 };

@@ -21,7 +21,7 @@ void Dust3rPreprocessOptions::Validate() const {
   FREELOC_CHECK(patch_size > 0, "DUSt3R preprocessing: patch size must be positive");
   FREELOC_CHECK(size == 224 || (size >= patch_size && size % patch_size == 0),
                 "DUSt3R preprocessing: size " << size << " is not supported; use 224 or a multiple of " << patch_size
-                                                << " (512 for the released model)");
+                                              << " (512 for the released model)");
 }
 
 void Dust3rResizedSize(int w, int h, const Dust3rPreprocessOptions& o, int* out_w, int* out_h, bool* lanczos) {

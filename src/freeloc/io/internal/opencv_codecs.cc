@@ -10,8 +10,8 @@ namespace {
 bool DecodeRgb(const uint8_t* bytes, size_t size, freeloc::Image* out, std::string* error) {
   try {
     // IMREAD_COLOR applies the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
-    const cv::Mat m = cv::imdecode(cv::Mat(1, static_cast<int>(size), CV_8UC1, const_cast<uint8_t*>(bytes)),
-                                   cv::IMREAD_COLOR);
+    const cv::Mat m =
+        cv::imdecode(cv::Mat(1, static_cast<int>(size), CV_8UC1, const_cast<uint8_t*>(bytes)), cv::IMREAD_COLOR);
     if (m.empty() || m.cols <= 0 || m.rows <= 0 || m.type() != CV_8UC3) {
       *error = m.empty() ? "" : "unexpected decoded pixel type";
       return false;

@@ -78,7 +78,8 @@ bool Decode(const std::vector<uint8_t>& bytes, std::vector<uint16_t>* out, std::
   // 16-bit rows are read in place; 8-bit rows into the upper half of each row's 16-bit slots, then widened.
   out->resize(static_cast<size_t>(w) * h);
   rows->resize(h);
-  for (png_uint_32 y = 0; y < h; ++y) (*rows)[y] = reinterpret_cast<png_bytep>(out->data() + static_cast<size_t>(y) * w);
+  for (png_uint_32 y = 0; y < h; ++y)
+    (*rows)[y] = reinterpret_cast<png_bytep>(out->data() + static_cast<size_t>(y) * w);
   if (row_bytes > static_cast<size_t>(w) * 2) png_error(png, "unexpected row size");
   png_read_image(png, rows->data());
   png_read_end(png, nullptr);
@@ -88,8 +89,8 @@ bool Decode(const std::vector<uint8_t>& bytes, std::vector<uint16_t>* out, std::
 
 }  // namespace
 
-std::vector<uint16_t> DecodeGreyPng(const std::vector<uint8_t>& bytes, const std::string& what, int* width,
-                                    int* height, int* bits) {
+std::vector<uint16_t> DecodeGreyPng(const std::vector<uint8_t>& bytes, const std::string& what, int* width, int* height,
+                                    int* bits) {
   std::vector<uint16_t> out;
   std::vector<png_bytep> rows;
   PngError err;
@@ -139,8 +140,7 @@ bool Encode(const void* data, int width, int height, int channels, int bits, std
 std::vector<uint8_t> EncodePng(const void* data, int width, int height, int channels, int bits,
                                const std::string& what) {
   FREELOC_CHECK(width > 0 && height > 0 && (channels == 1 || channels == 3) && (bits == 8 || bits == 16),
-                what << ": cannot encode a " << width << "x" << height << "x" << channels << " " << bits
-                     << "-bit PNG");
+                what << ": cannot encode a " << width << "x" << height << "x" << channels << " " << bits << "-bit PNG");
   std::vector<uint8_t> out;
   std::vector<png_bytep> rows(static_cast<size_t>(height));
   PngError err;

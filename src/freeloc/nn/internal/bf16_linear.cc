@@ -1,7 +1,6 @@
 #include "freeloc/nn/internal/bf16_linear.h"
 
 #include <ATen/record_function.h>
-#include <oneapi/dnnl/dnnl.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -9,6 +8,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <oneapi/dnnl/dnnl.hpp>
 #include <vector>
 
 #include "freeloc/core/error.h"
@@ -39,7 +39,7 @@ struct PackedLinearBf16::Impl {
   };
   mutable std::mutex mu;
   mutable std::map<std::pair<int64_t, bool>, std::shared_ptr<const Kernel>> kernels;  // by (rows, gelu)
-  mutable std::vector<std::shared_ptr<dnnl::memory>> packed;             // distinct packed layouts
+  mutable std::vector<std::shared_ptr<dnnl::memory>> packed;                          // distinct packed layouts
 
   std::shared_ptr<const Kernel> For(int64_t rows, bool gelu) const {
     std::lock_guard<std::mutex> lock(mu);

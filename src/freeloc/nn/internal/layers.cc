@@ -5,7 +5,8 @@
 
 namespace freeloc::nn::internal {
 
-void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const PrecisionPolicy& p) {
+void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias,
+                  const PrecisionPolicy& p) {
   w = ws.Take(prefix + ".weight", {out, in});
   if (bias) b = ws.Take(prefix + ".bias", {out});
   if (p.bf16 && w.defined()) {
@@ -138,7 +139,8 @@ torch::Tensor SelfAttention::operator()(const torch::Tensor& x, const std::pair<
   return proj(o.transpose(1, 2).reshape({B, N, C}), p);
 }
 
-void CrossAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h, const PrecisionPolicy& p) {
+void CrossAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t h,
+                          const PrecisionPolicy& p) {
   q.Load(ws, prefix + ".projq", dim, dim, true, p);
   k.Load(ws, prefix + ".projk", dim, dim, true, p);
   v.Load(ws, prefix + ".projv", dim, dim, true, p);

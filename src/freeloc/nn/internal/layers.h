@@ -20,7 +20,7 @@ struct PrecisionPolicy {
 
 // torch.nn.Linear.
 struct Linear {
-  torch::Tensor w, b, w_lp, b_lp;  // *_lp: bf16 copies when running in bf16 on CUDA
+  torch::Tensor w, b, w_lp, b_lp;            // *_lp: bf16 copies when running in bf16 on CUDA
   std::shared_ptr<PackedLinearBf16> packed;  // bf16 on the CPU: oneDNN with prepacked weights
   void Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const PrecisionPolicy& p);
   torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const;

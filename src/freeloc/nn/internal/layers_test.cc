@@ -44,8 +44,8 @@ TEST(Kernels, RowBlockedAttentionMatchesNaiveOnOddShapes) {
   struct Shape {
     int64_t B, H, Nq, Nk, D, Dv, block;
   };
-  const Shape shapes[] = {{1, 1, 1, 1, 1, 1, 128},  {1, 3, 7, 13, 5, 5, 4},    {2, 2, 129, 17, 16, 16, 128},
-                          {1, 4, 33, 65, 9, 3, 1},   {1, 2, 200, 31, 24, 24, 64}, {2, 1, 5, 300, 8, 12, 3}};
+  const Shape shapes[] = {{1, 1, 1, 1, 1, 1, 128}, {1, 3, 7, 13, 5, 5, 4},      {2, 2, 129, 17, 16, 16, 128},
+                          {1, 4, 33, 65, 9, 3, 1}, {1, 2, 200, 31, 24, 24, 64}, {2, 1, 5, 300, 8, 12, 3}};
   for (const Shape& s : shapes) {
     SCOPED_TRACE(::testing::Message() << "B" << s.B << " H" << s.H << " Nq" << s.Nq << " Nk" << s.Nk << " D" << s.D
                                       << " Dv" << s.Dv << " block" << s.block);
@@ -76,7 +76,8 @@ std::vector<float> NaiveRope(const torch::Tensor& t, int64_t h, int64_t w, doubl
         for (int64_t c = 0; c < dh; ++c) {
           const int64_t part = c / D, i = c % D, j = i % half;
           const float pos = static_cast<float>(part == 0 ? n / w : n % w);
-          const float inv = 1.0f / std::pow(static_cast<float>(base), static_cast<float>(2 * j) / static_cast<float>(D));
+          const float inv =
+              1.0f / std::pow(static_cast<float>(base), static_cast<float>(2 * j) / static_cast<float>(D));
           const float ang = pos * inv;
           const float x = a[b][hd][n][c];
           const float rot = i < half ? -a[b][hd][n][part * D + i + half] : a[b][hd][n][part * D + i - half];
@@ -104,7 +105,8 @@ TEST(Kernels, Rope2DMatchesTheReferenceFormula) {
     for (size_t i = 0; i < want.size(); ++i) max_err = std::max(max_err, static_cast<double>(std::abs(g[i] - want[i])));
     EXPECT_LT(max_err, 5e-5);
     // A second call hits the table cache and gives the same tables.
-    EXPECT_TRUE(torch::equal(rope.Tables(s.h, s.w, s.dh, torch::kCPU).first, rope.Tables(s.h, s.w, s.dh, torch::kCPU).first));
+    EXPECT_TRUE(
+        torch::equal(rope.Tables(s.h, s.w, s.dh, torch::kCPU).first, rope.Tables(s.h, s.w, s.dh, torch::kCPU).first));
   }
 }
 

@@ -27,7 +27,8 @@ void ApplyRuntime(const RuntimeOptions& runtime);
 // Python's json.dump writes ±inf and NaN as the bare tokens Infinity, -Infinity, NaN (HF config.json of MASt3R),
 // which strict JSON rejects: outside strings they become the strings "inf", "-inf", "nan".
 std::string QuoteNonFiniteJson(const std::string& text);
-// A model config's JSON (non-finite tokens accepted, see above); an error names `source` and the model (`what`) when it does not parse.
+// A model config's JSON (non-finite tokens accepted, see above); an error names `source` and the model (`what`) when it
+// does not parse.
 nlohmann::json ParseModelConfig(const std::string& text, const std::string& source, const std::string& what);
 
 // The text of a model's config: `config_path` when given, else a config.json beside safetensors weights (the HF

@@ -1,0 +1,88 @@
+#include "freeloc/pipeline/run_scenes.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+
+#include "freeloc/core/error.h"
+#include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/run_controller.h"
+
+namespace freeloc::pipeline {
+
+namespace fs = std::filesystem;
+
+Shard Shard::FromString(const std::string& text) {
+  Shard s;
+  char tail = 0;
+  FREELOC_OPTION_CHECK("shard",
+                       std::sscanf(text.c_str(), "%d/%d%c", &s.index, &s.count, &tail) == 2 && s.count >= 1 &&
+                           s.index >= 1 && s.index <= s.count,
+                       ": '" << text << "' is not i/n with 1 <= i <= n (e.g. 2/4)");
+  return s;
+}
+
+std::string Shard::ToString() const { return whole() ? "" : std::to_string(index) + "/" + std::to_string(count); }
+
+std::vector<std::string> Shard::Select(const std::vector<std::string>& scenes) const {
+  if (whole()) return scenes;
+  std::vector<std::string> mine;
+  for (size_t k = static_cast<size_t>(index - 1); k < scenes.size(); k += static_cast<size_t>(count))
+    mine.push_back(scenes[k]);
+  return mine;
+}
+
+void RunSpec::Validate() const {
+  FREELOC_OPTION_CHECK("data", !data.empty(), ": give the dataset root or a split folder");
+  FREELOC_OPTION_CHECK("out", !out.empty(), ": give the submission ZIP to write");
+  FREELOC_OPTION_CHECK("shard", shard.whole() || (shard.index >= 1 && shard.index <= shard.count),
+                       ": " << shard.index << "/" << shard.count << " is not i/n with 1 <= i <= n");
+}
+
+std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split,
+                                       const std::vector<std::string>& only, std::string* split_dir) {
+  *split_dir = ResolveSplitDir(data, split);
+  std::vector<std::string> scenes = ListScenes(*split_dir, only);
+  FREELOC_CHECK(!scenes.empty(), *split_dir << ": no scene folders to process");
+  return scenes;
+}
+
+std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
+                                               const PipelineOptions& o) {
+  bool any_depth = !o.UsesProvidedDepth();
+  std::string example;
+  std::map<std::string, MapfreeScene> loaded;
+  for (const auto& name : scenes) {
+    const MapfreeScene& scene = loaded[name] = MapfreeScene::Load(split_dir + "/" + name);
+    AnsweredQueries(scene, o);  // multi-frame: every query must be orderable by its frame number
+    if (!o.UsesProvidedDepth()) continue;
+    const std::string p = scene.DepthPath(scene.reference, o.depth.suffix);
+    if (example.empty()) example = p;
+    std::error_code ec;
+    any_depth = any_depth || fs::exists(p, ec);
+  }
+  FREELOC_OPTION_CHECK("depth", any_depth,
+                       " " << o.depth.ToString() << ": no scene has this depth (e.g. " << example
+                           << " is missing); check the suffix, or use metric3d or none");
+  return loaded;
+}
+
+std::vector<std::vector<std::string>> AssignScenes(const std::vector<std::string>& scenes,
+                                                   const std::map<std::string, MapfreeScene>& loaded, int ranks) {
+  std::vector<std::string> order = scenes;
+  auto queries = [&](const std::string& n) { return loaded.at(n).queries.size(); };
+  std::stable_sort(order.begin(), order.end(), [&](const std::string& a, const std::string& b) {
+    return queries(a) != queries(b) ? queries(a) > queries(b) : a < b;
+  });
+  std::vector<std::vector<std::string>> out(static_cast<size_t>(ranks));
+  std::vector<size_t> load(static_cast<size_t>(ranks), 0);
+  for (const auto& n : order) {
+    const size_t r = static_cast<size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    out[r].push_back(n);
+    load[r] += queries(n) + 1;  // + 1: an empty scene still costs its reference
+  }
+  for (auto& v : out) std::sort(v.begin(), v.end());
+  return out;
+}
+
+}  // namespace freeloc::pipeline
