@@ -21,6 +21,7 @@
 #include "freeloc/io/submission.h"
 #include "freeloc/pipeline/options.h"
 #include "testing/mapfree_writer.h"
+#include "testing/pth_builder.h"
 #include "testing/testing.h"
 
 namespace {
@@ -796,8 +797,16 @@ TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
 
 // Limits are the user's to set (flag or environment), and a limit error is one line naming the limit.
 TEST(Cli, InputLimitsAreSetByFlagOrEnvironment) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/formats.pth");
-  const std::string pth = freeloc::testing::SharedPath("fixtures/pth/formats.pth");
+  // A checkpoint of four tensors, written by the test (testing/pth_builder.h).
+  freeloc::testing::TempDir tmp;
+  freeloc::testing::PthSpec spec;
+  for (int k = 0; k < 4; ++k) {
+    const std::string key = std::to_string(k);
+    spec.storages.push_back({key, "FloatStorage", 6, 24});
+    spec.tensors.push_back({"w" + key, key, 0, {2, 3}, {3, 1}});
+  }
+  const std::string pth = tmp.File("four.pth");
+  freeloc::testing::WritePthSpec(pth, spec);
   Result ok = RunFreeloc("inspect " + pth);
   ASSERT_EQ(ok.code, 0) << ok.out;
   Result flag = RunFreeloc("--limit max_tensors=1 inspect " + pth);
@@ -1083,7 +1092,7 @@ TEST(Cli, FlagsComeFromTheOptionRegistry) {
   }
   // An option's error names the flag: the registry's, or the command's own spelling (match --size is dust3r_size).
   freeloc::testing::TempDir tmp;
-  const std::string img = freeloc::testing::DemoPath("val/s00001/seq0/frame_00000.jpg");
+  const std::string img = freeloc::testing::DemoPath("val/s00001/seq0/frame_00000.png");
   Result r = RunFreeloc("match --model x.pth --size 100 " + img + " " + img + " --out " + tmp.File("m.txt"));
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "--size: 100 is too small")) << r.out;

@@ -74,7 +74,7 @@ int RunMatch(const MatchArgs& a, const GlobalOptions& g) try {
     query_labels = ReadLabels(a.query_masks, query.width, query.height);
     in.instance_labels = &query_labels;
   }
-  pipeline::Relocalizer reloc(o);
+  pipeline::Relocalizer reloc(o, pipeline::Relocalizer::kOptionsValidated);  // Options() validated them
   const Camera none;  // the DUSt3R/MASt3R matchers need no intrinsics
   reloc.SetReference(ref, none, pipeline::FrameInputs{{}, ref_labels.empty() ? nullptr : &ref_labels, nullptr});
   pipeline::QueryResult r;

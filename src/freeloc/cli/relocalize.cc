@@ -138,7 +138,7 @@ int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   if (!a.ref_masks.empty()) in_ref.instance_labels = &(ref_labels = ReadLabels(a.ref_masks, ref.width, ref.height));
   if (!a.query_masks.empty())
     in_query.instance_labels = &(query_labels = ReadLabels(a.query_masks, query.width, query.height));
-  pipeline::Relocalizer reloc(o);
+  pipeline::Relocalizer reloc(o, pipeline::Relocalizer::kOptionsValidated);  // Options() validated them
   reloc.SetReference(ref, kr, std::move(in_ref));
   matching::Correspondences c;
   const pipeline::QueryResult q = reloc.Relocalize(query, kq, std::move(in_query), &c);

@@ -114,7 +114,8 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
   std::string missing;
   PipelineArgs args;
   args.values["models_dir"] = models;
-  const pipeline::PipelineOptions o = ResolvePipelineArgs(args, g, DemoPreset(models, &missing));
+  const pipeline::PipelineOptions o =
+      ResolvePipelineArgs(args, g, DemoPreset(models, &missing), nullptr, /*validate=*/false);  // by ExecuteRun
   std::printf("freeloc demo — preset %s on the bundled TUM RGB-D scenes (%s)\n", o.preset.c_str(), data_dir.c_str());
   std::printf("(%s)\n", o.Summary().c_str());
   if (!missing.empty())

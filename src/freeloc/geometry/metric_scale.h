@@ -24,10 +24,9 @@
 #include "freeloc/core/depth_map.h"
 #include "freeloc/core/enum_table.h"
 #include "freeloc/core/rigid3d.h"
+#include "freeloc/geometry/scale_method.h"
 
 namespace freeloc::geometry {
-
-enum class ScaleMethod { kOfficial, kRobust, kAnchored };  // text forms: EnumTable<geometry::ScaleMethod> below
 
 struct ScaleOptions {
   ScaleMethod method = ScaleMethod::kRobust;
@@ -101,12 +100,5 @@ struct EnumTable<geometry::ScaleOutcome> {
       {geometry::ScaleOutcome::kOk, "ok"},
       {geometry::ScaleOutcome::kNoValidDepth, "no-valid-depth"},
       {geometry::ScaleOutcome::kNoConsensus, "no-consensus"}};
-};
-template <>
-struct EnumTable<geometry::ScaleMethod> {
-  static constexpr const char* kField = "scale";
-  static constexpr EnumEntry<geometry::ScaleMethod> kEntries[] = {{geometry::ScaleMethod::kRobust, "robust"},
-                                                                  {geometry::ScaleMethod::kOfficial, "official"},
-                                                                  {geometry::ScaleMethod::kAnchored, "anchored"}};
 };
 }  // namespace freeloc

@@ -16,6 +16,7 @@
 #include "freeloc/core/enum_table.h"
 #include "freeloc/core/image.h"
 #include "freeloc/core/rigid3d.h"
+#include "freeloc/io/track.h"
 
 namespace freeloc {
 
@@ -59,16 +60,6 @@ struct MapfreeScene {
 std::string ResolveSplitDir(const std::string& root, const std::string& split);
 // Scene folder names (sNNNNN…) in sorted order; `only` restricts to the listed names (error if one is absent).
 std::vector<std::string> ListScenes(const std::string& split_dir, const std::vector<std::string>& only = {});
-
-// The benchmark's tracks (spec/mapfree-multiframe.md): single-frame — every query alone, scored on every 5th frame;
-// multi-frame — each evaluated frame (linear positions 9, 19, … of the sorted seq1 frames) with the 8 frames before it.
-enum class Track { kSingleFrame, kMultiFrame };
-template <>
-struct EnumTable<Track> {
-  static constexpr const char* kField = "track";
-  static constexpr EnumEntry<Track> kEntries[] = {{Track::kSingleFrame, "single-frame"},
-                                                  {Track::kMultiFrame, "multi-frame"}};
-};
 
 // The Multi Frame track (spec/mapfree-multiframe.md §2): the frame number of "seq1/frame_00011.jpg" (11); -1 when
 // the file name is not frame_<digits>.<ext>.

@@ -12,6 +12,7 @@
 #include "freeloc/io/checkpoint.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/safetensors.h"
+#include "testing/pth_builder.h"
 #include "testing/testing.h"
 
 namespace freeloc {
@@ -26,6 +27,20 @@ std::string ErrorOf(const std::string& path) {
     return e.what();
   }
   return "";
+}
+
+// A well-formed zip checkpoint written by the test itself (testing/pth_builder.h): four float storages of 6 values,
+// one 2×3 tensor each, under archive/.
+std::string BuiltCheckpoint(const testing::TempDir& tmp) {
+  testing::PthSpec spec;
+  for (int k = 0; k < 4; ++k) {
+    const std::string key = std::to_string(k);
+    spec.storages.push_back({key, "FloatStorage", 6, 24});
+    spec.tensors.push_back({"w" + key, key, 0, {2, 3}, {3, 1}});
+  }
+  const std::string path = tmp.File("built.pth");
+  testing::WritePthSpec(path, spec);
+  return path;
 }
 
 // Copies a zip, dropping the entry `skip` and replacing `replace_name`'s content with `replace_bytes`.
@@ -152,42 +167,45 @@ TEST(Pth, Dust3rTinyIdenticalToSafetensors) {
 }
 
 TEST(Pth, LegacyFormatRefusedByName) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/legacy_format.pth");
-  const std::string m = ErrorOf(SharedPath("fixtures/pth/legacy_format.pth"));
+  // torch.save(..., _use_new_zipfile_serialization=False): a bare pickle stream that starts with the legacy magic
+  // number 0x1950a86a20f9469cfc6c (LONG1).
+  testing::TempDir tmp;
+  const std::string path = tmp.File("legacy_format.pth");
+  testing::WriteText(path, std::string("\x80\x02\x8a\x0a\x6c\xfc\x9c\x46\xf9\x20\x6a\xa8\x50\x19.", 15));
+  const std::string m = ErrorOf(path);
   EXPECT_NE(m.find("legacy (non-zip) PyTorch checkpoint format"), std::string::npos) << m;
   EXPECT_NE(m.find("legacy_format.pth"), std::string::npos) << m;
 }
 
 TEST(Pth, MissingStorageRecord) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/formats.pth");
   testing::TempDir tmp;
+  const std::string built = BuiltCheckpoint(tmp);
+  EXPECT_EQ(ErrorOf(built), "");
   const std::string dst = tmp.File("broken.pth");
-  RewriteZip(SharedPath("fixtures/pth/formats.pth"), dst, "formats/data/3");
+  RewriteZip(built, dst, "archive/data/3");
   const std::string m = ErrorOf(dst);
-  EXPECT_NE(m.find("storage record 'formats/data/3' is missing"), std::string::npos) << m;
+  EXPECT_NE(m.find("storage record 'archive/data/3' is missing"), std::string::npos) << m;
   EXPECT_NE(m.find("broken.pth"), std::string::npos) << m;
 }
 
 TEST(Pth, ShortStorageRecord) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/formats.pth");
   testing::TempDir tmp;
   const std::string dst = tmp.File("short.pth");
-  RewriteZip(SharedPath("fixtures/pth/formats.pth"), dst, "", "formats/data/0", std::string(8, '\0'));
+  RewriteZip(BuiltCheckpoint(tmp), dst, "", "archive/data/0", std::string(8, '\0'));
   const std::string m = ErrorOf(dst);
   EXPECT_NE(m.find("holds 8 bytes"), std::string::npos) << m;
 }
 
 TEST(Pth, UnsupportedOpcodeNamed) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/formats.pth");
   testing::TempDir tmp;
+  const std::string built = BuiltCheckpoint(tmp);
   const std::string dst = tmp.File("evil.pth");
-  RewriteZip(SharedPath("fixtures/pth/formats.pth"), dst, "", "formats/data.pkl",
+  RewriteZip(built, dst, "", "archive/data.pkl",
              std::string("\x80\x02(cos\nsystem\nX\x02\x00\x00\x00lsi__main__\nX\n.", 34));
   const std::string m = ErrorOf(dst);
   EXPECT_NE(m.find("global os.system"), std::string::npos) << m;  // refused by the allow-list first
-  EXPECT_NE(m.find("evil.pth/formats/data.pkl"), std::string::npos) << m;
-  RewriteZip(SharedPath("fixtures/pth/formats.pth"), dst, "", "formats/data.pkl",
-             std::string("\x80\x02(X\x02\x00\x00\x00lsi__main__\nX\n.", 24));
+  EXPECT_NE(m.find("evil.pth/archive/data.pkl"), std::string::npos) << m;
+  RewriteZip(built, dst, "", "archive/data.pkl", std::string("\x80\x02(X\x02\x00\x00\x00lsi__main__\nX\n.", 24));
   EXPECT_NE(ErrorOf(dst).find("(INST)"), std::string::npos) << ErrorOf(dst);
 }
 

@@ -17,13 +17,11 @@
 #include "freeloc/core/image.h"
 #include "freeloc/matching/correspondences.h"
 #include "freeloc/matching/fast_nn.h"
+#include "freeloc/matching/instance_mode.h"
 #include "freeloc/matching/reciprocal.h"
 #include "freeloc/vision/dust3r_preprocess.h"
 
 namespace freeloc::matching {
-
-// kMask: I ⊙ Mask (the paper); kCrop: the masks' bounding boxes. Text forms: EnumTable<matching::InstanceMode>.
-enum class InstanceMode { kMask, kCrop };
 
 struct Correspondence {
   Eigen::Vector2d ref, query;  // original pixels
@@ -98,12 +96,3 @@ std::vector<Correspondence> MergeMatches(const std::vector<Correspondence>& glob
 std::vector<std::pair<int, std::vector<uint8_t>>> SplitLabels(const std::vector<uint16_t>& labels);
 
 }  // namespace freeloc::matching
-
-namespace freeloc {
-template <>
-struct EnumTable<matching::InstanceMode> {
-  static constexpr const char* kField = "instance_mode";
-  static constexpr EnumEntry<matching::InstanceMode> kEntries[] = {{matching::InstanceMode::kMask, "mask"},
-                                                                   {matching::InstanceMode::kCrop, "crop"}};
-};
-}  // namespace freeloc

@@ -12,18 +12,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "freeloc/matching/proposal_options.h"
 #include "freeloc/vision/dust3r_preprocess.h"
 
 namespace freeloc::matching {
-
-struct ProposalOptions {
-  double conf_quantile = 0.3;    // drop the least confident 30 % of pixels
-  double depth_jump = 0.05;      // relative depth step that breaks a surface
-  double normal_angle_deg = 35;  // normal change that breaks a surface
-  double min_area = 0.01;        // fraction of the image
-  int max_instances = 5;
-  void Validate() const;
-};
 
 // Label image (0 = none, 1…n) on the pointmap's grid.
 std::vector<uint16_t> ProposeInstances(const float* pts, const float* conf, int height, int width,

@@ -9,16 +9,10 @@
 #include <vector>
 
 #include "freeloc/core/image.h"
+#include "freeloc/nn/instance_segmenter_options.h"
 #include "freeloc/nn/seggpt.h"
 
 namespace freeloc::nn {
-
-struct InstanceSegmenterOptions {
-  int max_batch = 8;            // instances per network call
-  double min_score = 0.2;       // drop propagations whose foreground is barely painted
-  double min_area_ratio = 0.1;  // query area / reference area (as image fractions) must lie in [min, max]
-  double max_area_ratio = 10.0;
-};
 
 struct PropagatedInstance {
   int id = 0;

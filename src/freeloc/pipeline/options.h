@@ -6,14 +6,12 @@
 #include <string>
 #include <vector>
 
-#include "freeloc/core/camera.h"
 #include "freeloc/core/enum_table.h"
-#include "freeloc/core/rigid3d.h"
-#include "freeloc/geometry/metric_scale.h"
-#include "freeloc/io/mapfree.h"
-#include "freeloc/matching/instance.h"
-#include "freeloc/matching/proposals.h"
-#include "freeloc/nn/instance_segmenter.h"
+#include "freeloc/geometry/scale_method.h"
+#include "freeloc/io/track.h"
+#include "freeloc/matching/instance_mode.h"
+#include "freeloc/matching/proposal_options.h"
+#include "freeloc/nn/instance_segmenter_options.h"
 #include "freeloc/nn/runtime.h"
 
 namespace freeloc::pipeline {
