@@ -16,10 +16,9 @@ namespace freeloc {
 namespace {
 
 TEST(Instances, ProposalsPropagationAndMatchingOnTumPhotos) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  const auto dust3r = nn::Dust3rModel::Load(testing::SharedPath("fixtures/pth/dust3r_tiny.pth"));
-  const auto seggpt = nn::SegGptModel::Load(testing::SharedPath("fixtures/seggpt/weights.safetensors"),
-                                            testing::SharedPath("fixtures/seggpt/config.json"));
+  const auto dust3r = nn::Dust3rModel::Load(testing::TinyModelPath("dust3r_tiny.pth"));
+  const auto seggpt = nn::SegGptModel::Load(testing::TinyModelPath("seggpt/model.safetensors"),
+                                            testing::TinyModelPath("seggpt/config.json"));
   const std::string s = testing::DemoPath("val/s00001/");
   const Image ref = ReadImage(s + "seq0/frame_00000.png"), query = ReadImage(s + "seq1/frame_00002.png");
   Dust3rPreprocessOptions po;

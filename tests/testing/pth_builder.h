@@ -87,4 +87,52 @@ inline std::map<std::string, std::string> PthMembers(const PthSpec& spec) {
 
 inline void WritePthSpec(const std::string& path, const PthSpec& spec) { WriteZipAtomic(path, PthMembers(spec)); }
 
+// A float32 tensor of a real checkpoint: its name in the state dict, its shape and its values (row-major).
+struct PthFloatTensor {
+  std::string name;
+  std::vector<int64_t> shape;
+  std::vector<float> values;
+};
+
+// A checkpoint laid out as training code saves it — torch.save({'model': state_dict, 'args': Namespace(...)}) —
+// with real values: one FloatStorage per tensor, contiguous, and the Namespace's string fields (DUSt3R and MASt3R
+// read their constructor string from args.model). For checkpoints the tests write themselves.
+inline std::string StateDictPickle(const std::vector<PthFloatTensor>& tensors,
+                                   const std::map<std::string, std::string>& args) {
+  using namespace pth_detail;
+  std::string p = std::string("\x80\x02") + "}(";        // EMPTY_DICT, MARK
+  p += Str("model") + "ccollections\nOrderedDict\n)R(";  // OrderedDict(), MARK
+  for (size_t k = 0; k < tensors.size(); ++k) {
+    const PthFloatTensor& t = tensors[k];
+    std::vector<int64_t> stride(t.shape.size(), 1);
+    for (size_t d = t.shape.size(); d-- > 1;) stride[d - 1] = stride[d] * t.shape[d];
+    p += Str(t.name);
+    p += "ctorch._utils\n_rebuild_tensor_v2\n";
+    p += "((" + Str("storage") + "ctorch\nFloatStorage\n" + Str(std::to_string(k)) + Str("cpu") +
+         Long(static_cast<int64_t>(t.values.size())) + "tQ";
+    p += Long(0) + Ints(t.shape) + Ints(stride);
+    p += "\x89";
+    p += "ccollections\nOrderedDict\n)R";
+    p += "tR";
+  }
+  p += "u";                                            // SETITEMS into the OrderedDict
+  p += Str("args") + "cargparse\nNamespace\n)\x81}(";  // Namespace() by NEWOBJ, its state dict, MARK
+  for (const auto& [key, value] : args) p += Str(key) + Str(value);
+  p += "ub";  // SETITEMS, BUILD
+  p += "u.";  // SETITEMS into the top dict, STOP
+  return p;
+}
+
+inline void WriteStateDictPth(const std::string& path, const std::vector<PthFloatTensor>& tensors,
+                              const std::map<std::string, std::string>& args) {
+  std::map<std::string, std::string> m = {{"archive/data.pkl", StateDictPickle(tensors, args)},
+                                          {"archive/byteorder", "little"}};
+  for (size_t k = 0; k < tensors.size(); ++k) {
+    const auto& v = tensors[k].values;
+    m["archive/data/" + std::to_string(k)] =
+        std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
+  }
+  WriteZipAtomic(path, m);
+}
+
 }  // namespace freeloc::testing

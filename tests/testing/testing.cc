@@ -18,6 +18,10 @@ std::string SharedDir() {
 std::string SharedPath(const std::string& relative) { return SharedDir() + "/" + relative; }
 bool SharedExists(const std::string& relative) { return std::filesystem::exists(SharedPath(relative)); }
 std::string SourceDir() { return FREELOC_SOURCE_DIR; }
+std::string TinyModelPath(const std::string& relative) {
+  return std::string(FREELOC_TINY_MODELS_DIR) + (relative.empty() ? "" : "/" + relative);
+}
+
 std::string DemoPath(const std::string& relative) {
   return std::string(FREELOC_SOURCE_DIR) + "/data/demo" + (relative.empty() ? "" : "/" + relative);
 }

@@ -17,6 +17,9 @@ bool SharedExists(const std::string& relative);
 std::string SourceDir();
 // The bundled demo data (data/demo: TUM RGB-D scenes in the map-free layout, CC BY 4.0), always present.
 std::string DemoPath(const std::string& relative = "");
+// freeloc's own tiny random-weight models, written by the build (tests/tools/make_tiny_models.cc):
+// "dust3r_tiny.pth", "mast3r_tiny.pth", "seggpt/model.safetensors", "metric3d/model.safetensors".
+std::string TinyModelPath(const std::string& relative = "");
 
 // A fresh empty folder under the system temp dir, removed when the object dies.
 class TempDir {

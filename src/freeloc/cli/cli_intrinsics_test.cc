@@ -208,8 +208,7 @@ TEST(CliIntrinsics, IntrinsicsCommand) {
 // With a DUSt3R preset and no intrinsics, the pointmap gives the focal (principal point at the centre); with
 // intrinsics given, the pointmap's focal checks them. (Tiny random weights: the values are meaningless, the path real.)
 TEST(CliIntrinsics, PointmapEstimatesAndChecks) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  const std::string model = freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+  const std::string model = freeloc::testing::TinyModelPath("dust3r_tiny.pth");
   const std::string s = freeloc::testing::DemoPath("val/s00003/");
   const std::string pair = "--ref " + s + "seq0/frame_00000.png --query " + s + "seq1/frame_00000.png";
   const std::string net = " --preset dust3r --dust3r " + model + " --dust3r-size 224 --depth none --json";

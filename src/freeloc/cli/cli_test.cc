@@ -61,8 +61,7 @@ TEST(Cli, InputErrorsExitOneWithOneLine) {
 }
 
 TEST(Cli, InspectDust3rPth) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  Result r = RunFreeloc("inspect " + freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth"));
+  Result r = RunFreeloc("inspect " + freeloc::testing::TinyModelPath("dust3r_tiny.pth"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "tensors:  745")) << r.out;
   EXPECT_TRUE(Contains(r.out, "model constructor (args.model): AsymmetricCroCo3DStereo(pos_embed='RoPE100'")) << r.out;
@@ -204,9 +203,8 @@ Result RelocalizeS00003(const std::string& data, const std::string& extra = "") 
 // `freeloc pointmap` (with --matches) and `freeloc match` (with instance label masks) on real TUM photos with the
 // tiny fixture weights: the numbers are meaningless, the path is real.
 TEST(Cli, PointmapAndMatchOnRealPhotos) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
   freeloc::testing::TempDir tmp;
-  const std::string model = freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+  const std::string model = freeloc::testing::TinyModelPath("dust3r_tiny.pth");
   const std::string s = freeloc::testing::DemoPath("val/s00003");
   const std::string pair = s + "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png";
   Result r = RunFreeloc("pointmap --model " + model + " --size 224,128 " + pair + " --out " +
@@ -518,16 +516,15 @@ TEST(Cli, RunWritesAnHtmlReport) {
 // sits beside it).
 void LinkTinyModels(const freeloc::testing::TempDir& dir) {
   namespace fs = std::filesystem;
-  fs::create_symlink(freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth"),
+  fs::create_symlink(freeloc::testing::TinyModelPath("dust3r_tiny.pth"),
                      dir.File("DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth"));
   fs::create_directories(dir.File("seggpt-vit-large"));
-  fs::create_symlink(freeloc::testing::SharedPath("fixtures/seggpt/weights.safetensors"),
+  fs::create_symlink(freeloc::testing::TinyModelPath("seggpt/model.safetensors"),
                      dir.File("seggpt-vit-large/model.safetensors"));
-  fs::create_symlink(freeloc::testing::SharedPath("fixtures/seggpt/config.json"),
-                     dir.File("seggpt-vit-large/config.json"));
-  fs::create_symlink(freeloc::testing::SharedPath("fixtures/metric3d/final_norm/weights.safetensors"),
+  fs::create_symlink(freeloc::testing::TinyModelPath("seggpt/config.json"), dir.File("seggpt-vit-large/config.json"));
+  fs::create_symlink(freeloc::testing::TinyModelPath("metric3d/model.safetensors"),
                      dir.File("metric_depth_vit_small_800k.pth"));
-  fs::create_symlink(freeloc::testing::SharedPath("fixtures/metric3d/final_norm/config.json"), dir.File("config.json"));
+  fs::create_symlink(freeloc::testing::TinyModelPath("metric3d/config.json"), dir.File("config.json"));
 }
 
 TEST(Cli, DemoRelocalizesTheBundledScenes) {
@@ -549,9 +546,6 @@ TEST(Cli, DemoRelocalizesTheBundledScenes) {
 
 // With all three networks' weights found in a models folder, demo runs the full method (preset seed).
 TEST(Cli, DemoRunsTheSeedPresetWhenTheWeightsAreInstalled) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
-  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
   freeloc::testing::TempDir models;
   LinkTinyModels(models);
   Result r = RunFreeloc("demo --models " + models.path());
@@ -568,9 +562,6 @@ TEST(Cli, DemoRunsTheSeedPresetWhenTheWeightsAreInstalled) {
 // The seed preset through `run` with the tiny weights of all three networks: models found through
 // $FREELOC_MODELS, the log's per-stage fields, a killed run resumed to the same bytes.
 TEST(Cli, SeedRunWithTinyWeightsLogsStagesAndResumes) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
-  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
   freeloc::testing::TempDir models, tmp;
   LinkTinyModels(models);
   const std::string data = freeloc::testing::DemoPath();
@@ -894,12 +885,9 @@ TEST(Cli, Mast3rPointmapMatchesUpstream) {
 // deterministic, every query answered with a status (random weights: no pose, so eval reports that the submission
 // holds none), missing weights a one-line error.
 TEST(Cli, Mast3rPresetsRunAndEval) {
-  FREELOC_REQUIRE_SHARED("fixtures/mast3r/mast3r_tiny.pth");
-  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
-  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
   freeloc::testing::TempDir models, tmp;
   LinkTinyModels(models);
-  std::filesystem::create_symlink(freeloc::testing::SharedPath("fixtures/mast3r/mast3r_tiny.pth"),
+  std::filesystem::create_symlink(freeloc::testing::TinyModelPath("mast3r_tiny.pth"),
                                   models.File("MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth"));
   const std::string data = freeloc::testing::DemoPath();
   for (const char* preset : {"mast3r", "mast3r-pnp", "mast3r-metric3d", "seed-mast3r"}) {
@@ -1001,10 +989,9 @@ TEST(Cli, CommandsWithoutNetworksNeverLoadLibTorch) {
     EXPECT_FALSE(loads(r, "libfreeloc_networks.so")) << c.args;
     EXPECT_EQ(loads(r, "libfreeloc_codecs.so"), c.decodes_photos) << c.args;
   }
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
   const Result r =
-      RunFreeloc("pointmap --model " + freeloc::testing::SharedPath("fixtures/pth/dust3r_tiny.pth") + " --size 224 " +
-                     s + "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png --out " + tmp.File("pm.safetensors"),
+      RunFreeloc("pointmap --model " + freeloc::testing::TinyModelPath("dust3r_tiny.pth") + " --size 224 " + s +
+                     "/seq0/frame_00000.png " + s + "/seq1/frame_00000.png --out " + tmp.File("pm.safetensors"),
                  env);
   EXPECT_EQ(r.code, 0);
   EXPECT_TRUE(loads(r, "libfreeloc_networks.so"));

@@ -36,8 +36,7 @@ TEST(Checkpoint, SafetensorsView) {
 }
 
 TEST(Checkpoint, PthStateDictUnderModel) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  const Checkpoint c = Checkpoint::Open(testing::SharedPath("fixtures/pth/dust3r_tiny.pth"));
+  const Checkpoint c = Checkpoint::Open(testing::TinyModelPath("dust3r_tiny.pth"));
   EXPECT_EQ(c.size(), 745u);
   EXPECT_TRUE(c.Has("model.enc_norm.weight"));
   const auto sd = c.StateDict({"model_state_dict", "model"});

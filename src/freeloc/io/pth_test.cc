@@ -209,6 +209,36 @@ TEST(Pth, UnsupportedOpcodeNamed) {
   EXPECT_NE(ErrorOf(dst).find("(INST)"), std::string::npos) << ErrorOf(dst);
 }
 
+// A checkpoint laid out as training code saves it ({'model': state dict, 'args': Namespace}), written with real
+// values by testing/pth_builder.h, reads back tensor for tensor and with its constructor string.
+TEST(Pth, StateDictUnderModelWithArgsRoundTrips) {
+  testing::TempDir tmp;
+  std::vector<testing::PthFloatTensor> tensors = {
+      {"enc.weight", {3, 4}, {}}, {"enc.bias", {3}, {}}, {"head.w", {2, 1, 2}, {}}};
+  float x = 0.25f;
+  for (auto& t : tensors) {
+    int64_t n = 1;
+    for (int64_t d : t.shape) n *= d;
+    for (int64_t i = 0; i < n; ++i) t.values.push_back(x += 0.5f);
+  }
+  const std::string ctor = "AsymmetricCroCo3DStereo(enc_embed_dim=64, depth_mode=('exp', -inf, inf))";
+  testing::WriteStateDictPth(tmp.File("sd.pth"), tensors, {{"model", ctor}, {"note", "x"}});
+  const Checkpoint ckpt = Checkpoint::Open(tmp.File("sd.pth"));
+  EXPECT_EQ(ckpt.StateDictRoot(), "model");
+  EXPECT_EQ(ckpt.MetadataOr("args.model", ""), ctor);
+  EXPECT_EQ(ckpt.MetadataOr("args.note", ""), "x");
+  const auto sd = ckpt.StateDict();
+  ASSERT_EQ(sd.size(), tensors.size());
+  for (const auto& t : tensors) {
+    SCOPED_TRACE(t.name);
+    ASSERT_TRUE(sd.count(t.name));
+    EXPECT_EQ(sd.at(t.name).shape, t.shape);
+    const auto v = sd.at(t.name).ToDouble();
+    ASSERT_EQ(v.size(), t.values.size());
+    for (size_t i = 0; i < v.size(); ++i) EXPECT_EQ(v[i], static_cast<double>(t.values[i]));
+  }
+}
+
 TEST(Pth, NotACheckpoint) {
   testing::TempDir tmp;
   testing::WriteText(tmp.File("a.pth"), "hello world, not a checkpoint");

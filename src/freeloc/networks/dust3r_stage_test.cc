@@ -11,8 +11,7 @@ namespace {
 
 // The caching function encodes each distinct reference input once and gives the pointmaps of the one-shot path.
 TEST(CachingDust3r, ReusesReferenceEncodingsAndMatchesTheOneShotPath) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  const auto model = nn::Dust3rModel::Load(testing::SharedPath("fixtures/pth/dust3r_tiny.pth"));
+  const auto model = nn::Dust3rModel::Load(testing::TinyModelPath("dust3r_tiny.pth"));
   const std::string s = testing::DemoPath("val/s00001/");
   Dust3rPreprocessOptions po;
   po.size = 224;

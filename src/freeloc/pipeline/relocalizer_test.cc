@@ -324,13 +324,10 @@ TEST(Relocalizer, PresetsAndOverrides) {
 // plumbing real): Metric3D depth for the reference once and each query, reference instances proposed once on the
 // reference pointmap, SegGPT propagation and per-instance DUSt3R per query, the reference's encoder passes reused.
 TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
-  FREELOC_REQUIRE_SHARED("fixtures/seggpt/weights.safetensors");
-  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
   PipelineOptions o = ResolvePreset("seed");
-  o.dust3r_model = testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
-  o.seggpt_model = testing::SharedPath("fixtures/seggpt/weights.safetensors");
-  o.metric3d_model = testing::SharedPath("fixtures/metric3d/final_norm/weights.safetensors");
+  o.dust3r_model = testing::TinyModelPath("dust3r_tiny.pth");
+  o.seggpt_model = testing::TinyModelPath("seggpt/model.safetensors");
+  o.metric3d_model = testing::TinyModelPath("metric3d/model.safetensors");
   o.dust3r_size = 224;
   // Random weights paint noise: loose proposal and propagation filters so that instances exist and are used.
   o.proposals.depth_jump = 0.5;
@@ -387,8 +384,7 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
 // pass's view-1 pointmap for the reference and of the swapped (query, reference) pass for the query, mapped to each
 // frame's resolution; the reference encoding is computed once per scene; pnp skips the swapped pass.
 TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
-  FREELOC_REQUIRE_SHARED("fixtures/mast3r/mast3r_tiny.pth");
-  const std::string weights = testing::SharedPath("fixtures/mast3r/mast3r_tiny.pth");
+  const std::string weights = testing::TinyModelPath("mast3r_tiny.pth");
   PipelineOptions o = ResolvePreset("mast3r");
   o.mast3r_model = weights;
   o.dust3r_size = 224;
@@ -475,8 +471,8 @@ TEST(Relocalizer, Mast3rPresetsNeedMast3rWeights) {
   d.dust3r_model = "x.pth";
   d.depth = DepthSpec::FromString("mast3r");
   EXPECT_NE(testing::ErrorOf([&] { d.Validate(); }).find("matcher mast3r"), std::string::npos);
-  if (testing::SharedExists("fixtures/pth/dust3r_tiny.pth")) {
-    o.mast3r_model = testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+  if (std::filesystem::exists(testing::TinyModelPath("dust3r_tiny.pth"))) {
+    o.mast3r_model = testing::TinyModelPath("dust3r_tiny.pth");
     const std::string e2 = testing::ErrorOf([&] { Relocalizer r(o); });
     EXPECT_NE(e2.find("no local-feature head"), std::string::npos) << e2;
   }

@@ -161,11 +161,10 @@ TEST(Service, RoutesAndTheAnswerOfRelocalize) {
 // With a network preset (DUSt3R, tiny fixture weights) the anchor's reference work — model loading, the reference's
 // encoder pass — runs once, when it is added: queries add no reference encoding.
 TEST(Service, WarmAnchorsRunOnlyTheQueryWork) {
-  FREELOC_REQUIRE_SHARED("fixtures/pth/dust3r_tiny.pth");
   const Tum t;
   ServiceOptions o;
   o.pipeline = pipeline::ResolvePreset("dust3r");
-  o.pipeline.dust3r_model = testing::SharedPath("fixtures/pth/dust3r_tiny.pth");
+  o.pipeline.dust3r_model = testing::TinyModelPath("dust3r_tiny.pth");
   o.pipeline.dust3r_size = 224;
   o.pipeline.check_intrinsics = 0;
   const Running s(o);
