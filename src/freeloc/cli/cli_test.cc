@@ -70,13 +70,12 @@ TEST(Cli, InspectDust3rPth) {
 }
 
 TEST(Cli, InspectSafetensorsWithFilter) {
-  FREELOC_REQUIRE_SHARED("fixtures/dust3r/weights.safetensors");
   Result r =
-      RunFreeloc("inspect --filter enc_norm " + freeloc::testing::SharedPath("fixtures/dust3r/weights.safetensors"));
+      RunFreeloc("inspect --filter decoder_pred.1 " + freeloc::testing::TinyModelPath("seggpt/model.safetensors"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "format:   safetensors")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "enc_norm.weight")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "(2 of 745 tensors match 'enc_norm')")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "decoder_pred.1.weight")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "(2 of 354 tensors match 'decoder_pred.1')")) << r.out;
 }
 
 // A perfect submission made from the GT of the real TUM scenes: zero errors, precision 1 (issue acceptance).

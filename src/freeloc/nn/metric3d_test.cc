@@ -106,9 +106,8 @@ TEST(Metric3d, ParityOnBothPathsAndEveryCase) {
 }
 
 TEST(Metric3d, MissingAndUnexpectedTensorsAreListed) {
-  FREELOC_REQUIRE_SHARED("fixtures/metric3d/final_norm/weights.safetensors");
-  const std::string dir = SharedPath("fixtures/metric3d/final_norm/");
-  const SafetensorsFile w = SafetensorsFile::Open(dir + "weights.safetensors");
+  const std::string dir = testing::TinyModelPath("metric3d/");  // freeloc's own tiny model, written by the build
+  const SafetensorsFile w = SafetensorsFile::Open(dir + "model.safetensors");
   std::map<std::string, TensorView> sd;
   for (const auto& n : w.names)
     if (n != "depth_model.decoder.update_block.gru16.convq.bias") sd[n] = w.Get(n);
