@@ -75,6 +75,19 @@ std::vector<float> Values(const std::string& init, int64_t n, Draw* d,
   return v;
 }
 
+void WriteSafetensorsWithConfig(const std::string& out, const std::vector<freeloc::testing::PthFloatTensor>& tensors,
+                                const nlohmann::json& config) {
+  std::filesystem::create_directories(std::filesystem::path(out).parent_path());
+  std::vector<std::pair<std::string, freeloc::TensorView>> views;
+  for (const auto& t : tensors)
+    views.emplace_back(
+        t.name, freeloc::MakeTensor(freeloc::DType::kF32, t.shape, t.values.data(), t.values.size() * sizeof(float)));
+  freeloc::WriteSafetensors(out, views, {{"format", "pt"}, {"note", "freeloc tiny random-weight test model"}});
+  const std::string text = config.dump(2) + "\n";
+  freeloc::WriteFileAtomic((std::filesystem::path(out).parent_path() / "config.json").string(), text.data(),
+                           text.size());
+}
+
 void Make(const std::string& spec_path, const std::string& out_dir, uint64_t seed) {
   std::ifstream f(spec_path);
   const nlohmann::json spec = nlohmann::json::parse(f);
@@ -92,20 +105,18 @@ void Make(const std::string& spec_path, const std::string& out_dir, uint64_t see
     tensors.push_back(std::move(x));
   }
   const std::string out = out_dir + "/" + spec.at("file").get<std::string>();
-  std::filesystem::create_directories(std::filesystem::path(out).parent_path());
   if (spec.at("format") == "pth") {
+    std::filesystem::create_directories(std::filesystem::path(out).parent_path());
     std::map<std::string, std::string> args;
     for (const auto& [k, v] : spec.at("args").items()) args[k] = v.get<std::string>();
     freeloc::testing::WriteStateDictPth(out, tensors, args);
   } else {
-    std::vector<std::pair<std::string, freeloc::TensorView>> views;
-    for (const auto& t : tensors)
-      views.emplace_back(
-          t.name, freeloc::MakeTensor(freeloc::DType::kF32, t.shape, t.values.data(), t.values.size() * sizeof(float)));
-    freeloc::WriteSafetensors(out, views, {{"format", "pt"}, {"note", "freeloc tiny random-weight test model"}});
-    const std::string config = spec.at("config").dump(2) + "\n";
-    freeloc::WriteFileAtomic(std::filesystem::path(out).parent_path() / "config.json", config.data(), config.size());
+    WriteSafetensorsWithConfig(out, tensors, spec.at("config"));
   }
+  // The same weights in the other layout too (model.safetensors + config.json beside a .pth).
+  if (spec.contains("copy"))
+    WriteSafetensorsWithConfig(out_dir + "/" + spec.at("copy").at("file").get<std::string>(), tensors,
+                               spec.at("copy").at("config"));
 }
 
 // A checkpoint's tensors in file order as [name, shape] or [name, shape, the earlier name whose bytes it shares].

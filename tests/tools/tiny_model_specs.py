@@ -67,6 +67,9 @@ for fam, rel, last in [('dust3r', 'pth/dust3r_tiny.pth', 0.3), ('mast3r', 'mast3
         assert name.startswith('model.')
         init = ('alias ' + t[2][6:]) if len(t) > 2 else dust_like(name[6:], shape, last)
         spec['tensors'].append([name[6:], shape, init])
+    # The same weights also as model.safetensors + config.json (the layout of the fixtures' weights.safetensors).
+    cfg = json.load(open(F + fam + '/config.json'))
+    spec['copy'] = {'file': fam + '/model.safetensors', 'config': {k: v for k, v in cfg.items() if k != 'cases'}}
     json.dump(spec, open(out + '/' + fam + '.json', 'w'), indent=None, separators=(',', ':'))
 # SegGPT
 d = dump('seggpt/weights.safetensors')

@@ -9,14 +9,18 @@ namespace freeloc::nn {
 namespace {
 
 TEST(InstanceSegmenter, BatchedInstancesEqualSinglePrompts) {
-  FREELOC_REQUIRE_SHARED("fixtures/seggpt/images/a_instance/target_image.png");
-  const auto model = SegGptModel::Load(testing::SharedPath("fixtures/seggpt/weights.safetensors"),
-                                       testing::SharedPath("fixtures/seggpt/config.json"));
-  const std::string dir = testing::SharedPath("fixtures/seggpt/images/a_instance/");
-  const Image ref = ReadImage(dir + "prompt_image_0.png"), query = ReadImage(dir + "target_image.png");
-  const Image mask_rgb = ReadImage(dir + "prompt_mask_0.png");
-  std::vector<uint8_t> m1(ref.num_pixels()), m2(ref.num_pixels(), 0);
-  for (size_t i = 0; i < m1.size(); ++i) m1[i] = mask_rgb.data[3 * i] > 127;
+  // freeloc's own tiny SegGPT (written by the build) on two bundled TUM frames with two rectangular instances.
+  const auto model = SegGptModel::Load(testing::TinyModelPath("seggpt/model.safetensors"),
+                                       testing::TinyModelPath("seggpt/config.json"));
+  const Image ref = ReadImage(testing::DemoPath("val/s00001/seq0/frame_00000.png"));
+  const Image query = ReadImage(testing::DemoPath("val/s00001/seq1/frame_00000.png"));
+  Image mask_rgb(ref.width, ref.height);
+  std::vector<uint8_t> m1(ref.num_pixels(), 0), m2(ref.num_pixels(), 0);
+  for (int y = 120; y < 320; ++y)
+    for (int x = 200; x < 420; ++x) {
+      m1[static_cast<size_t>(y) * ref.width + x] = 1;
+      for (int c = 0; c < 3; ++c) mask_rgb.pixel(x, y)[c] = 255;
+    }
   for (int y = 10; y < 40; ++y)
     for (int x = 5; x < 30; ++x) m2[static_cast<size_t>(y) * ref.width + x] = 1;
   InstanceSegmenterOptions o;
@@ -26,7 +30,7 @@ TEST(InstanceSegmenter, BatchedInstancesEqualSinglePrompts) {
   const InstanceSegmenter seg(model, o);
   const auto both = seg.Propagate(ref, {{1, m1}, {2, m2}}, query);
   ASSERT_EQ(both.size(), 2u);
-  // The first instance equals SegGPT's own single-prompt result (the fixture's case a).
+  // The first instance equals SegGPT's own single-prompt result.
   const SegGptMask single = model->Segment({ref}, {mask_rgb}, query);
   EXPECT_EQ(both[0].query_mask, single.mask);
   EXPECT_EQ(both[0].id, 1);
