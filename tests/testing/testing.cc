@@ -22,6 +22,14 @@ std::string TinyModelPath(const std::string& relative) {
   return std::string(FREELOC_TINY_MODELS_DIR) + (relative.empty() ? "" : "/" + relative);
 }
 
+std::vector<float> RandomImage(int h, int w, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::vector<float> v(static_cast<size_t>(3) * h * w);
+  for (auto& x : v) x = u(rng);
+  return v;
+}
+
 std::string DemoPath(const std::string& relative) {
   return std::string(FREELOC_SOURCE_DIR) + "/data/demo" + (relative.empty() ? "" : "/" + relative);
 }

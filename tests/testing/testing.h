@@ -3,9 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace freeloc::testing {
 
@@ -20,6 +22,8 @@ std::string DemoPath(const std::string& relative = "");
 // freeloc's own tiny random-weight models, written by the build (tests/tools/make_tiny_models.cc):
 // "dust3r_tiny.pth", "mast3r_tiny.pth", "seggpt/model.safetensors", "metric3d/model.safetensors".
 std::string TinyModelPath(const std::string& relative = "");
+// A seeded normalised image for the networks: 3 × h × w values uniform in [−1, 1].
+std::vector<float> RandomImage(int h, int w, uint32_t seed);
 
 // A fresh empty folder under the system temp dir, removed when the object dies.
 class TempDir {

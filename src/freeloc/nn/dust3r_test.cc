@@ -40,15 +40,6 @@ std::shared_ptr<Dust3rModel> OwnTinyModel(bool pth = false) {
                            testing::TinyModelPath("dust3r/config.json"));
 }
 
-// A normalised image, seeded (3 × h × w, values in [−1, 1]).
-std::vector<float> RandomImage(int h, int w, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-1, 1);
-  std::vector<float> v(static_cast<size_t>(3 * h * w));
-  for (auto& x : v) x = u(rng);
-  return v;
-}
-
 Dust3rView ViewOf(const TensorView& img) {
   return {img.as<float>(), static_cast<int>(img.shape[2]), static_cast<int>(img.shape[3])};
 }
@@ -118,7 +109,7 @@ TEST(Dust3r, PthWeightsGiveTheSameResults) {
   // itself: Dust3r.ParityOnEveryFixtureCase).
   const auto a = OwnTinyModel(false), b = OwnTinyModel(true);
   EXPECT_EQ(b->config().enc_heads, 4);  // from args.model
-  const std::vector<float> i1 = RandomImage(80, 64, 1), i2 = RandomImage(64, 80, 2);
+  const std::vector<float> i1 = testing::RandomImage(80, 64, 1), i2 = testing::RandomImage(64, 80, 2);
   const auto pa = a->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
   const auto pb = b->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
   ASSERT_EQ(pa.pts3d_2.nbytes, pb.pts3d_2.nbytes);
@@ -156,7 +147,7 @@ TEST(Dust3r, FromPngsThroughFreelocPreprocessing) {
 
 TEST(Dust3r, CachedReferenceEqualsOneShot) {
   const auto m = OwnTinyModel();
-  const std::vector<float> i1 = RandomImage(96, 128, 3), i2 = RandomImage(96, 128, 4);
+  const std::vector<float> i1 = testing::RandomImage(96, 128, 3), i2 = testing::RandomImage(96, 128, 4);
   const Dust3rView v1{i1.data(), 96, 128}, v2{i2.data(), 96, 128};
   const auto one = m->Run(v1, v2);
   const auto ref = m->Encode(v1);
@@ -180,7 +171,7 @@ TEST(Dust3r, HfLayoutReadsTheSiblingConfig) {
   const auto m = Dust3rModel::Load(tmp.File("model.safetensors"));
   EXPECT_EQ(m->config().enc_heads, 4);
   EXPECT_EQ(m->config().source, tmp.File("config.json"));
-  const std::vector<float> i1 = RandomImage(64, 80, 5);  // the same network as the .pth with args.model
+  const std::vector<float> i1 = testing::RandomImage(64, 80, 5);  // the same network as the .pth with args.model
   const auto pm = m->Run({i1.data(), 64, 80}, {i1.data(), 64, 80});
   const auto pp = OwnTinyModel(true)->Run({i1.data(), 64, 80}, {i1.data(), 64, 80});
   EXPECT_EQ(std::memcmp(pm.pts3d_1.data, pp.pts3d_1.data, pm.pts3d_1.nbytes), 0);

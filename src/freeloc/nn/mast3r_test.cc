@@ -40,15 +40,6 @@ std::shared_ptr<Dust3rModel> OwnTinyModel() {
   return Dust3rModel::Load(Own("mast3r/model.safetensors"), Own("mast3r/config.json"));
 }
 
-// A normalised image, seeded (3 × h × w, values in [−1, 1]).
-std::vector<float> RandomImage(int h, int w, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-1, 1);
-  std::vector<float> v(static_cast<size_t>(3 * h * w));
-  for (auto& x : v) x = u(rng);
-  return v;
-}
-
 Dust3rView ViewOf(const TensorView& img) {
   return {img.as<float>(), static_cast<int>(img.shape[2]), static_cast<int>(img.shape[3])};
 }
@@ -133,7 +124,7 @@ TEST(Mast3r, PthWithConstructorStringGivesTheSameResults) {
   EXPECT_TRUE(b->config().two_confs);
   EXPECT_EQ(b->config().enc_heads, 2);
   EXPECT_EQ(b->config().desc_conf_min, 0.0);
-  const std::vector<float> i1 = RandomImage(80, 64, 1), i2 = RandomImage(64, 80, 2);
+  const std::vector<float> i1 = testing::RandomImage(80, 64, 1), i2 = testing::RandomImage(64, 80, 2);
   const auto pa = a->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
   const auto pb = b->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
   ASSERT_EQ(pa.desc_2.nbytes, pb.desc_2.nbytes);
@@ -213,7 +204,7 @@ TEST(Mast3r, DescConfModeFallsBackToConfMode) {
   EXPECT_EQ(m->config().desc_conf_min, 1.0);
   EXPECT_NE(m->config().Summary().find("conf_mode (desc_conf_mode absent)"), std::string::npos);
   // desc_conf then follows conf_mode ('exp', 1, inf): the same network's desc_conf_mode ('exp', 0, inf) answer + 1.
-  const std::vector<float> i1 = RandomImage(112, 80, 3), i2 = RandomImage(80, 112, 4);
+  const std::vector<float> i1 = testing::RandomImage(112, 80, 3), i2 = testing::RandomImage(80, 112, 4);
   const auto p = m->Run({i1.data(), 112, 80}, {i2.data(), 80, 112});
   const auto normal = OwnTinyModel()->Run({i1.data(), 112, 80}, {i2.data(), 80, 112});
   const TensorView& ref = normal.desc_conf_2;
@@ -256,7 +247,8 @@ TEST(Mast3r, HfFolderWithInfinityTokens) {
   const auto m = Dust3rModel::Load(tmp.File("model.safetensors"));
   EXPECT_EQ(m->config().source, tmp.File("config.json"));
   EXPECT_EQ(m->config().desc_conf_min, 0.0);
-  const std::vector<float> i1 = RandomImage(112, 80, 5);  // the same network as the .pth with its constructor string
+  const std::vector<float> i1 =
+      testing::RandomImage(112, 80, 5);  // the same network as the .pth with its constructor string
   const auto ph = m->Run({i1.data(), 112, 80}, {i1.data(), 112, 80});
   const auto pp = Dust3rModel::Load(Own("mast3r_tiny.pth"))->Run({i1.data(), 112, 80}, {i1.data(), 112, 80});
   EXPECT_EQ(std::memcmp(ph.desc_1.data, pp.desc_1.data, ph.desc_1.nbytes), 0);
@@ -265,7 +257,7 @@ TEST(Mast3r, HfFolderWithInfinityTokens) {
 
 TEST(Mast3r, SkippedOutputsAreNotComputed) {
   const auto m = OwnTinyModel();
-  const std::vector<float> i1 = RandomImage(96, 128, 6), i2 = RandomImage(96, 128, 7);
+  const std::vector<float> i1 = testing::RandomImage(96, 128, 6), i2 = testing::RandomImage(96, 128, 7);
   const auto e1 = m->Encode({i1.data(), 96, 128});
   const auto e2 = m->Encode({i2.data(), 96, 128});
   const auto full = m->Decode(*e1, *e2);
@@ -290,7 +282,7 @@ namespace {
 // with plain index arithmetic (pixel shuffle k = c·256 + i·16 + j, f/‖f‖, exp or conf copy).
 TEST(Mast3r, OtherDescriptorSizesAndWidths) {
   const SafetensorsFile w = SafetensorsFile::Open(Own("mast3r/model.safetensors"));
-  const std::vector<float> i1 = RandomImage(112, 80, 8), i2 = RandomImage(80, 112, 9);
+  const std::vector<float> i1 = testing::RandomImage(112, 80, 8), i2 = testing::RandomImage(80, 112, 9);
   uint32_t state = 99;
   auto rnd = [&] {
     state = state * 1664525u + 1013904223u;
