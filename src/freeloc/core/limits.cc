@@ -37,12 +37,18 @@ const Field& FindField(const std::string& name) {
   FREELOC_THROW("limit: unknown limit '" << SafeText(name) << "'; the limits are " << choices);
 }
 
+// The environment variable of a limit: max_tensors → FREELOC_LIMIT_MAX_TENSORS.
+std::string EnvName(const std::string& name) {
+  std::string env = "FREELOC_LIMIT_";
+  for (char c : name) env += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return env;
+}
+
 InputLimits& Mutable() {
   static InputLimits limits = [] {
     InputLimits l;
     for (const Field& f : kFields) {
-      std::string env = "FREELOC_LIMIT_";
-      for (const char* c = f.name; *c; ++c) env += static_cast<char>(std::toupper(static_cast<unsigned char>(*c)));
+      const std::string env = EnvName(f.name);
       if (const char* v = std::getenv(env.c_str())) l.*(f.member) = ParsePositive(f.name, v, env);
     }
     return l;
@@ -67,8 +73,7 @@ std::vector<std::string> LimitNames() {
 
 std::string LimitHint(const std::string& name) {
   const Field& f = FindField(name);
-  std::string env = "FREELOC_LIMIT_";
-  for (char c : name) env += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  const std::string env = EnvName(name);
   return "limit " + name + " = " + std::to_string(Limits().*(f.member)) + "; raise the limit " + name + " (" + env +
          "=N in the environment; docs/formats.md \"Limits and safety\")";
 }

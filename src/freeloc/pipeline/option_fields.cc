@@ -174,9 +174,14 @@ const std::vector<Row>& Rows() {
 #undef FREELOC_REAL
 #undef FREELOC_ENUM
 
-const Row& Find(const std::string& name) {
+const Row* FindRow(const std::string& name) {
   for (const Row& r : Rows())
-    if (name == r.field.name) return r;
+    if (name == r.field.name) return &r;
+  return nullptr;
+}
+
+const Row& Find(const std::string& name) {
+  if (const Row* r = FindRow(name)) return *r;
   std::string names;
   for (const Row& r : Rows()) names += (names.empty() ? "" : ", ") + std::string(r.field.name);
   FREELOC_THROW(name << ": not an option; the options are " << names);
@@ -202,9 +207,8 @@ std::string GetOption(const PipelineOptions& options, const std::string& name) {
 const OptionField& FindOptionField(const std::string& name) { return Find(name).field; }
 
 const OptionField* FindOptionFieldOrNull(const std::string& name) {
-  for (const Row& r : Rows())
-    if (name == r.field.name) return &r.field;
-  return nullptr;
+  const Row* r = FindRow(name);
+  return r ? &r->field : nullptr;
 }
 
 namespace {
