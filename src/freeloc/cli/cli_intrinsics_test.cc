@@ -229,9 +229,8 @@ TEST(CliIntrinsics, PointmapEstimatesAndChecks) {
   const double f3 = 3 * j["intrinsics"]["ref"]["fx"].get<double>();
   const std::string k = std::to_string(f3) + "," + std::to_string(f3) + ",319.5,239.5";
   r = RunFreeloc("relocalize " + pair + net + " --ref-intrinsics " + k + " --query-intrinsics 520.9,521,319.5,239.5");
-  EXPECT_TRUE(Contains(r.out, "warning")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "reference intrinsics (given): the focal length")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "differs from the pointmap's estimate")) << r.out;
+  ExpectMentions(r.out,
+                 {"warning", "reference intrinsics (given): the focal length", "differs from the pointmap's estimate"});
   r = RunFreeloc("relocalize " + pair + net + " --ref-intrinsics " + k +
                  " --query-intrinsics 520.9,521,319.5,239.5 --set check_intrinsics=0");
   EXPECT_FALSE(Contains(r.out, "differs from the pointmap's estimate")) << r.out;

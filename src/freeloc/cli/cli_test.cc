@@ -29,9 +29,7 @@ namespace {
 TEST(Cli, HelpAndVersion) {
   Result h = RunFreeloc("--help");
   EXPECT_EQ(h.code, 0);
-  EXPECT_TRUE(Contains(h.out, "inspect")) << h.out;
-  EXPECT_TRUE(Contains(h.out, "--threads")) << h.out;
-  EXPECT_TRUE(Contains(h.out, "--device")) << h.out;
+  ExpectMentions(h.out, {"inspect", "--threads", "--device"});
   Result v = RunFreeloc("--version");
   EXPECT_EQ(v.code, 0);
   EXPECT_TRUE(Contains(v.out, "freeloc 0.")) << v.out;
@@ -63,19 +61,16 @@ TEST(Cli, InputErrorsExitOneWithOneLine) {
 TEST(Cli, InspectDust3rPth) {
   Result r = RunFreeloc("inspect " + freeloc::testing::TinyModelPath("dust3r_tiny.pth"));
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(r.out, "tensors:  745")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "model constructor (args.model): AsymmetricCroCo3DStereo(pos_embed='RoPE100'")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "model.patch_embed.proj.weight")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "float32  [64, 3, 16, 16]")) << r.out;
+  ExpectMentions(r.out, {"tensors:  745", "model constructor (args.model): AsymmetricCroCo3DStereo(pos_embed='RoPE100'",
+                         "model.patch_embed.proj.weight", "float32  [64, 3, 16, 16]"});
 }
 
 TEST(Cli, InspectSafetensorsWithFilter) {
   Result r =
       RunFreeloc("inspect --filter decoder_pred.1 " + freeloc::testing::TinyModelPath("seggpt/model.safetensors"));
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(r.out, "format:   safetensors")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "decoder_pred.1.weight")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "(2 of 354 tensors match 'decoder_pred.1')")) << r.out;
+  ExpectMentions(r.out,
+                 {"format:   safetensors", "decoder_pred.1.weight", "(2 of 354 tensors match 'decoder_pred.1')"});
 }
 
 // A perfect submission made from the GT of the real TUM scenes: zero errors, precision 1 (issue acceptance).
@@ -543,11 +538,9 @@ void LinkTinyModels(const freeloc::testing::TempDir& dir) {
 TEST(Cli, DemoRelocalizesTheBundledScenes) {
   Result r = RunFreeloc("demo");
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(r.out, "preset sift-essential")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "| s00002 | seq1/frame_00000.png | ok |")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "| Estimates for % of frames |")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "not found: DUSt3R SegGPT Metric3D")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "--models DIR or set FREELOC_MODELS")) << r.out;
+  ExpectMentions(r.out,
+                 {"preset sift-essential", "| s00002 | seq1/frame_00000.png | ok |", "| Estimates for % of frames |",
+                  "not found: DUSt3R SegGPT Metric3D", "--models DIR or set FREELOC_MODELS"});
   // The closing note says what happened to the depth-less scene, as the table shows it (an estimate, no failure).
   EXPECT_TRUE(Contains(r.out, "| s00001 | 1 | 0 |")) << r.out;
   EXPECT_TRUE(Contains(r.out,
@@ -1048,9 +1041,7 @@ TEST(Cli, DocsOptionTableIsTheCodesOptionTable) {
 TEST(Cli, OptionsAndHelpShowTheDefaultsOfTheOptionTable) {
   Result r = RunFreeloc("options --preset seed");
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(r.out, "solver")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "= hybrid")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "= dust3r+instances")) << r.out;
+  ExpectMentions(r.out, {"solver", "= hybrid", "= dust3r+instances"});
   r = RunFreeloc("options --preset no-such-preset");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "no-such-preset")) << r.out;
@@ -1087,8 +1078,9 @@ TEST(Cli, FlagsComeFromTheOptionRegistry) {
         break;
       case FlagScope::kNone: ADD_FAILURE() << f.name << " has a flag but no scope";
     }
-    if (!f.choices.empty() && f.scope != FlagScope::kGlobal)
+    if (!f.choices.empty() && f.scope != FlagScope::kGlobal) {
       EXPECT_TRUE(Contains(f.scope == FlagScope::kSolve ? pose.out : run.out, "one of " + f.choices)) << f.name;
+    }
   }
   // An option's error names the flag: the registry's, or the command's own spelling (match --size is dust3r_size).
   freeloc::testing::TempDir tmp;

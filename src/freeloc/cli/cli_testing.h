@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdio>
+#include <initializer_list>
 #include <string>
 
 namespace {
@@ -29,5 +30,9 @@ inline Result RunFreeloc(const std::string& args, const std::string& env = "-u F
 }
 
 inline bool Contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+// Every part appears in `out` (each missing part is its own failure, with the whole output).
+inline void ExpectMentions(const std::string& out, std::initializer_list<const char*> parts) {
+  for (const char* part : parts) EXPECT_TRUE(Contains(out, part)) << "missing: " << part << "\n" << out;
+}
 
 }  // namespace

@@ -16,12 +16,6 @@
 
 namespace freeloc::eval {
 
-struct Thresholds {
-  double translation_m = 0.25;
-  double rotation_deg = 5.0;
-  double vcre_px = 90.0;
-};
-
 // Per-frame errors of one estimate against the ground truth (both already in the official camera-to-world form).
 struct FrameErrors {
   double trans_err = 0, rot_err = 0, vcre = 0;
@@ -54,6 +48,13 @@ struct Metrics {
   double estimates_ratio = 0;
   int64_t estimates = 0, failures = 0;
   int scenes_with_estimates = 0;
+};
+
+// What counts as an accurate pose (precision and AUC): the benchmark's 25 cm / 5° and 90 px VCRE.
+struct Thresholds {
+  double translation_m = 0.25;
+  double rotation_deg = 5.0;
+  double vcre_px = 90.0;
 };
 
 // Aggregates scenes as aggregate_results() does. Throws when no scene has an estimate (the official evaluator

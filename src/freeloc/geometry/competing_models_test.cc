@@ -14,10 +14,11 @@ namespace freeloc::geometry {
 namespace {
 
 struct PlanarPair {
-  Camera ref{500, 500, 320, 240, 640, 480}, query{500, 500, 320, 240, 640, 480};
-  Rigid3d truth;
-  std::vector<Eigen::Vector2d> p1, p2;
-  DepthSamples depth;  // exact
+  Rigid3d truth;                        // query_from_ref
+  std::vector<Eigen::Vector2d> p1, p2;  // reference and query pixels
+  DepthSamples depth;                   // exact
+  const Camera ref{500, 500, 320, 240, 640, 480};
+  const Camera query = ref;
 };
 
 // A textured wall 3–5 m away filling the view (all of `n` points on it, `off_plane` of them up to 0.3 m in front),

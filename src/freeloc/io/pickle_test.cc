@@ -10,6 +10,13 @@
 namespace freeloc {
 namespace {
 
+// BINUNICODE: 'X', the UTF-8 length as 4 little-endian bytes, the text.
+std::string Unicode(const std::string& text) {
+  const uint32_t n = static_cast<uint32_t>(text.size());
+  return std::string("X") + static_cast<char>(n & 0xff) + static_cast<char>((n >> 8) & 0xff) +
+         static_cast<char>((n >> 16) & 0xff) + static_cast<char>(n >> 24) + text;
+}
+
 PyRef Parse(const std::string& bytes) {
   return ParsePickle(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size(), "test.pkl", nullptr);
 }
@@ -25,15 +32,11 @@ std::string ErrorOf(const std::string& bytes) {
 
 TEST(Pickle, ScalarsAndContainers) {
   // {'a': [1, -7, 2.5, None, True], 'b': ('x', 300)}  — protocol 2 as CPython writes it.
-  const std::string p = BYTES(
-      "\x80\x02}q\x00(X\x01\x00\x00\x00"
-      "a"
-      "]q\x01(K\x01J\xf9\xff\xff\xff"
-      "G\x40\x04\x00\x00\x00\x00\x00\x00"
-      "N\x88"
-      "eX\x01\x00\x00\x00"
-      "bX\x01\x00\x00\x00"
-      "xM\x2c\x01\x86u.");
+  const std::string p = BYTES("\x80\x02}q\x00(") + Unicode("a") +
+                        BYTES(
+                            "]q\x01(K\x01J\xf9\xff\xff\xffG\x40\x04\x00\x00\x00\x00\x00\x00N\x88"
+                            "e") +
+                        Unicode("b") + Unicode("x") + BYTES("M\x2c\x01\x86u.");
   PyRef r = Parse(p);
   ASSERT_TRUE(r->is(PyObject::Kind::kDict));
   PyRef a = r->Get("a");
@@ -74,13 +77,10 @@ TEST(Pickle, BigAndNegativeLongs) {
 TEST(Pickle, OpaqueObjectKeepsState) {
   // argparse.Namespace(model='Net()', lr=0.5) via NEWOBJ + BUILD.
   const std::string p = BYTES(
-      "\x80\x02"
-      "cargparse\nNamespace\n"
-      ")\x81}(X\x05\x00\x00\x00"
-      "modelX\x05\x00\x00\x00"
-      "Net()X\x02\x00\x00\x00"
-      "lrG\x3f\xe0\x00\x00\x00\x00\x00\x00"
-      "ub.");
+                            "\x80\x02"
+                            "cargparse\nNamespace\n)\x81}(") +
+                        Unicode("model") + Unicode("Net()") + Unicode("lr") +
+                        BYTES("G\x3f\xe0\x00\x00\x00\x00\x00\x00ub.");
   PyRef r = Parse(p);
   ASSERT_TRUE(r->is(PyObject::Kind::kObject));
   EXPECT_EQ(r->module, "argparse");

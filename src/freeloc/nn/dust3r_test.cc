@@ -14,6 +14,7 @@
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/safetensors.h"
 #include "freeloc/vision/dust3r_preprocess.h"
+#include "testing/png_pair.h"
 #include "testing/tensor_compare.h"
 #include "testing/testing.h"
 
@@ -57,24 +58,13 @@ void CheckCase(const std::string& name, const Dust3rModel& model, bool intermedi
   EXPECT_LE(worst_pred, 1.0);
   EXPECT_EQ(p.pts3d_1.shape, (std::vector<int64_t>{f.Get("view1.img").shape[2], f.Get("view1.img").shape[3], 3}));
   if (!intermediates) return;
-  int compared = 0;
-  double worst = 0;
-  for (const auto& n : f.names) {
-    if (n.rfind("enc", 0) != 0 && n.rfind("dec", 0) != 0 && n.rfind("head", 0) != 0) continue;
-    if (n.find(".pos") != std::string::npos) continue;
-    auto it = taps.find(n);
-    if (it == taps.end()) {
-      ADD_FAILURE() << "no tap for " << n;
-      continue;
-    }
-    const double b = Budget(it->second, f.Get(n));
-    worst = std::max(worst, b);
-    EXPECT_LE(b, 1.0) << n;
-    ++compared;
-  }
-  EXPECT_GT(compared, 30);
+  const testing::TapComparison taps_vs_fixture = testing::CompareTaps(taps, f, [](const std::string& n) {
+    return (n.rfind("enc", 0) == 0 || n.rfind("dec", 0) == 0 || n.rfind("head", 0) == 0) &&
+           n.find(".pos") == std::string::npos;
+  });
+  EXPECT_GT(taps_vs_fixture.compared, 30);
   std::printf("%s: %d intermediates, worst budget use %.1f %%, outputs %.1f %% (atol 1e-4, rtol 1e-3)\n", name.c_str(),
-              compared, 100 * worst, 100 * worst_pred);
+              taps_vs_fixture.compared, 100 * taps_vs_fixture.worst, 100 * worst_pred);
 }
 
 TEST(Dust3r, ConfigFromShapesAndConstructorString) {
@@ -112,33 +102,20 @@ TEST(Dust3r, PthWeightsGiveTheSameResults) {
   const std::vector<float> i1 = testing::RandomImage(80, 64, 1), i2 = testing::RandomImage(64, 80, 2);
   const auto pa = a->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
   const auto pb = b->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
-  ASSERT_EQ(pa.pts3d_2.nbytes, pb.pts3d_2.nbytes);
-  EXPECT_EQ(std::memcmp(pa.pts3d_2.data, pb.pts3d_2.data, pa.pts3d_2.nbytes), 0);
-  EXPECT_EQ(std::memcmp(pa.conf_1.data, pb.conf_1.data, pa.conf_1.nbytes), 0);
+  EXPECT_TRUE(testing::SameBytes(pa.pts3d_2, pb.pts3d_2));
+  EXPECT_TRUE(testing::SameBytes(pa.conf_1, pb.conf_1));
 }
 
 TEST(Dust3r, FromPngsThroughFreelocPreprocessing) {
   FREELOC_REQUIRE_SHARED("fixtures/dust3r/images/img_a.png");
   const auto m = TinyModel();
-  struct Pair {
-    const char* name;
-    const char* a;
-    const char* b;
-    int size;
-  };
-  for (const Pair& pr : {Pair{"png_s80", "img_a", "img_b", 80}, Pair{"png_s80_mixed", "img_a", "img_c", 80},
-                         Pair{"png_s128", "img_a", "img_b", 128}}) {
-    SCOPED_TRACE(pr.name);
-    Dust3rPreprocessOptions o;
-    o.size = pr.size;
-    const Dust3rInput ia =
-        PreprocessForDust3r(ReadImage(SharedPath(std::string("fixtures/dust3r/images/") + pr.a + ".png")), o);
-    const Dust3rInput ib =
-        PreprocessForDust3r(ReadImage(SharedPath(std::string("fixtures/dust3r/images/") + pr.b + ".png")), o);
-    const auto p =
-        m->Run({ia.normalized.data(), ia.height(), ia.width()}, {ib.normalized.data(), ib.height(), ib.width()});
+  for (const testing::PngPairCase& c : {testing::PngPairCase{"png_s80", "img_a", "img_b", 80},
+                                        testing::PngPairCase{"png_s80_mixed", "img_a", "img_c", 80},
+                                        testing::PngPairCase{"png_s128", "img_a", "img_b", 128}}) {
+    SCOPED_TRACE(c.name);
+    const auto p = testing::PreprocessPngPair(SharedPath("fixtures/dust3r/images"), c).Run(*m);
     const SafetensorsFile f =
-        SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + pr.name + ".safetensors"));
+        SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + c.name + ".safetensors"));
     EXPECT_LE(Budget(p.pts3d_1, f.Get("pred1.pts3d")), 1.0);
     EXPECT_LE(Budget(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")), 1.0);
     EXPECT_LE(Budget(p.conf_2, f.Get("pred2.conf")), 1.0);
@@ -154,9 +131,9 @@ TEST(Dust3r, CachedReferenceEqualsOneShot) {
   for (int rep = 0; rep < 2; ++rep) {  // the cached encoding serves several queries
     const auto q = m->Encode(v2);
     const auto two = m->Decode(*ref, *q);
-    EXPECT_EQ(std::memcmp(one.pts3d_1.data, two.pts3d_1.data, one.pts3d_1.nbytes), 0);
-    EXPECT_EQ(std::memcmp(one.pts3d_2.data, two.pts3d_2.data, one.pts3d_2.nbytes), 0);
-    EXPECT_EQ(std::memcmp(one.conf_2.data, two.conf_2.data, one.conf_2.nbytes), 0);
+    EXPECT_TRUE(testing::SameBytes(one.pts3d_1, two.pts3d_1));
+    EXPECT_TRUE(testing::SameBytes(one.pts3d_2, two.pts3d_2));
+    EXPECT_TRUE(testing::SameBytes(one.conf_2, two.conf_2));
   }
 }
 
@@ -174,7 +151,7 @@ TEST(Dust3r, HfLayoutReadsTheSiblingConfig) {
   const std::vector<float> i1 = testing::RandomImage(64, 80, 5);  // the same network as the .pth with args.model
   const auto pm = m->Run({i1.data(), 64, 80}, {i1.data(), 64, 80});
   const auto pp = OwnTinyModel(true)->Run({i1.data(), 64, 80}, {i1.data(), 64, 80});
-  EXPECT_EQ(std::memcmp(pm.pts3d_1.data, pp.pts3d_1.data, pm.pts3d_1.nbytes), 0);
+  EXPECT_TRUE(testing::SameBytes(pm.pts3d_1, pp.pts3d_1));
   // A config that does not belong to the weights is refused.
   testing::WriteText(tmp.File("config.json"), R"({"enc_depth": 3, "enc_num_heads": 4, "dec_num_heads": 4})");
   try {

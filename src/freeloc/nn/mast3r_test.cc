@@ -15,6 +15,7 @@
 #include "freeloc/io/safetensors.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/vision/dust3r_preprocess.h"
+#include "testing/png_pair.h"
 #include "testing/tensor_compare.h"
 #include "testing/testing.h"
 
@@ -65,23 +66,12 @@ void CheckCase(const std::string& name, const Dust3rModel& model, bool intermedi
   const double worst_pred = WorstPrediction(p, f);
   EXPECT_LE(worst_pred, 1.0);
   if (!intermediates) return;
-  int compared = 0;
-  double worst = 0;
-  for (const auto& n : f.names) {
-    if (n.rfind("enc", 0) != 0 && n.rfind("dec", 0) != 0 && n.rfind("head", 0) != 0) continue;
-    auto it = taps.find(n);
-    if (it == taps.end()) {
-      ADD_FAILURE() << "no tap for " << n;
-      continue;
-    }
-    const double b = Budget(it->second, f.Get(n));
-    worst = std::max(worst, b);
-    EXPECT_LE(b, 1.0) << n;
-    ++compared;
-  }
-  EXPECT_EQ(compared, 14);  // enc, dec, mlp_in, mlp_hidden, mlp_out, local, raw per view
+  const testing::TapComparison taps_vs_fixture = testing::CompareTaps(taps, f, [](const std::string& n) {
+    return n.rfind("enc", 0) == 0 || n.rfind("dec", 0) == 0 || n.rfind("head", 0) == 0;
+  });
+  EXPECT_EQ(taps_vs_fixture.compared, 14);  // enc, dec, mlp_in, mlp_hidden, mlp_out, local, raw per view
   std::printf("%s: %d intermediates, worst budget use %.1f %%, outputs %.1f %% (atol 1e-4, rtol 1e-3)\n", name.c_str(),
-              compared, 100 * worst, 100 * worst_pred);
+              taps_vs_fixture.compared, 100 * taps_vs_fixture.worst, 100 * worst_pred);
 }
 
 TEST(Mast3r, ConfigFromConstructorArgumentsAndShapes) {
@@ -127,37 +117,28 @@ TEST(Mast3r, PthWithConstructorStringGivesTheSameResults) {
   const std::vector<float> i1 = testing::RandomImage(80, 64, 1), i2 = testing::RandomImage(64, 80, 2);
   const auto pa = a->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
   const auto pb = b->Run({i1.data(), 80, 64}, {i2.data(), 64, 80});
-  ASSERT_EQ(pa.desc_2.nbytes, pb.desc_2.nbytes);
-  EXPECT_EQ(std::memcmp(pa.desc_2.data, pb.desc_2.data, pa.desc_2.nbytes), 0);
-  EXPECT_EQ(std::memcmp(pa.desc_conf_1.data, pb.desc_conf_1.data, pa.desc_conf_1.nbytes), 0);
-  EXPECT_EQ(std::memcmp(pa.pts3d_1.data, pb.pts3d_1.data, pa.pts3d_1.nbytes), 0);
+  EXPECT_TRUE(testing::SameBytes(pa.desc_2, pb.desc_2));
+  EXPECT_TRUE(testing::SameBytes(pa.desc_conf_1, pb.desc_conf_1));
+  EXPECT_TRUE(testing::SameBytes(pa.pts3d_1, pb.pts3d_1));
 }
 
 TEST(Mast3r, FromPngsThroughFreelocPreprocessing) {
   FREELOC_REQUIRE_SHARED("fixtures/mast3r/images/img_a.png");
   const auto m = TinyModel();
-  struct Pair {
-    const char* name;
-    const char* a;
-    const char* b;
-    int size;
-  };
-  for (const Pair& pr : {Pair{"land_s128", "img_a", "img_d", 128}, Pair{"mixed_s80", "img_a", "img_c", 80},
-                         Pair{"odd_s112", "img_b", "img_a", 112}}) {
-    SCOPED_TRACE(pr.name);
-    Dust3rPreprocessOptions o;
-    o.size = pr.size;
-    const Dust3rInput ia = PreprocessForDust3r(ReadImage(Fixture(std::string("images/") + pr.a + ".png")), o);
-    const Dust3rInput ib = PreprocessForDust3r(ReadImage(Fixture(std::string("images/") + pr.b + ".png")), o);
-    const SafetensorsFile f = SafetensorsFile::Open(Fixture(std::string("cases/") + pr.name + ".safetensors"));
-    const TensorView u1 = f.Get("view1.img_u8"), u2 = f.Get("view2.img_u8");
-    ASSERT_EQ(ia.image.data.size(), u1.nbytes);
-    ASSERT_EQ(ib.image.data.size(), u2.nbytes);
-    EXPECT_EQ(std::memcmp(ia.image.data.data(), u1.data, u1.nbytes), 0);  // preprocessing is bit-exact
-    EXPECT_EQ(std::memcmp(ib.image.data.data(), u2.data, u2.nbytes), 0);
-    const auto p =
-        m->Run({ia.normalized.data(), ia.height(), ia.width()}, {ib.normalized.data(), ib.height(), ib.width()});
-    EXPECT_LE(WorstPrediction(p, f), 1.0);
+  for (const testing::PngPairCase& c : {testing::PngPairCase{"land_s128", "img_a", "img_d", 128},
+                                        testing::PngPairCase{"mixed_s80", "img_a", "img_c", 80},
+                                        testing::PngPairCase{"odd_s112", "img_b", "img_a", 112}}) {
+    SCOPED_TRACE(c.name);
+    const testing::PreprocessedPair in = testing::PreprocessPngPair(Fixture("images"), c);
+    const SafetensorsFile f = SafetensorsFile::Open(Fixture(std::string("cases/") + c.name + ".safetensors"));
+    // Preprocessing is bit-exact.
+    EXPECT_TRUE(testing::SameBytes(MakeTensor(DType::kU8, {static_cast<int64_t>(in.a.image.data.size())},
+                                              in.a.image.data.data(), in.a.image.data.size()),
+                                   f.Get("view1.img_u8")));
+    EXPECT_TRUE(testing::SameBytes(MakeTensor(DType::kU8, {static_cast<int64_t>(in.b.image.data.size())},
+                                              in.b.image.data.data(), in.b.image.data.size()),
+                                   f.Get("view2.img_u8")));
+    EXPECT_LE(WorstPrediction(in.Run(*m), f), 1.0);
   }
 }
 
@@ -251,8 +232,8 @@ TEST(Mast3r, HfFolderWithInfinityTokens) {
       testing::RandomImage(112, 80, 5);  // the same network as the .pth with its constructor string
   const auto ph = m->Run({i1.data(), 112, 80}, {i1.data(), 112, 80});
   const auto pp = Dust3rModel::Load(Own("mast3r_tiny.pth"))->Run({i1.data(), 112, 80}, {i1.data(), 112, 80});
-  EXPECT_EQ(std::memcmp(ph.desc_1.data, pp.desc_1.data, ph.desc_1.nbytes), 0);
-  EXPECT_EQ(std::memcmp(ph.pts3d_2.data, pp.pts3d_2.data, ph.pts3d_2.nbytes), 0);
+  EXPECT_TRUE(testing::SameBytes(ph.desc_1, pp.desc_1));
+  EXPECT_TRUE(testing::SameBytes(ph.pts3d_2, pp.pts3d_2));
 }
 
 TEST(Mast3r, SkippedOutputsAreNotComputed) {
@@ -267,8 +248,7 @@ TEST(Mast3r, SkippedOutputsAreNotComputed) {
   const auto p = m->Decode(*e1, *e2, only1);
   EXPECT_EQ(p.pts3d_2.nbytes, 0u);
   EXPECT_EQ(p.desc_1.nbytes, 0u);
-  ASSERT_EQ(p.pts3d_1.nbytes, full.pts3d_1.nbytes);
-  EXPECT_EQ(std::memcmp(p.pts3d_1.data, full.pts3d_1.data, p.pts3d_1.nbytes), 0);
+  EXPECT_TRUE(testing::SameBytes(p.pts3d_1, full.pts3d_1));
 }
 
 }  // namespace

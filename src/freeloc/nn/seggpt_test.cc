@@ -39,14 +39,9 @@ std::vector<float> Vec(const TensorView& t) { return std::vector<float>(t.as<flo
 TEST(SegGpt, ConfigFromShapesAndJson) {
   const auto m = OwnTiny();
   const SegGptConfig& c = m->config();
-  EXPECT_EQ(c.embed_dim, 64);
-  EXPECT_EQ(c.depth, 24);
-  EXPECT_EQ(c.heads, 4);
-  EXPECT_EQ(c.half, 64);
-  EXPECT_EQ(c.grid_h, 8);
-  EXPECT_EQ(c.grid_w, 4);
-  EXPECT_EQ(c.pos_grid, 14);
-  EXPECT_EQ(c.decoder_dim, 16);
+  // embed_dim, depth, heads, half, grid (h, w), pos_grid, decoder_dim
+  EXPECT_EQ((std::vector<int>{c.embed_dim, c.depth, c.heads, c.half, c.grid_h, c.grid_w, c.pos_grid, c.decoder_dim}),
+            (std::vector<int>{64, 24, 4, 64, 8, 4, 14, 16}));
   EXPECT_EQ(c.out_indices, (std::vector<int>{5, 11, 17, 23}));
 }
 
@@ -158,7 +153,7 @@ TEST(SegGpt, HfNamesAreRenamedOnLoad) {
   const TensorView pa = a->Forward(imgs, tgts, 1, SegType::kInstance, false);
   const TensorView pb = b->Forward(imgs, tgts, 1, SegType::kInstance, false);
   ASSERT_EQ(pa.nbytes, pb.nbytes);
-  EXPECT_EQ(std::memcmp(pa.data, pb.data, pa.nbytes), 0);
+  EXPECT_TRUE(testing::SameBytes(pa, pb));
   // Missing and unexpected tensors are listed.
   sd.erase("model.encoder.layers.7.attention.rel_pos_w");
   const float z = 0;

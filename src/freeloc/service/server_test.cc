@@ -46,6 +46,14 @@ httplib::MultipartFormDataItems Photo(const std::string& image, const std::strin
   return items;
 }
 
+std::string AddAnchor(httplib::Client& c, const Tum& t) {
+  auto r = c.Post("/v1/anchors", Photo(t.ref, t.ref_depth));
+  EXPECT_TRUE(r);
+  if (!r) return "";
+  EXPECT_EQ(r->status, 201) << r->body;
+  return Json::parse(r->body).value("id", std::string());
+}
+
 // A server on a free port, serving from a thread until the fixture ends.
 class Running {
  public:
@@ -66,6 +74,11 @@ class Running {
     return c;
   }
   int port() const { return port_; }
+  // Posts the scene's reference photo as an anchor; its id.
+  std::string AddAnchor(const Tum& t) const {
+    httplib::Client c = Client();
+    return service::AddAnchor(c, t);
+  }
 
  private:
   std::unique_ptr<Server> server_;
@@ -77,14 +90,6 @@ ServiceOptions Sift() {
   ServiceOptions o;
   o.pipeline = pipeline::ResolvePreset("sift-essential");
   return o;
-}
-
-std::string AddAnchor(httplib::Client& c, const Tum& t) {
-  auto r = c.Post("/v1/anchors", Photo(t.ref, t.ref_depth));
-  EXPECT_TRUE(r);
-  if (!r) return "";
-  EXPECT_EQ(r->status, 201) << r->body;
-  return Json::parse(r->body).value("id", std::string());
 }
 
 TEST(Service, RoutesAndTheAnswerOfRelocalize) {
@@ -256,57 +261,60 @@ TEST(Service, TokenIsRequiredWhenSet) {
 
 // 16 concurrent requests against one anchor all succeed with the same answer; with one worker and a queue of one,
 // a burst is answered 503 beyond what fits, never queued without bound.
+struct Reply {
+  int status = 0;  // 0: no answer
+  std::string tvec, retry_after;
+};
+
+// `n` concurrent relocalize requests of the scene's query against anchor `id`, each on its own connection.
+std::vector<Reply> Burst(const Running& s, const std::string& id, const Tum& t, int n) {
+  std::vector<Reply> replies(n);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < n; ++i)
+    threads.emplace_back([&, i] {
+      httplib::Client c = s.Client();
+      const auto r = c.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+      if (!r) return;
+      replies[i].status = r->status;
+      replies[i].retry_after = r->get_header_value("Retry-After");
+      if (r->status == 200) replies[i].tvec = Json::parse(r->body)["tvec"].dump();
+    });
+  for (auto& th : threads) th.join();
+  return replies;
+}
+
 TEST(Service, ConcurrencyAndBackpressure) {
   const Tum t;
   ServiceOptions o = Sift();
   o.workers = 2;
   {
     const Running s(o);
-    httplib::Client c = s.Client();
-    const std::string id = AddAnchor(c, t);
-    std::vector<std::thread> threads;
-    std::vector<std::string> tvecs(16);
-    std::atomic<int> ok{0};
-    for (int i = 0; i < 16; ++i)
-      threads.emplace_back([&, i] {
-        httplib::Client ci = s.Client();
-        const auto r = ci.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
-        if (r && r->status == 200) {
-          ++ok;
-          tvecs[i] = Json::parse(r->body)["tvec"].dump();
-        }
-      });
-    for (auto& th : threads) th.join();
-    EXPECT_EQ(ok.load(), 16);
-    for (const auto& v : tvecs) EXPECT_EQ(v, tvecs[0]);
+    const std::vector<Reply> replies = Burst(s, s.AddAnchor(t), t, 16);
+    for (const Reply& r : replies) {
+      EXPECT_EQ(r.status, 200);
+      EXPECT_EQ(r.tvec, replies[0].tvec);
+    }
   }
   o.workers = 1;
   o.max_queue = 1;
   const Running s(o);
-  httplib::Client c = s.Client();
-  const std::string id = AddAnchor(c, t);
-  std::vector<std::thread> threads;
-  std::atomic<int> ok{0}, busy{0}, other{0};
-  for (int i = 0; i < 8; ++i)
-    threads.emplace_back([&] {
-      httplib::Client ci = s.Client();
-      const auto r = ci.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
-      if (r && r->status == 200) {
-        ++ok;
-      } else if (r && r->status == 503 && r->get_header_value("Retry-After") == "1") {
-        ++busy;
-      } else {
-        ++other;
-      }
-    });
-  for (auto& th : threads) th.join();
-  EXPECT_GE(ok.load(), 2);
-  EXPECT_GE(busy.load(), 1);
-  EXPECT_EQ(other.load(), 0);
-  const Json m = Json::parse(c.Get("/metrics")->body);
+  int ok = 0, busy = 0, other = 0;
+  for (const Reply& r : Burst(s, s.AddAnchor(t), t, 8)) {
+    if (r.status == 200) {
+      ++ok;
+    } else if (r.status == 503 && r.retry_after == "1") {
+      ++busy;
+    } else {
+      ++other;
+    }
+  }
+  EXPECT_GE(ok, 2);
+  EXPECT_GE(busy, 1);
+  EXPECT_EQ(other, 0);
+  const Json m = Json::parse(s.Client().Get("/metrics")->body);
   EXPECT_EQ(m["queue"], 0);
   EXPECT_EQ(m["in_flight"], 0);
-  EXPECT_EQ(m["errors"].value("503", 0), busy.load());
+  EXPECT_EQ(m["errors"].value("503", 0), busy);
 }
 
 // Anchors persisted with --store come back after a restart and answer the same; --max-anchors is enforced.
