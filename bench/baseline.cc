@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
     split = keep.empty() ? tmp + "/val" : keep;
     std::vector<Image> photos;
     for (const std::string& p : bench::DemoTexturePhotos())
-      photos.push_back(ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
+      photos.push_back(io::ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
     const double t0 = bench::NowSeconds();
     for (int s = 0; s < n_scenes; ++s) {
       char name[16];
@@ -153,15 +153,15 @@ int main(int argc, char** argv) {
                               "precision (25 cm, 5°)", "AUC (25 cm, 5°)", "failures", "answered (conf 0)"});
   for (const std::string& depth : bench::SplitList(depths)) {
     const size_t nm = methods.size();
-    std::map<std::string, std::vector<SubmissionEntry>> sub_official;
-    std::vector<std::map<std::string, std::vector<SubmissionEntry>>> sub_freeloc(nm);
+    std::map<std::string, std::vector<io::SubmissionEntry>> sub_official;
+    std::vector<std::map<std::string, std::vector<io::SubmissionEntry>>> sub_freeloc(nm);
     std::vector<double> ms_official;
     std::vector<std::vector<double>> ms_freeloc(nm);
     AllQueries all_official;
     std::vector<AllQueries> all_freeloc(nm);
     std::vector<int> answered(nm, 0);
     for (const auto& name : scenes) {
-      const MapfreeScene sc = MapfreeScene::Load(split + "/" + name);
+      const io::MapfreeScene sc = io::MapfreeScene::Load(split + "/" + name);
       const Image ref = sc.LoadImage(sc.reference);
       const DepthMap dr = sc.LoadDepth(sc.reference, depth);
       sub_official[name];
@@ -211,11 +211,11 @@ int main(int argc, char** argv) {
     }
     std::vector<eval::EvalRun> reports;
     const std::string zo = tmp + "/official_" + depth + ".zip";
-    WriteSubmission(zo, sub_official);
+    io::WriteSubmission(zo, sub_official);
     reports.push_back(eval::RunEvaluation(split, scenes, zo));
     for (size_t m = 0; m < nm; ++m) {
       const std::string zf = tmp + "/freeloc" + std::to_string(m) + "_" + depth + ".zip";
-      WriteSubmission(zf, sub_freeloc[m]);
+      io::WriteSubmission(zf, sub_freeloc[m]);
       reports.push_back(eval::RunEvaluation(split, scenes, zf));
     }
     std::printf(

@@ -38,7 +38,7 @@ inline double GemmRate(int64_t m, int64_t k, int64_t n, torch::Dtype dtype) {
 
 // A released model's state dict with random weights (no download): names and shapes from a fixture's
 // full_model_state_dict_shapes.json; LayerNorm weights 1, biases 0, other weights N(0, 0.02²), seed 0.
-inline std::map<std::string, TensorView> RandomFullModel(const std::string& shapes_json) {
+inline std::map<std::string, io::TensorView> RandomFullModel(const std::string& shapes_json) {
   std::ifstream f(shapes_json);
   if (!f.good()) {
     std::fprintf(stderr, "bench: %s not found (it lists the released model's tensor shapes)\n", shapes_json.c_str());
@@ -46,7 +46,7 @@ inline std::map<std::string, TensorView> RandomFullModel(const std::string& shap
   }
   const nlohmann::json j = nlohmann::json::parse(f);
   torch::manual_seed(0);
-  std::map<std::string, TensorView> sd;
+  std::map<std::string, io::TensorView> sd;
   for (const auto& e : j) {
     const std::string name = e[0];
     const std::vector<int64_t> shape = e[1];
@@ -62,15 +62,15 @@ inline std::map<std::string, TensorView> RandomFullModel(const std::string& shap
   return sd;
 }
 
-inline TensorView RandomTensor(const std::vector<int64_t>& shape, double std, double mean = 0) {
+inline io::TensorView RandomTensor(const std::vector<int64_t>& shape, double std, double mean = 0) {
   return nn::internal::ToView(torch::randn(shape) * std + mean);
 }
 
 // The released seggpt_vit_large architecture with random weights (seed 0).
-inline std::map<std::string, TensorView> RandomSegGpt() {
+inline std::map<std::string, io::TensorView> RandomSegGpt() {
   torch::manual_seed(0);
   const int64_t C = 1024, M = 4096, D = 64;
-  std::map<std::string, TensorView> sd;
+  std::map<std::string, io::TensorView> sd;
   sd["patch_embed.proj.weight"] = RandomTensor({C, 3, 16, 16}, 0.02);
   sd["patch_embed.proj.bias"] = RandomTensor({C}, 0.0);
   for (const char* t : {"mask_token", "segment_token_x", "segment_token_y", "type_token_cls", "type_token_ins"})
@@ -108,7 +108,7 @@ inline std::map<std::string, TensorView> RandomSegGpt() {
 
 // A released Metric3D v2 variant (vit_small, vit_large, vit_giant2) with random weights (seed 0), shapes from the
 // fixture's list of the released state dicts.
-inline std::map<std::string, TensorView> RandomMetric3d(const std::string& variant) {
+inline std::map<std::string, io::TensorView> RandomMetric3d(const std::string& variant) {
   std::ifstream f(std::string(FREELOC_SHARED_DIR) + "/fixtures/metric3d/released_state_dict_shapes.json");
   if (!f.good()) {
     std::fprintf(stderr, "bench/metric3d: released_state_dict_shapes.json not found under ../shared\n");
@@ -116,7 +116,7 @@ inline std::map<std::string, TensorView> RandomMetric3d(const std::string& varia
   }
   const nlohmann::json j = nlohmann::json::parse(f);
   torch::manual_seed(0);
-  std::map<std::string, TensorView> sd;
+  std::map<std::string, io::TensorView> sd;
   for (const auto& e : j[variant]) {
     const std::string name = e[0];
     const std::vector<int64_t> shape = e[1];

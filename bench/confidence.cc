@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
   bench::MarkdownTable t(
       {"scene", "query", "status", "inliers", "freeloc confidence", "predicted t (m)", "t err (m)", "R err (°)"});
   for (const char* name : {"s00001", "s00002", "s00003"}) {
-    const MapfreeScene scene = MapfreeScene::Load(split + "/" + name);
+    const io::MapfreeScene scene = io::MapfreeScene::Load(split + "/" + name);
     const auto res = pipeline::RelocalizeScene(scene, pipeline::ResolvePreset("sift-essential"));
     for (const auto& r : res) {
       testing::StudyQuery q;

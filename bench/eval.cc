@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
   const fs::path split = root / "val";
   std::mt19937 rng(42);
   std::normal_distribution<double> n(0, 1);
-  std::map<std::string, std::vector<freeloc::SubmissionEntry>> sub;
+  std::map<std::string, std::vector<freeloc::io::SubmissionEntry>> sub;
   std::vector<std::string> names;
   const double t_gen0 = freeloc::bench::NowSeconds();
   for (int s = 0; s < scenes; ++s) {
@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
       const freeloc::Rigid3d gt(Eigen::Quaterniond(1, 0.1 * n(rng), 0.1 * n(rng), 0.1 * n(rng)).normalized(),
                                 Eigen::Vector3d(n(rng), n(rng), n(rng)));
       intr += std::string(fn) + " 590.1 591.2 269.8 360.3 540 720\n";
-      const std::string line = freeloc::FormatPoseLine({fn, gt, 0});
+      const std::string line = freeloc::io::FormatPoseLine({fn, gt, 0});
       poses += line.substr(0, line.rfind(' ')) + "\n";
       freeloc::Rigid3d est = gt;
       est.translation += 0.3 * Eigen::Vector3d(n(rng), n(rng), n(rng));
@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
   }
   const std::string zip = (root / "submission.zip").string();
   const double t_write0 = freeloc::bench::NowSeconds();
-  freeloc::WriteSubmission(zip, sub);
+  freeloc::io::WriteSubmission(zip, sub);
   const double t_write = freeloc::bench::NowSeconds() - t_write0;
   (void)t_gen0;
 

@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
                                                  {"desc_conf_mode", "('exp', 0, inf)"}};
   const auto mast3r = freeloc::nn::Dust3rModel::Create(sd, kw, "random full-size weights", rt);
   // The DUSt3R path on the same trunk weights (shared, not copied).
-  std::map<std::string, freeloc::TensorView> trunk;
+  std::map<std::string, freeloc::io::TensorView> trunk;
   for (const auto& [k, v] : sd)
     if (k.find("head_local_features") == std::string::npos) trunk[k] = v;
   const auto dust3r = freeloc::nn::Dust3rModel::Create(

@@ -33,7 +33,7 @@ void RunOne(const std::string& variant, int threads, int reps, int fd) {
   const auto m = freeloc::nn::Metric3dModel::Create(sd, "{}", variant, rt);
   std::vector<float> in(static_cast<size_t>(3) * 616 * 1064);
   for (size_t i = 0; i < in.size(); ++i) in[i] = static_cast<float>(((i * 7919) % 255) / 127.5 - 1.0);
-  freeloc::TensorView d, c, n;
+  freeloc::io::TensorView d, c, n;
   m->Forward(in, &d, &c, &n);  // warm-up
   std::vector<double> t;
   for (int r = 0; r < reps; ++r) {

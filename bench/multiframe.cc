@@ -64,7 +64,7 @@ int main(int argc, char** argv) {
   std::printf("%s\n\n", bench::MachineLine().c_str());
   std::vector<Image> photos;
   for (const std::string& p : bench::DemoTexturePhotos())
-    photos.push_back(ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
+    photos.push_back(io::ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
   freeloc::testing::SequenceOptions so;
   so.windows = windows;
   if (hard) so.difficulty = freeloc::testing::SceneDifficulty::Hard();
@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
       Errors e;
       int device_used = 0;
       for (const auto& name : res.scenes) {
-        const MapfreeScene& sc = res.loaded.at(name);
+        const io::MapfreeScene& sc = res.loaded.at(name);
         for (const auto& q : res.results.at(name)) {
           ++e.n;
           if (q.window.device.rfind("used", 0) == 0) ++device_used;
@@ -153,7 +153,7 @@ int main(int argc, char** argv) {
                  Fmt("%.4f", st.empty() ? 0.0 : st[st.size() * 9 / 10]), Fmt("%.3f", bench::Median(e.r)),
                  Fmt("%.3f", e.n ? static_cast<double>(e.pose_ok) / e.n : 0.0), std::to_string(e.n),
                  std::to_string(device_used), Fmt("%.2f", secs / std::max(1, e.n))});
-      reports.push_back(eval::RunEvaluation(split, scenes, spec.out, Track::kMultiFrame));
+      reports.push_back(eval::RunEvaluation(split, scenes, spec.out, io::Track::kMultiFrame));
       reports.back().label = v.name;
     }
     std::printf("### depth `%s`: the 8 metrics on the evaluated frames (`eval --track multi-frame`)\n\n%s\n",

@@ -25,7 +25,7 @@
 namespace {
 
 std::string Bytes(const std::string& path) {
-  const std::vector<uint8_t> b = freeloc::ReadFileBytes(path);
+  const std::vector<uint8_t> b = freeloc::io::ReadFileBytes(path);
   return std::string(b.begin(), b.end());
 }
 

@@ -4,6 +4,6 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace freeloc;
-  fuzz::Expect([&] { (void)ReadCorrespondenceFile(fuzz::AsFile(data, size, ".txt")).size(); });
+  fuzz::Expect([&] { (void)io::ReadCorrespondenceFile(fuzz::AsFile(data, size, ".txt")).size(); });
   return 0;
 }

@@ -28,7 +28,7 @@ inline std::string AsFile(const uint8_t* data, size_t size, const char* ext) {
 }
 
 // Reads every byte of a tensor, so that a view pointing outside its buffer is caught by ASan.
-inline uint64_t Touch(const TensorView& t) {
+inline uint64_t Touch(const io::TensorView& t) {
   uint64_t s = 0;
   for (size_t k = 0; k < t.nbytes; ++k) s += t.data[k];
   return s;

@@ -77,12 +77,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const auto* b = reinterpret_cast<const uint8_t*>(bytes.data());
   fuzz::Expect([&] {
     if (npy) {
-      const NpyArray a = ParseNpy(b, bytes.size(), "fuzz.npy");
+      const io::NpyArray a = io::ParseNpy(b, bytes.size(), "fuzz.npy");
       double s = 0;
       for (double v : a.data) s += v;
       if (s == 1.25) std::fprintf(stderr, " ");
     } else {
-      const SafetensorsFile f = SafetensorsFile::Parse(b, bytes.size(), nullptr, "fuzz.safetensors");
+      const io::SafetensorsFile f = io::SafetensorsFile::Parse(b, bytes.size(), nullptr, "fuzz.safetensors");
       uint64_t s = 0;
       for (const auto& name : f.names) s += fuzz::Touch(f.Get(name));
       if (s == 1) std::fprintf(stderr, " ");

@@ -6,9 +6,9 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace freeloc;
   fuzz::Expect([&] {
-    const Image img = DecodeImage(std::vector<uint8_t>(data, data + size), "fuzz.img");
+    const Image img = io::DecodeImage(std::vector<uint8_t>(data, data + size), "fuzz.img");
     (void)img.width;
   });
-  fuzz::Expect([&] { (void)ReadDepthPng(fuzz::AsFile(data, size, ".png")).width; });
+  fuzz::Expect([&] { (void)io::ReadDepthPng(fuzz::AsFile(data, size, ".png")).width; });
   return 0;
 }

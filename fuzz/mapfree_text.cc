@@ -6,9 +6,9 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace freeloc;
-  fuzz::Expect([&] { (void)ReadIntrinsicsFile(fuzz::AsFile(data, size, ".txt")).size(); });
+  fuzz::Expect([&] { (void)io::ReadIntrinsicsFile(fuzz::AsFile(data, size, ".txt")).size(); });
   const std::string text(reinterpret_cast<const char*>(data), size);
-  fuzz::Expect([&] { (void)ParseOfficialPoses(text, true).size(); });
-  fuzz::Expect([&] { (void)ParseOfficialPoses(text, false).size(); });
+  fuzz::Expect([&] { (void)io::ParseOfficialPoses(text, true).size(); });
+  fuzz::Expect([&] { (void)io::ParseOfficialPoses(text, false).size(); });
   return 0;
 }

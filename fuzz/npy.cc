@@ -6,9 +6,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace freeloc;
   fuzz::Expect([&] {
     if (size >= 2 && data[0] == 'P' && data[1] == 'K') {
-      for (const auto& [name, a] : ReadNpz(fuzz::AsFile(data, size, ".npz"))) (void)a.shape.size();
+      for (const auto& [name, a] : io::ReadNpz(fuzz::AsFile(data, size, ".npz"))) (void)a.shape.size();
     } else {
-      const NpyArray a = ParseNpy(data, size, "fuzz.npy");
+      const io::NpyArray a = io::ParseNpy(data, size, "fuzz.npy");
       (void)a.shape.size();
     }
   });

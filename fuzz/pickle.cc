@@ -6,10 +6,10 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace freeloc;
   fuzz::Expect([&] {
-    PickleLimits limits;
+    io::PickleLimits limits;
     limits.max_objects = 100000;  // the defaults allow hundreds of MB; keep each execution small
-    PyRef r = ParsePickle(
-        data, size, "fuzz.pkl", [](const PyRef&) { return PyObject::Str("storage"); }, nullptr, limits);
+    io::PyRef r = io::ParsePickle(
+        data, size, "fuzz.pkl", [](const io::PyRef&) { return io::PyObject::Str("storage"); }, nullptr, limits);
     (void)r->Repr(4000);
     (void)r->Find("a.0.b");
   });

@@ -48,7 +48,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = fuzz::AsFile(nullptr, 0, ".pth");
   testing::WritePthSpec(path, spec);
   fuzz::Expect([&] {
-    const Checkpoint ck = Checkpoint::Open(path);
+    const io::Checkpoint ck = io::Checkpoint::Open(path);
     uint64_t sum = 0;
     for (const auto& name : ck.names()) sum += fuzz::Touch(ck.Get(name));
     if (sum == 1) std::fprintf(stderr, " ");

@@ -6,8 +6,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace freeloc;
   fuzz::Expect([&] {
-    const ZipContents z = ZipContents::Read(fuzz::AsFile(data, size, ".zip"));
-    for (const auto& [name, text] : z.files) (void)ParseOfficialPoses(text, true).size();
+    const io::ZipContents z = io::ZipContents::Read(fuzz::AsFile(data, size, ".zip"));
+    for (const auto& [name, text] : z.files) (void)io::ParseOfficialPoses(text, true).size();
   });
   return 0;
 }

@@ -116,7 +116,7 @@ std::string PathOf(const py::handle& v) { return py::str(py::module_::import("os
 // cv2.imread(…, IMREAD_UNCHANGED) gives them); 0 = invalid; None → empty.
 DepthMap DepthOf(const py::handle& d, const char* what) {
   if (d.is_none()) return {};
-  if (IsPath(d)) return ReadDepthPng(PathOf(d));
+  if (IsPath(d)) return io::ReadDepthPng(PathOf(d));
   const py::array raw = py::array::ensure(d);
   if (!raw || raw.ndim() != 2)
     BadValue(std::string(what) + ": expected a path, an H x W float array of metres or an H x W uint16 array of mm");
@@ -137,7 +137,7 @@ DepthMap DepthOf(const py::handle& d, const char* what) {
 
 // A path, or an H×W×3 uint8 RGB array.
 Image ImageOf(const py::handle& v, const char* what) {
-  if (IsPath(v)) return ReadImage(PathOf(v));
+  if (IsPath(v)) return io::ReadImage(PathOf(v));
   const py::array arr = py::array::ensure(v);
   if (!arr || !arr.dtype().is(py::dtype::of<uint8_t>()) || arr.ndim() != 3 || arr.shape(2) != 3)
     BadValue(std::string(what) + ": expected a path or an H x W x 3 uint8 RGB array");
@@ -172,9 +172,9 @@ py::array_t<double> Array(const std::vector<double>& v, std::vector<py::ssize_t>
   return a;
 }
 
-py::array TensorArray(const TensorView& t) {
+py::array TensorArray(const io::TensorView& t) {
   std::vector<py::ssize_t> shape(t.shape.begin(), t.shape.end());
-  if (t.dtype == DType::kU8) {
+  if (t.dtype == io::DType::kU8) {
     py::array_t<uint8_t> a(shape);
     std::memcpy(a.mutable_data(), t.data, t.nbytes);
     return a;
@@ -328,8 +328,8 @@ class PyRelocalizer {
   // presets), else a ValueError naming the keyword.
   Camera PhotoOf(const py::handle& image, const py::handle& k, const char* image_name, const char* k_name, Image* out,
                  pipeline::FrameInputs* in) const {
-    ExifInfo exif;
-    *out = IsPath(image) ? ReadImage(PathOf(image), &exif) : ImageOf(image, image_name);
+    io::ExifInfo exif;
+    *out = IsPath(image) ? io::ReadImage(PathOf(image), &exif) : ImageOf(image, image_name);
     Camera given;
     if (!k.is_none()) given = CameraOf(k, k_name, out->width, out->height);
     const pipeline::IntrinsicsChoice c =
@@ -410,9 +410,9 @@ class PyRelocalizer {
 
 std::string Evaluate(const std::string& data, const std::string& submission, const std::string& split,
                      const std::vector<std::string>& scenes, const std::string& track) {
-  Track t = Track::kSingleFrame;
+  io::Track t = io::Track::kSingleFrame;
   try {
-    t = ParseEnum<Track>(track);
+    t = ParseEnum<io::Track>(track);
   } catch (const Error& e) {
     BadValue(e.what());
   }
@@ -584,7 +584,7 @@ void BindFiles(py::module_& m) {
   m.def(
       "read_depth",
       [](const py::object& path) {
-        const DepthMap d = ReadDepthPng(PathOf(path));
+        const DepthMap d = io::ReadDepthPng(PathOf(path));
         py::array_t<float> a({static_cast<py::ssize_t>(d.height), static_cast<py::ssize_t>(d.width)});
         std::memcpy(a.mutable_data(), d.data.data(), d.data.size() * sizeof(float));
         return a;
@@ -594,9 +594,9 @@ void BindFiles(py::module_& m) {
   m.def(
       "read_intrinsics",
       [](const py::object& path) {
-        ExifInfo exif;
+        io::ExifInfo exif;
         const std::string p = PathOf(path);
-        const Image im = ReadImage(p, &exif);
+        const Image im = io::ReadImage(p, &exif);
         const pipeline::IntrinsicsChoice c =
             pipeline::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, im, false, p);
         py::dict d;
@@ -624,7 +624,7 @@ void BindFiles(py::module_& m) {
   m.def(
       "read_image",
       [](const py::object& path) {
-        const Image im = ReadImage(PathOf(path));
+        const Image im = io::ReadImage(PathOf(path));
         py::array_t<uint8_t> a(
             {static_cast<py::ssize_t>(im.height), static_cast<py::ssize_t>(im.width), py::ssize_t{3}});
         std::memcpy(a.mutable_data(), im.data.data(), im.data.size());

@@ -12,8 +12,8 @@ int main(int argc, char** argv) {
   const bool codecs_at_start = freeloc::ModuleLoaded("libfreeloc_codecs.so");
   freeloc::Image img(5, 3);
   img.data[7] = 200;
-  freeloc::WriteImagePng(argv[1], img);
-  const freeloc::Image back = freeloc::ReadImage(argv[1]);
+  freeloc::io::WriteImagePng(argv[1], img);
+  const freeloc::Image back = freeloc::io::ReadImage(argv[1]);
   const bool codecs_after = freeloc::ModuleLoaded("libfreeloc_codecs.so");
   const auto& api = freeloc::pipeline::Networks();
   std::printf(

@@ -20,10 +20,10 @@ TEST(Instances, ProposalsPropagationAndMatchingOnTumPhotos) {
   const auto seggpt = nn::SegGptModel::Load(testing::TinyModelPath("seggpt/model.safetensors"),
                                             testing::TinyModelPath("seggpt/config.json"));
   const std::string s = testing::DemoPath("val/s00001/");
-  const Image ref = ReadImage(s + "seq0/frame_00000.png"), query = ReadImage(s + "seq1/frame_00002.png");
-  Dust3rPreprocessOptions po;
+  const Image ref = io::ReadImage(s + "seq0/frame_00000.png"), query = io::ReadImage(s + "seq1/frame_00002.png");
+  vision::Dust3rPreprocessOptions po;
   po.size = 224;
-  const Dust3rInput a = PreprocessForDust3r(ref, po), b = PreprocessForDust3r(query, po);
+  const vision::Dust3rInput a = vision::PreprocessForDust3r(ref, po), b = vision::PreprocessForDust3r(query, po);
   const auto pred =
       dust3r->Run({a.normalized.data(), a.height(), a.width()}, {b.normalized.data(), b.height(), b.width()});
   // Proposals on the reference's own pointmap, mapped to the photo's resolution.

@@ -64,7 +64,7 @@ inline StudyQuery RunStudyQuery(uint32_t seed, int i, int width, int height, con
   q.result = reloc.Relocalize(Image(width, height), sc.query, dq, &pre);
   if (q.result.ok() || q.result.weak()) {  // weak-support answers are submitted and ranked too
     auto official = [](const Rigid3d& query_from_ref) {
-      OfficialPose p;
+      io::OfficialPose p;
       const Eigen::Quaterniond c2w = query_from_ref.rotation.conjugate();
       p.q_c2w = {c2w.w(), c2w.x(), c2w.y(), c2w.z()};
       p.t_c2w = query_from_ref.Center();

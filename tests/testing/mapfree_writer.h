@@ -63,7 +63,7 @@ inline void WriteCorrespondencesNpz(const std::string& path, const std::vector<s
   std::string npy = std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(h.size() & 0xff) +
                     static_cast<char>(h.size() >> 8) + h +
                     std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
-  WriteZipAtomic(path, {{"correspondences.npy", npy}});
+  io::WriteZipAtomic(path, {{"correspondences.npy", npy}});
 }
 
 }  // namespace internal
@@ -79,10 +79,10 @@ inline void WriteSyntheticMapfreeScene(const std::string& dir, uint32_t seed, co
   SyntheticScene base = MakeRoomScene(seed, 0.5, o.width, o.height);
   const std::string ref = "seq0/frame_00000.png";
   std::string intrinsics = internal::IntrinsicsLine(ref, base.ref), poses = internal::PoseLine(ref, Rigid3d());
-  WriteImagePng(dir + "/" + ref, Image(o.width, o.height));
+  io::WriteImagePng(dir + "/" + ref, Image(o.width, o.height));
   DepthMap dref = base.depth_ref;
   if (o.degrade_depth) dref = DegradeDepth(dref, rng(), 0.05, 0.05, 0.05, 0.02);
-  WriteDepthPng(dir + "/seq0/frame_00000." + o.depth_suffix + ".png", dref);
+  io::WriteDepthPng(dir + "/seq0/frame_00000." + o.depth_suffix + ".png", dref);
   std::vector<std::vector<Eigen::Vector4d>> rows;
   for (int k = 0; k < o.queries; ++k) {
     char name[64];
@@ -105,10 +105,10 @@ inline void WriteSyntheticMapfreeScene(const std::string& dir, uint32_t seed, co
     rows.push_back(r);
     intrinsics += internal::IntrinsicsLine(std::string(name) + ".png", s.query);
     poses += internal::PoseLine(std::string(name) + ".png", s.query_from_ref);
-    WriteImagePng(dir + "/" + name + ".png", Image(o.width, o.height));
+    io::WriteImagePng(dir + "/" + name + ".png", Image(o.width, o.height));
     DepthMap dq = s.depth_query;
     if (o.degrade_depth) dq = DegradeDepth(dq, rng(), 0.05, 0.05, 0.05, 0.02);
-    WriteDepthPng(dir + "/" + name + "." + o.depth_suffix + ".png", dq);
+    io::WriteDepthPng(dir + "/" + name + "." + o.depth_suffix + ".png", dq);
   }
   WriteText(dir + "/intrinsics.txt", intrinsics);
   WriteText(dir + "/poses.txt", poses);

@@ -18,7 +18,7 @@ struct PngPairCase {
 };
 
 struct PreprocessedPair {
-  Dust3rInput a, b;
+  vision::Dust3rInput a, b;
   nn::Dust3rPrediction Run(const nn::Dust3rModel& model) const {
     return model.Run({a.normalized.data(), a.height(), a.width()}, {b.normalized.data(), b.height(), b.width()});
   }
@@ -26,10 +26,10 @@ struct PreprocessedPair {
 
 // Reads `images_dir`/<a>.png and <b>.png and preprocesses both at the case's size.
 inline PreprocessedPair PreprocessPngPair(const std::string& images_dir, const PngPairCase& c) {
-  Dust3rPreprocessOptions o;
+  vision::Dust3rPreprocessOptions o;
   o.size = c.size;
-  return {PreprocessForDust3r(ReadImage(images_dir + "/" + c.a + ".png"), o),
-          PreprocessForDust3r(ReadImage(images_dir + "/" + c.b + ".png"), o)};
+  return {vision::PreprocessForDust3r(io::ReadImage(images_dir + "/" + c.a + ".png"), o),
+          vision::PreprocessForDust3r(io::ReadImage(images_dir + "/" + c.b + ".png"), o)};
 }
 
 }  // namespace freeloc::testing

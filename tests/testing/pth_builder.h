@@ -85,7 +85,7 @@ inline std::map<std::string, std::string> PthMembers(const PthSpec& spec) {
   return m;
 }
 
-inline void WritePthSpec(const std::string& path, const PthSpec& spec) { WriteZipAtomic(path, PthMembers(spec)); }
+inline void WritePthSpec(const std::string& path, const PthSpec& spec) { io::WriteZipAtomic(path, PthMembers(spec)); }
 
 // A float32 tensor of a real checkpoint: its name in the state dict, its shape and its values (row-major).
 struct PthFloatTensor {
@@ -132,7 +132,7 @@ inline void WriteStateDictPth(const std::string& path, const std::vector<PthFloa
     m["archive/data/" + std::to_string(k)] =
         std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float));
   }
-  WriteZipAtomic(path, m);
+  io::WriteZipAtomic(path, m);
 }
 
 }  // namespace freeloc::testing

@@ -56,7 +56,7 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
   std::string intrinsics, poses, dev_doc, dev_other, dev_garbage;
   Image ref_img = RenderTextured(base, base.ref, Rigid3d(), photos, hard.px_per_m);
   AddImageNoise(&ref_img, hard.noise_grey, seed ^ 0x5bd1e995u);
-  WriteImagePng(dir + "/seq0/frame_00000.png", ref_img);
+  io::WriteImagePng(dir + "/seq0/frame_00000.png", ref_img);
   WriteDepthMm(dir + "/seq0/frame_00000.exact.png", base.depth_ref);
   WriteDepthVariants(dir + "/seq0/frame_00000", base.depth_ref, seed, -1);
   intrinsics += internal::IntrinsicsLine("seq0/frame_00000.png", base.ref);
@@ -101,7 +101,7 @@ inline std::vector<std::string> WriteSequenceScene(const std::string& dir, uint3
     SyntheticScene sc = base;
     Image img = RenderTextured(sc, sc.query, T, photos, hard.px_per_m);
     AddImageNoise(&img, hard.noise_grey, seed * 31u + static_cast<uint32_t>(pos));
-    WriteImagePng(dir + "/" + file, img);
+    io::WriteImagePng(dir + "/" + file, img);
     const DepthMap d = sc.Render(sc.query, T);
     WriteDepthMm(dir + "/" + name + ".exact.png", d);
     WriteDepthVariants(dir + "/" + name, d, seed, pos);

@@ -16,7 +16,7 @@
 namespace freeloc::testing {
 
 // max over elements of |a − b| / (atol + rtol·|b|): ≤ 1 passes (numpy.allclose semantics, b the golden).
-inline double BudgetUse(const TensorView& a, const TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
+inline double BudgetUse(const io::TensorView& a, const io::TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
   EXPECT_EQ(a.numel(), b.numel());
   if (a.numel() != b.numel()) return 1e9;
   double worst = 0;
@@ -28,7 +28,7 @@ inline double BudgetUse(const TensorView& a, const TensorView& b, double atol = 
 }
 
 // True when both tensors hold the same bytes (a failure names the sizes when they differ).
-inline bool SameBytes(const TensorView& a, const TensorView& b) {
+inline bool SameBytes(const io::TensorView& a, const io::TensorView& b) {
   EXPECT_EQ(a.nbytes, b.nbytes);
   return a.nbytes == b.nbytes && std::memcmp(a.data, b.data, a.nbytes) == 0;
 }
@@ -40,7 +40,7 @@ struct TapComparison {
 
 // Each tensor of the fixture `f` that `wanted` selects against the model's tap of the same name: a missing tap and a
 // tap over its budget are test failures.
-inline TapComparison CompareTaps(const std::map<std::string, TensorView>& taps, const SafetensorsFile& f,
+inline TapComparison CompareTaps(const std::map<std::string, io::TensorView>& taps, const io::SafetensorsFile& f,
                                  const std::function<bool(const std::string&)>& wanted, double atol = 1e-4,
                                  double rtol = 1e-3) {
   TapComparison r;

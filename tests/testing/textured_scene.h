@@ -73,7 +73,7 @@ inline void WriteDepthMm(const std::string& path, const DepthMap& d) {
   std::vector<uint16_t> mm(d.data.size());
   for (size_t i = 0; i < mm.size(); ++i)
     mm[i] = static_cast<uint16_t>(std::clamp(std::round(d.data[i] * 1000.0), 0.0, 65535.0));
-  WritePng16(path, d.width, d.height, mm);
+  io::WritePng16(path, d.width, d.height, mm);
 }
 
 // The depth variants of a textured scene from the exact map of frame `frame` (each seeded by the scene seed and the
@@ -132,7 +132,7 @@ inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int querie
   const SyntheticScene base = MakeRoomScene(seed, 0.5, width, height);
   Image ref_img = RenderTextured(base, base.ref, Rigid3d(), photos, hard.px_per_m);
   AddImageNoise(&ref_img, hard.noise_grey, seed ^ 0x5bd1e995u);
-  WriteImagePng(dir + "/seq0/frame_00000.png", ref_img);
+  io::WriteImagePng(dir + "/seq0/frame_00000.png", ref_img);
   WriteDepthMm(dir + "/seq0/frame_00000.exact.png", base.depth_ref);
   WriteDepthMm(dir + "/seq0/frame_00000.degraded.png", DegradeDepth(base.depth_ref, rng(), 0.05, 0.05, 0.10, 0.05));
   WriteDepthVariants(dir + "/seq0/frame_00000", base.depth_ref, seed, -1);
@@ -149,7 +149,7 @@ inline void WriteTexturedScene(const std::string& dir, uint32_t seed, int querie
     std::snprintf(name, sizeof(name), "seq1/frame_%05d", 5 * i);
     Image qimg = RenderTextured(sc, sc.query, sc.query_from_ref, photos, hard.px_per_m);
     AddImageNoise(&qimg, hard.noise_grey, seed * 31u + static_cast<uint32_t>(i));
-    WriteImagePng(dir + "/" + name + ".png", qimg);
+    io::WriteImagePng(dir + "/" + name + ".png", qimg);
     const DepthMap d = sc.Render(sc.query, sc.query_from_ref);
     WriteDepthMm(dir + "/" + name + ".exact.png", d);
     WriteDepthMm(dir + "/" + name + ".degraded.png", DegradeDepth(d, rng(), 0.05, 0.05, 0.10, 0.05));

@@ -78,14 +78,14 @@ std::vector<float> Values(const std::string& init, int64_t n, Draw* d,
 void WriteSafetensorsWithConfig(const std::string& out, const std::vector<freeloc::testing::PthFloatTensor>& tensors,
                                 const nlohmann::json& config) {
   std::filesystem::create_directories(std::filesystem::path(out).parent_path());
-  std::vector<std::pair<std::string, freeloc::TensorView>> views;
+  std::vector<std::pair<std::string, freeloc::io::TensorView>> views;
   for (const auto& t : tensors)
-    views.emplace_back(
-        t.name, freeloc::MakeTensor(freeloc::DType::kF32, t.shape, t.values.data(), t.values.size() * sizeof(float)));
-  freeloc::WriteSafetensors(out, views, {{"format", "pt"}, {"note", "freeloc tiny random-weight test model"}});
+    views.emplace_back(t.name, freeloc::io::MakeTensor(freeloc::io::DType::kF32, t.shape, t.values.data(),
+                                                       t.values.size() * sizeof(float)));
+  freeloc::io::WriteSafetensors(out, views, {{"format", "pt"}, {"note", "freeloc tiny random-weight test model"}});
   const std::string text = config.dump(2) + "\n";
-  freeloc::WriteFileAtomic((std::filesystem::path(out).parent_path() / "config.json").string(), text.data(),
-                           text.size());
+  freeloc::io::WriteFileAtomic((std::filesystem::path(out).parent_path() / "config.json").string(), text.data(),
+                               text.size());
 }
 
 void Make(const std::string& spec_path, const std::string& out_dir, uint64_t seed) {
@@ -121,7 +121,7 @@ void Make(const std::string& spec_path, const std::string& out_dir, uint64_t see
 
 // A checkpoint's tensors in file order as [name, shape] or [name, shape, the earlier name whose bytes it shares].
 void Dump(const std::string& path) {
-  const freeloc::Checkpoint c = freeloc::Checkpoint::Open(path);
+  const freeloc::io::Checkpoint c = freeloc::io::Checkpoint::Open(path);
   nlohmann::ordered_json j;
   j["format"] = c.format_name();
   j["metadata"] = c.metadata();

@@ -50,9 +50,9 @@ std::string WriteJpeg(const freeloc::testing::TempDir& tmp, const std::string& n
     f.focal_plane_unit = 4;
   }
   f.orientation = orientation;
-  const std::vector<uint8_t> bytes = freeloc::testing::WithExif(freeloc::EncodeJpeg(stored, 95, name), f);
+  const std::vector<uint8_t> bytes = freeloc::testing::WithExif(freeloc::io::EncodeJpeg(stored, 95, name), f);
   const std::string path = tmp.File(name);
-  freeloc::WriteFileAtomic(path, bytes.data(), bytes.size());
+  freeloc::io::WriteFileAtomic(path, bytes.data(), bytes.size());
   return path;
 }
 
@@ -64,9 +64,9 @@ Pair S00003(const freeloc::testing::TempDir& tmp, int ref_orientation = 1, int q
   const std::string s = freeloc::testing::DemoPath("val/s00003/");
   Pair p;
   p.ref = WriteJpeg(tmp, "ref_o" + std::to_string(ref_orientation) + ".jpg",
-                    freeloc::ReadImage(s + "seq0/frame_00000.png"), ref_orientation);
+                    freeloc::io::ReadImage(s + "seq0/frame_00000.png"), ref_orientation);
   p.query = WriteJpeg(tmp, "query_o" + std::to_string(query_orientation) + ".jpg",
-                      freeloc::ReadImage(s + "seq1/frame_00000.png"), query_orientation);
+                      freeloc::io::ReadImage(s + "seq1/frame_00000.png"), query_orientation);
   p.ref_depth = s + "seq0/frame_00000.sensor.png";
   p.query_depth = s + "seq1/frame_00000.sensor.png";
   return p;
@@ -160,7 +160,7 @@ TEST(CliIntrinsics, NoSourceIsOneLineAndAbsurdExifWarns) {
   EXPECT_TRUE(Contains(r.out, "--ref-intrinsics")) << r.out;
   EXPECT_TRUE(Contains(r.out, "--intrinsics FILE")) << r.out;
 
-  const Image ref = freeloc::ReadImage(png_ref);
+  const Image ref = freeloc::io::ReadImage(png_ref);
   ExifFields absurd;
   absurd.focal_length = Rational(5000);  // a 5 m lens on a phone sensor
   absurd.focal_plane_x = Rational(1000);

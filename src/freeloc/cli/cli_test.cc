@@ -76,7 +76,7 @@ TEST(Cli, InspectSafetensorsWithFilter) {
 // A perfect submission made from the GT of the real TUM scenes: zero errors, precision 1 (issue acceptance).
 TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
   freeloc::testing::TempDir tmp;
-  std::map<std::string, std::vector<freeloc::SubmissionEntry>> sub;
+  std::map<std::string, std::vector<freeloc::io::SubmissionEntry>> sub;
   for (const char* s : {"s00001", "s00002", "s00003"}) {
     std::istringstream in(
         freeloc::testing::ReadText(freeloc::testing::DemoPath(std::string("val/") + s + "/poses.txt")));
@@ -91,7 +91,7 @@ TEST(Cli, EvalPerfectSubmissionOnTumScenes) {
             {name, freeloc::Rigid3d::FromWxyz({q[0], q[1], q[2], q[3]}, Eigen::Vector3d(t[0], t[1], t[2])), 1});
     }
   }
-  freeloc::WriteSubmission(tmp.File("gt.zip"), sub);
+  freeloc::io::WriteSubmission(tmp.File("gt.zip"), sub);
   const std::string data = freeloc::testing::DemoPath();
   Result r = RunFreeloc("eval --data " + data + " --split val --submission " + tmp.File("gt.zip") +
                         " --json - --report " + tmp.File("rep"));
@@ -165,14 +165,14 @@ TEST(Cli, PoseFromCorrespondenceFile) {
       1);
   EXPECT_EQ(RunFreeloc("pose --matches " + matches + " --ref-intrinsics 1,2,3 --query-intrinsics " + k).code, 1);
   // A depth map of another resolution (320x240 for 640x480 matches) is an error, not a metric scale 2x off.
-  freeloc::WriteDepthPng(tmp.File("small_depth.png"), freeloc::DepthMap(320, 240));
+  freeloc::io::WriteDepthPng(tmp.File("small_depth.png"), freeloc::DepthMap(320, 240));
   r = RunFreeloc(base + " --ref-depth " + tmp.File("small_depth.png") + " --query-depth " + scene +
                  "/seq1/frame_00000.sensor.png");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_TRUE(Contains(r.out, "reference depth: the map is 320x240 but")) << r.out;
   EXPECT_TRUE(Contains(r.out, "give the depth map at its image's resolution")) << r.out;
   // An 8-bit PNG is not a depth map.
-  freeloc::WritePng8(tmp.File("d8.png"), 640, 480, std::vector<uint8_t>(640 * 480, 3));
+  freeloc::io::WritePng8(tmp.File("d8.png"), 640, 480, std::vector<uint8_t>(640 * 480, 3));
   r = RunFreeloc(base + " --ref-depth " + tmp.File("d8.png") + " --query-depth " + scene +
                  "/seq1/frame_00000.sensor.png");
   EXPECT_EQ(r.code, 1) << r.out;
@@ -204,11 +204,11 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   Result r = RunFreeloc("pointmap --model " + model + " --size 224,128 " + pair + " --out " +
                         tmp.File("pm.safetensors") + " --matches --conf-thr 1.2");
   ASSERT_EQ(r.code, 0) << r.out;
-  const auto f = freeloc::SafetensorsFile::Open(tmp.File("pm.safetensors"));
+  const auto f = freeloc::io::SafetensorsFile::Open(tmp.File("pm.safetensors"));
   EXPECT_EQ(f.Get("pts3d_1").shape, (std::vector<int64_t>{224, 224, 3}));
   EXPECT_EQ(f.Get("pts3d_2").shape, (std::vector<int64_t>{96, 128, 3}));
   EXPECT_EQ(f.Get("conf_2").shape, (std::vector<int64_t>{96, 128}));
-  EXPECT_EQ(f.Get("image_1").dtype, freeloc::DType::kU8);
+  EXPECT_EQ(f.Get("image_1").dtype, freeloc::io::DType::kU8);
   EXPECT_EQ(f.Get("matches").shape.at(1), 4);
   EXPECT_EQ(f.Get("matches_orig").shape, f.Get("matches").shape);
   EXPECT_EQ(f.metadata.at("size"), "224,128");
@@ -218,8 +218,8 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   for (int y = 100; y < 380; ++y)
     for (int x = 150; x < 500; ++x) lr[y * 640 + x] = lq[y * 640 + x] = 1;
   lr[0] = 2;
-  freeloc::WritePng16(tmp.File("lr.png"), 640, 480, lr);
-  freeloc::WritePng16(tmp.File("lq.png"), 640, 480, lq);
+  freeloc::io::WritePng16(tmp.File("lr.png"), 640, 480, lr);
+  freeloc::io::WritePng16(tmp.File("lq.png"), 640, 480, lq);
   r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --ref-masks " + tmp.File("lr.png") +
                  " --query-masks " + tmp.File("lq.png") + " --out " + tmp.File("m.txt"));
   ASSERT_EQ(r.code, 0) << r.out;
@@ -264,7 +264,7 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   EXPECT_FALSE(std::filesystem::exists(tmp.File("e.zip")));
   EXPECT_FALSE(std::filesystem::exists(tmp.File("e.zip.progress.jsonl")));
   // Masks of the wrong size: a clear error.
-  freeloc::WritePng16(tmp.File("small.png"), 10, 10, std::vector<uint16_t>(100, 1));
+  freeloc::io::WritePng16(tmp.File("small.png"), 10, 10, std::vector<uint16_t>(100, 1));
   r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --ref-masks " + tmp.File("small.png") +
                  " --query-masks " + tmp.File("lq.png") + " --out " + tmp.File("m2.txt"));
   EXPECT_EQ(r.code, 1);
@@ -289,7 +289,7 @@ TEST(Cli, SegmentWritesTheMaskAndRawOutput) {
     for (int y = 100 + 40 * k; y < 300; ++y)
       for (int x = 150; x < 420 - 60 * k; ++x)
         for (int c = 0; c < 3; ++c) mask.pixel(x, y)[c] = 255;
-    freeloc::WriteImagePng(d + "prompt_mask_" + std::to_string(k) + ".png", mask);
+    freeloc::io::WriteImagePng(d + "prompt_mask_" + std::to_string(k) + ".png", mask);
   }
   const std::string model = "--model " + freeloc::testing::TinyModelPath("seggpt/model.safetensors") + " --config " +
                             freeloc::testing::TinyModelPath("seggpt/config.json");
@@ -298,11 +298,11 @@ TEST(Cli, SegmentWritesTheMaskAndRawOutput) {
                         "prompt_mask_1.png --target " + d + "target_image.png --out " + tmp.File("m.png") + " --raw " +
                         tmp.File("raw.safetensors"));
   ASSERT_EQ(r.code, 0) << r.out;
-  const freeloc::Image got = freeloc::ReadImage(tmp.File("m.png"));
+  const freeloc::Image got = freeloc::io::ReadImage(tmp.File("m.png"));
   ASSERT_EQ(got.width, 640);  // the target's size
   ASSERT_EQ(got.height, 480);
   for (size_t i = 0; i < got.data.size(); ++i) ASSERT_TRUE(got.data[i] == 0 || got.data[i] == 255) << i;
-  const auto raw = freeloc::SafetensorsFile::Open(tmp.File("raw.safetensors"));
+  const auto raw = freeloc::io::SafetensorsFile::Open(tmp.File("raw.safetensors"));
   EXPECT_EQ(raw.Get("pred").shape, (std::vector<int64_t>{3, 64, 64}));
   // Mismatched prompt lists and a missing target: exit 1 with a message.
   r = RunFreeloc("segment " + model + " --prompt-image " + d + "prompt_image_0.png --prompt-mask " + d +
@@ -323,12 +323,12 @@ TEST(Cli, DepthOnRealFrames) {
   const std::string dir = freeloc::testing::TinyModelPath("metric3d/");  // freeloc's own tiny model (the build's)
   const std::string model = "--model " + dir + "model.safetensors --config " + dir + "config.json";
   // A bundled TUM frame, and a wide 1242×375 one cut and scaled from it (KITTI's shape).
-  const freeloc::Image tum = freeloc::ReadImage(freeloc::testing::DemoPath("val/s00003/seq0/frame_00000.png"));
+  const freeloc::Image tum = freeloc::io::ReadImage(freeloc::testing::DemoPath("val/s00003/seq0/frame_00000.png"));
   freeloc::Image wide(1242, 375);
   for (int y = 0; y < 375; ++y)
     for (int x = 0; x < 1242; ++x)
       for (int c = 0; c < 3; ++c) wide.pixel(x, y)[c] = tum.at(x * 640 / 1242, 100 + y * 200 / 375, c);
-  freeloc::WriteImagePng(tmp.File("wide.png"), wide);
+  freeloc::io::WriteImagePng(tmp.File("wide.png"), wide);
   struct Frame {
     std::string image, k;
     int w, h;
@@ -341,13 +341,13 @@ TEST(Cli, DepthOnRealFrames) {
                           tmp.File("d.png") + " --raw " + tmp.File("d.safetensors"));
     ASSERT_EQ(r.code, 0) << r.out;
     int w, h;
-    const auto mm = freeloc::ReadPng16(tmp.File("d.png"), &w, &h);
+    const auto mm = freeloc::io::ReadPng16(tmp.File("d.png"), &w, &h);
     EXPECT_EQ(w, f.w);
     EXPECT_EQ(h, f.h);
     size_t valid = 0;
     for (uint16_t v : mm) valid += v > 0;
     EXPECT_GT(valid, mm.size() / 2);
-    const auto raw = freeloc::SafetensorsFile::Open(tmp.File("d.safetensors"));
+    const auto raw = freeloc::io::SafetensorsFile::Open(tmp.File("d.safetensors"));
     EXPECT_EQ(raw.Get("depth").shape, (std::vector<int64_t>{f.h, f.w}));
     EXPECT_EQ(raw.Get("normal").shape, (std::vector<int64_t>{3, f.h, f.w}));
     EXPECT_EQ(raw.Get("canonical_depth").shape, (std::vector<int64_t>{112, 196}));
@@ -384,8 +384,8 @@ TEST(Cli, PoseAndRunAgreeOnTheSameCorrespondences) {
     const auto rec = nlohmann::json::parse(line);
     const std::string scene = rec["scene"], frame = rec["frame"];
     SCOPED_TRACE(scene + "/" + frame);
-    const freeloc::MapfreeScene sc = freeloc::MapfreeScene::Load(tmp.File("data/val/" + scene));
-    const freeloc::MapfreeFrame* q = nullptr;
+    const freeloc::io::MapfreeScene sc = freeloc::io::MapfreeScene::Load(tmp.File("data/val/" + scene));
+    const freeloc::io::MapfreeFrame* q = nullptr;
     for (const auto& f : sc.queries)
       if (f.name == frame) q = &f;
     ASSERT_NE(q, nullptr);
@@ -688,12 +688,12 @@ TEST(Cli, RunReportsBadInputClearly) {
   EXPECT_TRUE(Contains(log, "\"status\":\"error\",\"message\":\"" + split + "/s00003/seq1/frame_00000.png")) << log;
   // Always answer: the failed queries are submitted with the prior pose and confidence 0 — unless
   // always_answer is 0, when nothing is submitted for them.
-  const auto zip = freeloc::ZipContents::Read(tmp.File("b.zip")).files;
+  const auto zip = freeloc::io::ZipContents::Read(tmp.File("b.zip")).files;
   EXPECT_EQ(zip.at("pose_s00002.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0\n");
   EXPECT_EQ(zip.at("pose_s00003.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0\n");
   r = RunFreeloc(run + tmp.File("b0.zip") + " --set always_answer=0");
   ASSERT_EQ(r.code, 3) << r.out;
-  const auto zip0 = freeloc::ZipContents::Read(tmp.File("b0.zip")).files;
+  const auto zip0 = freeloc::io::ZipContents::Read(tmp.File("b0.zip")).files;
   EXPECT_EQ(zip0.at("pose_s00002.txt"), "");
   EXPECT_EQ(zip0.at("pose_s00003.txt"), "");
   // A missing reference image fails its scene's queries.
@@ -743,7 +743,7 @@ TEST(Cli, RunResumesFromItsProgressFile) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "1 of 2 scenes already done")) << r.out;
   EXPECT_FALSE(std::filesystem::exists(progress));
-  const auto zip = freeloc::ZipContents::Read(out).files;
+  const auto zip = freeloc::io::ZipContents::Read(out).files;
   ASSERT_TRUE(zip.count("pose_s00003.txt"));
   EXPECT_TRUE(Contains(zip.at("pose_s00003.txt"), "seq1/frame_00000.png 1.0 0.0 0.0 0.0 1.25 2.5 3.75 0.5\n"))
       << zip.at("pose_s00003.txt");
@@ -821,12 +821,12 @@ TEST(Cli, InputLimitsAreSetByFlagOrEnvironment) {
 namespace {
 
 template <typename T>
-std::vector<T> TensorValues(const freeloc::TensorView& t) {
+std::vector<T> TensorValues(const freeloc::io::TensorView& t) {
   return std::vector<T>(t.as<T>(), t.as<T>() + t.numel());
 }
 
 // |a − b| ≤ 1e-4 + 1e-3·|b| everywhere (the fixture README's tolerance).
-bool Close(const freeloc::TensorView& a, const freeloc::TensorView& b) {
+bool Close(const freeloc::io::TensorView& a, const freeloc::io::TensorView& b) {
   if (a.numel() != b.numel()) return false;
   for (int64_t i = 0; i < a.numel(); ++i)
     if (!(std::abs(a.as<float>()[i] - b.as<float>()[i]) <= 1e-4 + 1e-3 * std::abs(b.as<float>()[i]))) return false;
@@ -865,8 +865,8 @@ TEST(Cli, Mast3rPointmapMatchesUpstream) {
                           std::to_string(c.subsample) + " --out " + tmp.File("pm.safetensors"));
     ASSERT_EQ(r.code, 0) << r.out;
     EXPECT_TRUE(Contains(r.out, "MASt3R pointmaps")) << r.out;
-    const auto f = freeloc::SafetensorsFile::Open(tmp.File("pm.safetensors"));
-    const auto g = freeloc::SafetensorsFile::Open(fx + "cases/" + c.name + ".safetensors");
+    const auto f = freeloc::io::SafetensorsFile::Open(tmp.File("pm.safetensors"));
+    const auto g = freeloc::io::SafetensorsFile::Open(fx + "cases/" + c.name + ".safetensors");
     EXPECT_EQ(f.metadata.at("family"), "MASt3R");
     EXPECT_TRUE(Close(f.Get("desc_1"), g.Get("pred1.desc")));
     EXPECT_TRUE(Close(f.Get("desc_2"), g.Get("pred2.desc")));
@@ -918,7 +918,7 @@ TEST(Cli, Mast3rPresetsRunAndEval) {
     }
     // The submission is valid and evaluates: random weights solve nothing, so every query is answered with the
     // prior pose and confidence 0 (always answer).
-    for (const auto& [name, text] : freeloc::ZipContents::Read(tmp.File("a.zip")).files) {
+    for (const auto& [name, text] : freeloc::io::ZipContents::Read(tmp.File("a.zip")).files) {
       std::stringstream lines(text);
       for (std::string line; std::getline(lines, line);)
         EXPECT_TRUE(Contains(line, ".png 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.0")) << name << ": " << line;
@@ -1194,10 +1194,10 @@ TEST(Cli, EvalJsonAndTableAgreeOnExtremeEstimates) {
   freeloc::testing::TempDir tmp;
   const std::string data = freeloc::testing::DemoPath();
   for (const double t : {1e150, 1e200, 1e308}) {
-    std::map<std::string, std::vector<freeloc::SubmissionEntry>> sub;
+    std::map<std::string, std::vector<freeloc::io::SubmissionEntry>> sub;
     sub["s00003"].push_back(
         {"seq1/frame_00000.png", freeloc::Rigid3d::FromWxyz({1, 0, 0, 0}, Eigen::Vector3d(t, t, t)), 1});
-    freeloc::WriteSubmission(tmp.File("x.zip"), sub);
+    freeloc::io::WriteSubmission(tmp.File("x.zip"), sub);
     const Result j =
         RunFreeloc("-q eval --data " + data + " --scenes s00003 --submission " + tmp.File("x.zip") + " --json -");
     const Result m = RunFreeloc("-q eval --data " + data + " --scenes s00003 --submission " + tmp.File("x.zip"));

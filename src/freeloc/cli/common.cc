@@ -172,7 +172,7 @@ std::vector<std::string> ResolveScenes(const std::string& data, const std::strin
 
 std::vector<uint16_t> ReadLabels(const std::string& path, int width, int height) {
   int lw, lh;
-  std::vector<uint16_t> v = ReadPng16(path, &lw, &lh);
+  std::vector<uint16_t> v = io::ReadPng16(path, &lw, &lh);
   FREELOC_CHECK(lw == width && lh == height, path << ": the label image is " << lw << "x" << lh << " but its photo is "
                                                   << width << "x" << height
                                                   << "; give masks at the photo's resolution");

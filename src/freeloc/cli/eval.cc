@@ -25,7 +25,7 @@ int RunEval(const EvalOptions& o) {
   const std::vector<std::string> scenes = ResolveScenes(o.data, o.split, o.scenes, &split_dir);
   std::vector<std::string> subs = o.compare;
   if (!o.submission.empty()) subs.insert(subs.begin(), o.submission);
-  const Track track = ParseEnum<Track>(o.track, "--track");
+  const io::Track track = ParseEnum<io::Track>(o.track, "--track");
   std::vector<eval::EvalRun> runs;
   for (const auto& s : subs) runs.push_back(eval::RunEvaluation(split_dir, scenes, s, track));
 
@@ -54,7 +54,7 @@ int RunEval(const EvalOptions& o) {
     if (json_stdout) {
       std::printf("%s", text.c_str());
     } else {
-      WriteFileAtomic(o.json, text.data(), text.size());
+      io::WriteFileAtomic(o.json, text.data(), text.size());
     }
   }
   if (!o.report.empty()) {

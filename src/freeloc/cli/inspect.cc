@@ -37,26 +37,26 @@ std::string OneLine(std::string s, size_t max_len = 400) {
 }
 
 int RunInspect(const InspectOptions& o) {
-  const Checkpoint ckpt = Checkpoint::Open(o.path);
+  const io::Checkpoint ckpt = io::Checkpoint::Open(o.path);
   size_t total_bytes = 0;
   int64_t total_elems = 0;
   size_t name_w = 4, dtype_w = 5;
   std::vector<std::string> shown;
   for (const auto& n : ckpt.names()) {
-    const TensorView& t = ckpt.Get(n);
+    const io::TensorView& t = ckpt.Get(n);
     total_bytes += t.nbytes;
     total_elems += t.numel();
     if (!o.filter.empty() && n.find(o.filter) == std::string::npos) continue;
     shown.push_back(n);
     name_w = std::max(name_w, std::min<size_t>(SafeText(n, 4096).size(), 120));
-    dtype_w = std::max(dtype_w, std::string(DTypeTorchName(t.dtype)).size());
+    dtype_w = std::max(dtype_w, std::string(io::DTypeTorchName(t.dtype)).size());
   }
   // Names and metadata come from the file: printed through SafeText, so escape codes cannot reach the terminal.
   std::printf("file:     %s\n", SafeText(o.path, 4096).c_str());
   std::printf("format:   %s\n", ckpt.format_name());
   std::printf("tensors:  %zu (%lld elements, %s)\n", ckpt.size(), static_cast<long long>(total_elems),
               HumanBytes(static_cast<double>(total_bytes)).c_str());
-  if (ckpt.format() == Checkpoint::Format::kPth && !ckpt.StateDictRoot().empty()) {
+  if (ckpt.format() == io::Checkpoint::Format::kPth && !ckpt.StateDictRoot().empty()) {
     std::printf("state dict under: '%s'\n", SafeText(ckpt.StateDictRoot(), 4096).c_str());
   }
   const std::string model = ckpt.MetadataOr("args.model", "");
@@ -72,9 +72,9 @@ int RunInspect(const InspectOptions& o) {
       std::printf("%s\n", SafeText(n, 4096).c_str());
       continue;
     }
-    const TensorView& t = ckpt.Get(n);
+    const io::TensorView& t = ckpt.Get(n);
     std::printf("%-*s  %-*s  %s\n", static_cast<int>(name_w), SafeText(n, 4096).c_str(), static_cast<int>(dtype_w),
-                DTypeTorchName(t.dtype), t.ShapeString().c_str());
+                io::DTypeTorchName(t.dtype), t.ShapeString().c_str());
   }
   if (!o.filter.empty())
     std::printf("(%zu of %zu tensors match '%s')\n", shown.size(), ckpt.size(), SafeText(o.filter).c_str());

@@ -27,7 +27,7 @@ std::string Num(double v) {
 }
 
 // The EXIF fields freeloc reads, present ones only: "Make Apple; FocalLength 4.2 mm; …".
-std::string ExifFieldsText(const ExifInfo& e) {
+std::string ExifFieldsText(const io::ExifInfo& e) {
   std::string s;
   const auto add = [&](const std::string& t) { s += (s.empty() ? "" : "; ") + t; };
   if (!e.make.empty() || !e.model.empty()) add("camera " + e.make + (e.make.empty() ? "" : " ") + e.model);
@@ -50,10 +50,10 @@ std::string ExifFieldsText(const ExifInfo& e) {
 int RunIntrinsics(const IntrinsicsArgs& a) {
   int failed = 0;
   for (const std::string& path : a.images) {
-    ExifInfo exif;
+    io::ExifInfo exif;
     Image image;
     try {
-      image = ReadImage(path, &exif);
+      image = io::ReadImage(path, &exif);
     } catch (const Error& e) {
       std::fprintf(stderr, "error: %s\n", e.what());
       ++failed;
@@ -82,7 +82,7 @@ int RunIntrinsics(const IntrinsicsArgs& a) {
     std::printf("%s: %dx%d as displayed", path.c_str(), image.width, image.height);
     if (exif.transformed())
       std::printf(" (EXIF orientation %d: %s from the %dx%d stored)", exif.orientation,
-                  OrientationText(exif.orientation).c_str(), exif.transposed() ? image.height : image.width,
+                  io::OrientationText(exif.orientation).c_str(), exif.transposed() ? image.height : image.width,
                   exif.transposed() ? image.width : image.height);
     std::printf("\n  EXIF:       %s\n", exif.present ? ExifFieldsText(exif).c_str() : "none");
     if (exif_k)

@@ -66,7 +66,7 @@ pipeline::PipelineOptions Options(const MatchArgs& a, const GlobalOptions& g) {
 
 int RunMatch(const MatchArgs& a, const GlobalOptions& g) try {
   const pipeline::PipelineOptions o = Options(a, g);
-  const Image ref = ReadImage(a.ref), query = ReadImage(a.query);
+  const Image ref = io::ReadImage(a.ref), query = io::ReadImage(a.query);
   std::vector<uint16_t> ref_labels, query_labels;
   pipeline::FrameInputs in;
   if (!a.ref_masks.empty()) {
@@ -79,7 +79,7 @@ int RunMatch(const MatchArgs& a, const GlobalOptions& g) try {
   reloc.SetReference(ref, none, pipeline::FrameInputs{{}, ref_labels.empty() ? nullptr : &ref_labels, nullptr});
   pipeline::QueryResult r;
   const matching::Correspondences c = reloc.Match(query, none, in, &r);
-  WriteCorrespondenceFile(a.out, c.Rows());
+  io::WriteCorrespondenceFile(a.out, c.Rows());
   std::printf("%zu correspondences (%d global before merging; %d of %d instances used) written to %s\n", c.size(),
               r.global_matches, r.instances_used, r.instances, a.out.c_str());
   return 0;

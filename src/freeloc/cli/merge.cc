@@ -17,7 +17,7 @@ struct MergeOptions {
 };
 
 int RunMerge(const MergeOptions& m) {
-  const size_t scenes = MergeSubmissions(m.inputs, m.out);
+  const size_t scenes = io::MergeSubmissions(m.inputs, m.out);
   std::printf("merged %zu scenes from %zu submissions into %s\n", scenes, m.inputs.size(), m.out.c_str());
   return 0;
 }

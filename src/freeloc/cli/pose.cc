@@ -54,10 +54,10 @@ int RunPose(const PoseArgs& a, const GlobalOptions& g) {
   const pipeline::PipelineOptions o = Options(a, g);
   const Camera kr = Camera::FromString(a.ref_intr, "--ref-intrinsics");
   const Camera kq = Camera::FromString(a.query_intr, "--query-intrinsics");
-  const matching::Correspondences c = matching::Correspondences::FromRows(ReadCorrespondenceFile(a.matches));
+  const matching::Correspondences c = matching::Correspondences::FromRows(io::ReadCorrespondenceFile(a.matches));
   DepthMap dr, dq;
-  if (!a.ref_depth.empty()) dr = ReadDepthPng(a.ref_depth);
-  if (!a.query_depth.empty()) dq = ReadDepthPng(a.query_depth);
+  if (!a.ref_depth.empty()) dr = io::ReadDepthPng(a.ref_depth);
+  if (!a.query_depth.empty()) dq = io::ReadDepthPng(a.query_depth);
   pipeline::QueryResult q;
   pipeline::MakePoseSolver(o)->Solve(c, kr, kq, dr, dq, &q);
   pipeline::AnswerUnsolved(o, &q);

@@ -26,9 +26,9 @@ struct RelocArgs {
 // The camera of `image` in an intrinsics file (map-free `intrinsics.txt` lines: path fx fy cx cy W H): the line
 // whose path is the image's path, a suffix of it, or has its file name.
 Camera CameraFromFile(const std::string& file, const std::string& image) {
-  const std::vector<MapfreeFrame> frames = ReadIntrinsicsFile(file);
+  const std::vector<io::MapfreeFrame> frames = io::ReadIntrinsicsFile(file);
   const std::string base = std::filesystem::path(image).filename().string();
-  const MapfreeFrame* by_name = nullptr;
+  const io::MapfreeFrame* by_name = nullptr;
   for (const auto& f : frames) {
     if (image == f.name || (image.size() > f.name.size() &&
                             image.compare(image.size() - f.name.size() - 1, f.name.size() + 1, "/" + f.name) == 0))
@@ -62,8 +62,8 @@ Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref
   }
   const bool have = !flag_value.empty() || !a.intrinsics.empty();
   Photo p;
-  ExifInfo exif;
-  p.image = ReadImage(path, &exif);
+  io::ExifInfo exif;
+  p.image = io::ReadImage(path, &exif);
   p.intrinsics =
       pipeline::ChooseIntrinsics(have ? &given : nullptr, source, exif, p.image, o.UsesPointmapModel(), path);
   FREELOC_CHECK(p.intrinsics.source != pipeline::IntrinsicsSource::kNone,
@@ -97,7 +97,7 @@ std::string IntrinsicsText(const pipeline::FrameIntrinsics& f) {
     s += buf;
   }
   if (f.orientation >= 2)
-    s += "; EXIF orientation " + std::to_string(f.orientation) + ": " + OrientationText(f.orientation);
+    s += "; EXIF orientation " + std::to_string(f.orientation) + ": " + io::OrientationText(f.orientation);
   return s + ")";
 }
 
@@ -133,8 +133,8 @@ int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   pipeline::FrameInputs in_ref, in_query;
   const Camera kr = pipeline::ApplyIntrinsics(ref_photo.intrinsics, &in_ref);
   const Camera kq = pipeline::ApplyIntrinsics(query_photo.intrinsics, &in_query);
-  if (!a.ref_depth.empty()) in_ref.depth = ReadDepthPng(a.ref_depth);
-  if (!a.query_depth.empty()) in_query.depth = ReadDepthPng(a.query_depth);
+  if (!a.ref_depth.empty()) in_ref.depth = io::ReadDepthPng(a.ref_depth);
+  if (!a.query_depth.empty()) in_query.depth = io::ReadDepthPng(a.query_depth);
   if (!a.ref_masks.empty()) in_ref.instance_labels = &(ref_labels = ReadLabels(a.ref_masks, ref.width, ref.height));
   if (!a.query_masks.empty())
     in_query.instance_labels = &(query_labels = ReadLabels(a.query_masks, query.width, query.height));
@@ -142,7 +142,7 @@ int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   reloc.SetReference(ref, kr, std::move(in_ref));
   matching::Correspondences c;
   const pipeline::QueryResult q = reloc.Relocalize(query, kq, std::move(in_query), &c);
-  if (!a.save_matches.empty()) WriteCorrespondenceFile(a.save_matches, c.Rows());
+  if (!a.save_matches.empty()) io::WriteCorrespondenceFile(a.save_matches, c.Rows());
   Print(q, o, a.json);
   return q.ok() ? 0 : 1;
 }

@@ -83,7 +83,7 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
 void PrintDemoTable(const pipeline::RunResult& r) {
   std::printf("| scene | query | status | inliers | rot err (°) | centre err (cm) |\n|---|---|---|---|---|---|\n");
   for (const auto& name : r.scenes) {
-    const MapfreeScene& scene = r.loaded.at(name);
+    const io::MapfreeScene& scene = r.loaded.at(name);
     for (const auto& q : r.results.at(name)) {
       const std::string status = ToString(q.status);
       if (!q.ok() || !scene.gt.count(q.frame)) {

@@ -99,22 +99,22 @@ struct SceneIntrinsics {
 // load_K(): lines containing '#' skipped; key int(path[-9:-4]); six numbers; float32 K; W, H of the last line.
 SceneIntrinsics LoadIntrinsics(const std::string& path) {
   const std::string text = ReadFile(path, "intrinsics.txt");
-  FREELOC_CHECK(py::IsValidUtf8(text), path << ": not UTF-8 text");
+  FREELOC_CHECK(io::py::IsValidUtf8(text), path << ": not UTF-8 text");
   SceneIntrinsics s;
   bool any = false;
-  const auto lines = py::SplitLines(text);
+  const auto lines = io::py::SplitLines(text);
   for (size_t i = 0; i < lines.size(); ++i) {
     if (lines[i].find('#') != std::string::npos) continue;
     const std::string where = path + " line " + std::to_string(i + 1);
-    const auto parts = py::SplitSpace(py::Strip(lines[i]));
+    const auto parts = io::py::SplitSpace(io::py::Strip(lines[i]));
     int64_t key;
-    FREELOC_CHECK(py::FrameKey(parts[0], &key),
+    FREELOC_CHECK(io::py::FrameKey(parts[0], &key),
                   where << ": no frame number in '" << parts[0] << "' (expected seq1/frame_00000.jpg …)");
     FREELOC_CHECK(parts.size() == 7,
                   where << ": expected 'path fx fy cx cy width height' (7 fields), got " << parts.size());
     double v[6];
     for (int k = 0; k < 6; ++k)
-      FREELOC_CHECK(py::ParseFloat(parts[k + 1], &v[k]), where << ": '" << parts[k + 1] << "' is not a number");
+      FREELOC_CHECK(io::py::ParseFloat(parts[k + 1], &v[k]), where << ": '" << parts[k + 1] << "' is not a number");
     s.k[key] = {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]), static_cast<float>(v[3])};
     s.width = v[4];
     s.height = v[5];
@@ -126,7 +126,7 @@ SceneIntrinsics LoadIntrinsics(const std::string& path) {
 
 }  // namespace
 
-FrameErrors ComputeFrameErrors(const OfficialPose& gt, const OfficialPose& est, const std::array<float, 4>& kf,
+FrameErrors ComputeFrameErrors(const io::OfficialPose& gt, const io::OfficialPose& est, const std::array<float, 4>& kf,
                                double width, double height) {
   FrameErrors e;
   e.trans_err = (gt.t_c2w - est.t_c2w).norm();
@@ -241,9 +241,9 @@ Metrics Aggregate(const std::vector<SceneRecord>& scenes, const Thresholds& th) 
   return m;
 }
 
-std::vector<int64_t> EvaluatedKeys(const OfficialPoses& gt, Track track) {
+std::vector<int64_t> EvaluatedKeys(const io::OfficialPoses& gt, io::Track track) {
   std::vector<int64_t> out;
-  if (track == Track::kSingleFrame) {
+  if (track == io::Track::kSingleFrame) {
     for (size_t i = 0; i < gt.keys.size(); i += 5) out.push_back(gt.keys[i]);
     return out;
   }
@@ -264,23 +264,23 @@ std::vector<SceneRecord> EvaluateScenes(const EvalInput& in) {
     rec.name = scene;
     const SceneIntrinsics K = LoadIntrinsics(dir + "/intrinsics.txt");
     const std::string gt_text = ReadFile(dir + "/poses.txt", "poses.txt");
-    FREELOC_CHECK(py::IsValidUtf8(gt_text), dir << "/poses.txt: not UTF-8 text");
-    const OfficialPoses gt = ParseOfficialPoses(gt_text, false);
+    FREELOC_CHECK(io::py::IsValidUtf8(gt_text), dir << "/poses.txt: not UTF-8 text");
+    const io::OfficialPoses gt = io::ParseOfficialPoses(gt_text, false);
     for (const auto& d : gt.dropped) FREELOC_LOG(WARNING) << dir << "/poses.txt " << d << " (ignored, as officially)";
     const std::string member = "pose_" + scene + ".txt";
     auto it = in.submission->files.find(member);
     if (it == in.submission->files.end()) {
       // Quirk: a missing scene counts every GT key (before the 1-in-5 subsampling) as a failure.
-      const std::vector<int64_t> keys = in.track == Track::kSingleFrame ? gt.keys : EvaluatedKeys(gt, in.track);
+      const std::vector<int64_t> keys = in.track == io::Track::kSingleFrame ? gt.keys : EvaluatedKeys(gt, in.track);
       rec.failures = static_cast<int64_t>(keys.size());
       for (int64_t key : keys) rec.frames.push_back({scene, key, "scene-missing", {}, 0});
       out.push_back(std::move(rec));
       continue;
     }
     rec.file_present = true;
-    FREELOC_CHECK(py::IsValidUtf8(it->second),
+    FREELOC_CHECK(io::py::IsValidUtf8(it->second),
                   in.submission_path << ": " << member << " is not UTF-8 text; write pose files in UTF-8");
-    const OfficialPoses est = ParseOfficialPoses(it->second, true);
+    const io::OfficialPoses est = io::ParseOfficialPoses(it->second, true);
     rec.dropped = est.dropped;
     rec.dropped_count = est.dropped_count;
     for (const int64_t key : EvaluatedKeys(gt, in.track)) {

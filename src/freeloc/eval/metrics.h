@@ -21,8 +21,8 @@ struct FrameErrors {
   double trans_err = 0, rot_err = 0, vcre = 0;
 };
 // K as the official loader keeps it (float32 values), W and H of the image.
-FrameErrors ComputeFrameErrors(const OfficialPose& gt, const OfficialPose& est, const std::array<float, 4>& fxfycxcy,
-                               double width, double height);
+FrameErrors ComputeFrameErrors(const io::OfficialPose& gt, const io::OfficialPose& est,
+                               const std::array<float, 4>& fxfycxcy, double width, double height);
 
 struct FrameRecord {
   std::string scene;
@@ -68,15 +68,15 @@ struct EvalInput {
   std::string split_dir;            // folder holding the scene folders
   std::vector<std::string> scenes;  // scene names to evaluate
   std::string submission_path;      // for messages
-  const ZipContents* submission = nullptr;
+  const io::ZipContents* submission = nullptr;
   // single-frame: every 5th key of poses.txt (the official evaluator); multi-frame: the seq1 frames at linear
   // positions 9, 19, … of the frames sorted by number (spec/mapfree-multiframe.md §2), a missing scene counting
   // those frames only.
-  Track track = Track::kSingleFrame;
+  io::Track track = io::Track::kSingleFrame;
 };
 
 // The keys a track scores, from the ground truth of one scene.
-std::vector<int64_t> EvaluatedKeys(const OfficialPoses& gt, Track track);
+std::vector<int64_t> EvaluatedKeys(const io::OfficialPoses& gt, io::Track track);
 
 // Evaluates one submission. Throws freeloc::Error (clear message) where the official evaluator prints nothing:
 // missing GT files, unreadable intrinsics, non-UTF-8 pose files, negative confidence on an evaluated frame.

@@ -17,8 +17,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-OfficialPose FromQueryFromRef(const Rigid3d& p, double conf = 0) {
-  return ParseOfficialPoses(FormatPoseFile({{"seq1/frame_00000.jpg", p, conf}}), true).poses.at(0);
+io::OfficialPose FromQueryFromRef(const Rigid3d& p, double conf = 0) {
+  return io::ParseOfficialPoses(io::FormatPoseFile({{"seq1/frame_00000.jpg", p, conf}}), true).poses.at(0);
 }
 
 const std::array<float, 4> kK = {590.f, 591.f, 270.f, 360.f};
@@ -139,7 +139,7 @@ struct Dataset {
                       Eigen::Vector3d(n(rng), n(rng), n(rng)));
       gt[f] = p;
       intr += std::string(nm) + " 590 591 270 360 540 720\n";
-      poses += FormatPoseLine({nm, p, 0}).substr(0, FormatPoseLine({nm, p, 0}).rfind(' ')) + "\n";
+      poses += io::FormatPoseLine({nm, p, 0}).substr(0, io::FormatPoseLine({nm, p, 0}).rfind(' ')) + "\n";
     }
     testing::WriteText(dir + "/intrinsics.txt", intr);
     testing::WriteText(dir + "/poses.txt", poses);
@@ -147,8 +147,8 @@ struct Dataset {
   }
 };
 
-std::vector<SubmissionEntry> Entries(const std::map<int, Rigid3d>& poses, double conf = 1) {
-  std::vector<SubmissionEntry> e;
+std::vector<io::SubmissionEntry> Entries(const std::map<int, Rigid3d>& poses, double conf = 1) {
+  std::vector<io::SubmissionEntry> e;
   for (const auto& [f, p] : poses) {
     char nm[64];
     std::snprintf(nm, sizeof(nm), "seq1/frame_%05d.jpg", f);
@@ -161,7 +161,7 @@ TEST(Metrics, PerfectSubmissionRoundTrip) {
   Dataset d;
   const auto a = d.AddScene("s00460", {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11}, 1);
   const auto b = d.AddScene("s00461", {0, 2, 3, 7, 8, 9, 15, 16}, 2);  // skipped frame numbers
-  WriteSubmission(d.tmp.File("perfect.zip"), {{"s00460", Entries(a)}, {"s00461", Entries(b)}});
+  io::WriteSubmission(d.tmp.File("perfect.zip"), {{"s00460", Entries(a)}, {"s00461", Entries(b)}});
   const EvalRun r = RunEvaluation(d.split(), {"s00460", "s00461"}, d.tmp.File("perfect.zip"));
   // Evaluated: keys at positions 0,5,10 of scene a (frames 0,5,10) and 0,5 of scene b (frames 0, 9).
   EXPECT_EQ(r.overall.estimates, 5);
@@ -184,7 +184,7 @@ TEST(Metrics, MissingSceneVersusSceneWithoutEvaluatedFrames) {
   // s00461 missing: all 12 GT keys fail (the seq0 line shares key 0). s00462 present but only frames 1 and 2,
   // neither evaluated: its 3 evaluated frames (0, 5, 10) fail.
   std::map<int, Rigid3d> c_some = {{1, c.at(1)}, {2, c.at(2)}};
-  WriteSubmission(d.tmp.File("s.zip"), {{"s00460", Entries(a)}, {"s00462", Entries(c_some)}});
+  io::WriteSubmission(d.tmp.File("s.zip"), {{"s00460", Entries(a)}, {"s00462", Entries(c_some)}});
   const EvalRun r = RunEvaluation(d.split(), {"s00460", "s00461", "s00462"}, d.tmp.File("s.zip"));
   EXPECT_EQ(r.scenes[1].failures, 12);
   EXPECT_FALSE(r.scenes[1].file_present);
@@ -201,11 +201,11 @@ TEST(Metrics, NoisyPosesAndMalformedLines) {
   const auto a = d.AddScene("s00460", {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15}, 1);
   auto noisy = a;
   noisy[5].translation += Eigen::Vector3d(0, 0, 0.5);  // 0.5 m off → pose rejected
-  std::string text = FormatPoseFile(Entries(noisy));
+  std::string text = io::FormatPoseFile(Entries(noisy));
   text +=
       "seq1/frame_00010.jpg 1 0 0 nan 0 0 0 1\n";  // NaN line for an evaluated frame: dropped, the earlier line stays
   text += "seq1/frame_00000.jpg 1 0 0 0 0 0 0\n";  // 8 fields: dropped
-  WriteZipAtomic(d.tmp.File("n.zip"), {{"pose_s00460.txt", text}});
+  io::WriteZipAtomic(d.tmp.File("n.zip"), {{"pose_s00460.txt", text}});
   const EvalRun r = RunEvaluation(d.split(), {"s00460"}, d.tmp.File("n.zip"));
   EXPECT_EQ(r.overall.estimates, 4);  // frames 0, 5, 10, 15
   EXPECT_EQ(r.scenes[0].dropped.size(), 2u);
@@ -217,19 +217,19 @@ TEST(Metrics, ErrorsWhereTheOfficialEvaluatorPrintsNothing) {
   Dataset d;
   const auto a = d.AddScene("s00460", {0, 1, 2, 3, 4, 5}, 1);
   auto neg = Entries(a);
-  std::string text = FormatPoseFile(neg);
+  std::string text = io::FormatPoseFile(neg);
   text += "seq1/frame_00005.jpg 1 0 0 0 0 0 0 -1\n";  // negative confidence on an evaluated frame
-  WriteZipAtomic(d.tmp.File("neg.zip"), {{"pose_s00460.txt", text}});
+  io::WriteZipAtomic(d.tmp.File("neg.zip"), {{"pose_s00460.txt", text}});
   EXPECT_THROW(RunEvaluation(d.split(), {"s00460"}, d.tmp.File("neg.zip")), Error);
-  WriteZipAtomic(d.tmp.File("latin1.zip"), {{"pose_s00460.txt", "seq1/frame_00000.jpg 1 0 0 0 0 0 0 1 \xe9\n"}});
+  io::WriteZipAtomic(d.tmp.File("latin1.zip"), {{"pose_s00460.txt", "seq1/frame_00000.jpg 1 0 0 0 0 0 0 1 \xe9\n"}});
   EXPECT_THROW(RunEvaluation(d.split(), {"s00460"}, d.tmp.File("latin1.zip")), Error);
-  WriteZipAtomic(d.tmp.File("other.zip"), {{"pose_s99999.txt", FormatPoseFile(Entries(a))}});
+  io::WriteZipAtomic(d.tmp.File("other.zip"), {{"pose_s99999.txt", io::FormatPoseFile(Entries(a))}});
   EXPECT_THROW(RunEvaluation(d.split(), {"s00460"}, d.tmp.File("other.zip")), Error);
   // A folder inside the ZIP: the official evaluator does not find pose_s00460.txt → counted failures, not an error.
-  WriteZipAtomic(d.tmp.File("folder.zip"), {{"sub/pose_s00460.txt", FormatPoseFile(Entries(a))},
-                                            {"pose_s00460.txt", FormatPoseFile(Entries(a))}});
+  io::WriteZipAtomic(d.tmp.File("folder.zip"), {{"sub/pose_s00460.txt", io::FormatPoseFile(Entries(a))},
+                                                {"pose_s00460.txt", io::FormatPoseFile(Entries(a))}});
   EXPECT_EQ(RunEvaluation(d.split(), {"s00460"}, d.tmp.File("folder.zip")).overall.failures, 0);
-  WriteZipAtomic(d.tmp.File("only_folder.zip"), {{"sub/pose_s00460.txt", FormatPoseFile(Entries(a))}});
+  io::WriteZipAtomic(d.tmp.File("only_folder.zip"), {{"sub/pose_s00460.txt", io::FormatPoseFile(Entries(a))}});
   EXPECT_THROW(RunEvaluation(d.split(), {"s00460"}, d.tmp.File("only_folder.zip")), Error);
   // Missing GT folder, intrinsics with 6 fields.
   EXPECT_THROW(RunEvaluation(d.split(), {"s00999"}, d.tmp.File("folder.zip")), Error);
@@ -245,12 +245,12 @@ TEST(Metrics, ErrorsWhereTheOfficialEvaluatorPrintsNothing) {
 TEST(Metrics, RealTumScenesPerfectSubmission) {
   const std::string split = testing::DemoPath("val");
   testing::TempDir tmp;
-  std::map<std::string, std::vector<SubmissionEntry>> sub;
+  std::map<std::string, std::vector<io::SubmissionEntry>> sub;
   for (const char* s : {"s00001", "s00002", "s00003"}) {
     // Re-emit the GT lines of the queries with a confidence.
     std::istringstream in(testing::ReadText(split + "/" + s + "/poses.txt"));
     std::string l;
-    std::vector<SubmissionEntry> e;
+    std::vector<io::SubmissionEntry> e;
     while (std::getline(in, l)) {
       std::istringstream ls(l);
       std::string name;
@@ -261,7 +261,7 @@ TEST(Metrics, RealTumScenesPerfectSubmission) {
     }
     sub[s] = e;
   }
-  WriteSubmission(tmp.File("gt.zip"), sub);
+  io::WriteSubmission(tmp.File("gt.zip"), sub);
   const EvalRun r = RunEvaluation(split, {"s00001", "s00002", "s00003"}, tmp.File("gt.zip"));
   EXPECT_EQ(r.overall.estimates, 3);  // one evaluated key per scene (≤ 5 keys each)
   EXPECT_NEAR(r.overall.avg_median_trans, 0, 1e-9);

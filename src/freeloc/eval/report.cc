@@ -70,8 +70,8 @@ std::string FormatNumber(const char* fmt, double v) {
 }
 
 EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::string>& scenes,
-                      const std::string& submission_path, Track track) {
-  const ZipContents zip = ZipContents::Read(submission_path);
+                      const std::string& submission_path, io::Track track) {
+  const io::ZipContents zip = io::ZipContents::Read(submission_path);
   EvalRun run;
   run.label = std::filesystem::path(submission_path).filename().string();
   // Entries the evaluator never reads: say so (folders inside the ZIP are a common mistake).
@@ -290,7 +290,7 @@ void WriteReportDir(const std::string& dir, const std::vector<const EvalRun*>& r
                 dir << ": cannot create the report folder (" << ec.message() << ")");
   const EvalRun& r = *runs.front();
   auto write = [&](const std::string& name, const std::string& text) {
-    WriteFileAtomic(dir + "/" + name, text.data(), text.size());
+    io::WriteFileAtomic(dir + "/" + name, text.data(), text.size());
   };
   if (runs.size() == 1) {
     write("metrics.json", JsonReport(r));

@@ -18,7 +18,7 @@ struct EvalRun {
 
 // Evaluates and aggregates one submission (overall and per scene) on the frames `track` scores.
 EvalRun RunEvaluation(const std::string& split_dir, const std::vector<std::string>& scenes,
-                      const std::string& submission_path, Track track = Track::kSingleFrame);
+                      const std::string& submission_path, io::Track track = io::Track::kSingleFrame);
 
 std::string MarkdownReport(const EvalRun& run);
 // One column per submission.

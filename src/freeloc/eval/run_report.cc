@@ -257,8 +257,8 @@ void WriteQueryVisual(const std::string& path, const Image& ref, const Image& qu
   // JPEG (quality 85): a 640 px detail view is ~60 KB, so even 200 of them stay small.
   Image rgb(canvas.cols, canvas.rows);
   canvas.copyTo(cv::Mat(rgb.height, rgb.width, CV_8UC3, rgb.data.data()));
-  const std::vector<uint8_t> jpg = EncodeJpeg(rgb, 85, path);
-  WriteFileAtomic(path, jpg.data(), jpg.size());
+  const std::vector<uint8_t> jpg = io::EncodeJpeg(rgb, 85, path);
+  io::WriteFileAtomic(path, jpg.data(), jpg.size());
 }
 
 // The detail views' 3D buttons: three.js, OrbitControls and the view script are loaded (script tags work from disk)
@@ -285,7 +285,7 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
   // The 3D view's scripts beside index.html (three.js copied from libjs-three when it is installed; without it the
   // view says so).
   const std::string view3d = View3dScript();
-  WriteFileAtomic(dir + "/view3d.js", view3d.data(), view3d.size());
+  io::WriteFileAtomic(dir + "/view3d.js", view3d.data(), view3d.size());
   for (const char* f : {"build/three.min.js", "examples/js/controls/OrbitControls.js"}) {
     const std::filesystem::path from = std::filesystem::path(kThreeJsDir) / f;
     if (std::filesystem::exists(from))
@@ -314,7 +314,7 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
           "matches (one colour per instance); depth maps below the photos (turbo: near blue, far red; grey: none)"
           "</p>" +
           Details(dir, queries) + "<script>" + kScript + kScript3d + "</script></body></html>\n";
-  WriteFileAtomic(dir + "/index.html", html.data(), html.size());
+  io::WriteFileAtomic(dir + "/index.html", html.data(), html.size());
 }
 
 }  // namespace freeloc::eval

@@ -42,9 +42,9 @@ struct ReportOptions {
   int per_scene = 1;
   int failures = 10;
   int max_details = 200;
-  int thumb_width = 640;              // width of a detail image (both photos side by side)
-  int max_lines = 150;                // correspondences drawn per query (evenly subsampled)
-  Track track = Track::kSingleFrame;  // which frames the metrics score
+  int thumb_width = 640;                      // width of a detail image (both photos side by side)
+  int max_lines = 150;                        // correspondences drawn per query (evenly subsampled)
+  io::Track track = io::Track::kSingleFrame;  // which frames the metrics score
 };
 
 // The score that orders queries from worst to best: failures first, then max(t/0.25 m, R/5°).

@@ -9,7 +9,7 @@
 #include "freeloc/io/pth.h"
 #include "freeloc/io/safetensors.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 namespace {
 
@@ -145,4 +145,4 @@ std::map<std::string, TensorView> Checkpoint::StateDict(const std::vector<std::s
   return out;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -14,7 +14,7 @@
 #include "freeloc/io/pickle.h"
 #include "freeloc/io/tensor.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 class Checkpoint {
  public:
@@ -54,4 +54,4 @@ class Checkpoint {
   PyRef root_;
 };
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -6,7 +6,7 @@
 #include "freeloc/io/safetensors.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 TEST(Checkpoint, SafetensorsView) {
@@ -47,4 +47,4 @@ TEST(Checkpoint, PthStateDictUnderModel) {
 TEST(Checkpoint, MissingFile) { EXPECT_THROW(Checkpoint::Open("/nonexistent/model.pth"), Error); }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

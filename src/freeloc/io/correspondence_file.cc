@@ -9,7 +9,7 @@
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/pyparse.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 std::vector<Eigen::Vector4d> ReadCorrespondenceFile(const std::string& path) {
   const std::vector<uint8_t> bytes = ReadFileBytes(path);  // a regular file, or an error naming it
@@ -51,4 +51,4 @@ void WriteCorrespondenceFile(const std::string& path, const std::vector<Eigen::V
   WriteFileAtomic(path, text.data(), text.size());
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -7,11 +7,11 @@
 #include <string>
 #include <vector>
 
-namespace freeloc {
+namespace freeloc::io {
 
 // Throws freeloc::Error naming the file and line (not a number, not 4 fields, non-finite).
 std::vector<Eigen::Vector4d> ReadCorrespondenceFile(const std::string& path);
 // Atomic write.
 void WriteCorrespondenceFile(const std::string& path, const std::vector<Eigen::Vector4d>& rows);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

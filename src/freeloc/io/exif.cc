@@ -8,7 +8,7 @@
 #include <memory>
 #include <sstream>
 
-namespace freeloc {
+namespace freeloc::io {
 
 namespace {
 
@@ -247,4 +247,4 @@ bool CameraFromExif(const ExifInfo& e, int width, int height, Camera* camera, st
   return false;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -14,7 +14,7 @@
 
 #include "freeloc/core/camera.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 struct ExifInfo {
   bool present = false;                 // an Exif APP1 segment was found and parsed
@@ -50,4 +50,4 @@ std::string OrientationText(int orientation);
 bool CameraFromExif(const ExifInfo& exif, int width, int height, Camera* camera, std::string* why,
                     std::string* refused = nullptr);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -9,7 +9,7 @@
 #include "testing/exif_writer.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 using testing::ExifFields;
@@ -207,4 +207,4 @@ TEST(Exif, HostileSegments) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -16,7 +16,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/limits.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 std::vector<uint8_t> ReadFileBytes(const std::string& path) {
   std::error_code ec;
@@ -147,4 +147,4 @@ void CheckZipMemberSize(uint64_t size, uint64_t compressed_size, bool stored, co
                 what << ": expands to " << size << " bytes, beyond the " << LimitHint("max_zip_member_bytes"));
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

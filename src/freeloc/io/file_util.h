@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace freeloc {
+namespace freeloc::io {
 
 std::vector<uint8_t> ReadFileBytes(const std::string& path);
 
@@ -43,4 +43,4 @@ void WriteFileAtomicWith(const std::string& path, const std::function<void(const
 // header (a 544-byte ZIP declaring gigabytes) is refused, naming `what`.
 void CheckZipMemberSize(uint64_t size, uint64_t compressed_size, bool stored, const std::string& what);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -18,7 +18,7 @@
 #include "freeloc/io/submission.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 using testing::ErrorOf;
@@ -139,4 +139,4 @@ TEST(HostileInput, AnEightBitPngIsNotADepthMap) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -16,7 +16,7 @@
 #include "freeloc/io/submission.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 using testing::ErrorOf;
@@ -235,4 +235,4 @@ TEST(HostileText, FrameNamesStayInsideTheirScene) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

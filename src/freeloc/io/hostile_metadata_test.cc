@@ -12,7 +12,7 @@
 #include "testing/pth_builder.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 using testing::ErrorOf;
@@ -127,4 +127,4 @@ TEST(HostileMetadata, OneStorageDeclaredWithTwoSizesIsRefused) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

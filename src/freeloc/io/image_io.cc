@@ -13,7 +13,7 @@
 #include "freeloc/io/internal/codecs_api.h"
 #include "freeloc/io/internal/png.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 ImageFormat SniffImageFormat(const uint8_t* b, size_t n) {
   if (n >= 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF) return ImageFormat::kJpeg;
@@ -296,4 +296,4 @@ const CodecsApi& Codecs() {
 
 }  // namespace internal
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -10,7 +10,7 @@
 #include "freeloc/core/image.h"
 #include "freeloc/io/exif.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 enum class ImageFormat { kUnknown, kJpeg, kPng, kBmp, kTiff, kWebp };
 ImageFormat SniffImageFormat(const uint8_t* bytes, size_t size);
@@ -41,4 +41,4 @@ std::vector<uint16_t> DecodePng16(const std::vector<uint8_t>& bytes, const std::
 // Baseline JPEG of an RGB8 image at `quality` (0-100); `what` names it in errors.
 std::vector<uint8_t> EncodeJpeg(const Image& rgb, int quality, const std::string& what);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

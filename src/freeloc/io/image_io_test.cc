@@ -11,7 +11,7 @@
 #include "freeloc/io/safetensors.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 // 64×32 (W×H): left half red, right half blue (RGB).
@@ -200,9 +200,9 @@ TEST(ImageIo, FixturePngsDecodeExactly) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 // Depth and mask PNGs go through libpng directly (no OpenCV codecs at start-up): every grey variant must decode to
@@ -256,4 +256,4 @@ TEST(ImageIo, GreyPngsDecodeAsOpenCvDoes) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -15,7 +15,7 @@
 #include "freeloc/io/npz.h"
 #include "freeloc/io/pyparse.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 namespace fs = std::filesystem;
 
@@ -308,4 +308,4 @@ void WriteDepthPng(const std::string& path, const DepthMap& depth) {
   WritePng16(path, depth.width, depth.height, mm);
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -18,7 +18,7 @@
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/io/track.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 struct MapfreeFrame {
   std::string name;  // as written in intrinsics.txt, e.g. "seq1/frame_00012.jpg"
@@ -86,4 +86,4 @@ DepthMap ReadDepthPng(const std::string& path);
 DepthMap DecodeDepthPng(const std::vector<uint8_t>& bytes, const std::string& what);
 void WriteDepthPng(const std::string& path, const DepthMap& depth);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -10,7 +10,7 @@
 #include "freeloc/io/submission.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 namespace fs = std::filesystem;
@@ -145,9 +145,9 @@ TEST(Mapfree, PrecomputedCorrespondences) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 TEST(MultiFrame, FrameNumbersAndWindowsByLinearPosition) {
@@ -218,4 +218,4 @@ TEST(MultiFrame, DevicePosesFile) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

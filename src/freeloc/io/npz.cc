@@ -11,7 +11,7 @@
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/tensor.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 int64_t NpyArray::numel() const {
   int64_t n = 1;
@@ -198,4 +198,4 @@ std::map<std::string, NpyArray> ReadNpz(const std::string& path) {
   return out;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

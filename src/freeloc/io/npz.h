@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace freeloc {
+namespace freeloc::io {
 
 struct NpyArray {
   std::string descr;  // e.g. "<f4"
@@ -23,4 +23,4 @@ NpyArray ParseNpy(const uint8_t* bytes, size_t size, const std::string& what);
 // Reads every array of an .npz, keyed by name without the ".npy" suffix.
 std::map<std::string, NpyArray> ReadNpz(const std::string& path);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -10,7 +10,7 @@
 #include "freeloc/io/submission.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 // Builds a version-1 .npy: magic, header dict padded to a multiple of 64, data.
@@ -66,4 +66,4 @@ TEST(Npz, ReadsZipOfNpy) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

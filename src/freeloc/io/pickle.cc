@@ -8,7 +8,7 @@
 
 #include "freeloc/core/error.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 namespace {
 // Moves the children of `o` onto `pending` so that `o` itself is freed without recursion.
@@ -938,4 +938,4 @@ PyRef ParsePickle(const uint8_t* data, size_t size, const std::string& what, con
   return u.Run();
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

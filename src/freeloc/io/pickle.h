@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-namespace freeloc {
+namespace freeloc::io {
 
 struct PyObject;
 using PyRef = std::shared_ptr<PyObject>;
@@ -92,4 +92,4 @@ bool IsAllowedPickleGlobal(const std::string& module, const std::string& name);
 PyRef ParsePickle(const uint8_t* data, size_t size, const std::string& what, const PersistentLoad& persistent_load,
                   const ReduceHook& reduce_hook = nullptr, const PickleLimits& limits = PickleLimits());
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -7,7 +7,7 @@
 // Byte strings with embedded NULs: the literal's full size.
 #define BYTES(lit) std::string(lit, sizeof(lit) - 1)
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 // BINUNICODE: 'X', the UTF-8 length as 4 little-endian bytes, the text.
@@ -129,4 +129,4 @@ TEST(Pickle, DamagedStreams) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

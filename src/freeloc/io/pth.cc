@@ -12,7 +12,7 @@
 #include "freeloc/core/limits.h"
 #include "freeloc/io/file_util.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 namespace {
 
@@ -294,4 +294,4 @@ PthFile PthFile::Open(const std::string& path) {
   return PthReader(*bytes, path).Read();
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -10,7 +10,7 @@
 #include "freeloc/io/pickle.h"
 #include "freeloc/io/tensor.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 struct PthFile {
   std::string path;
@@ -21,4 +21,4 @@ struct PthFile {
   static PthFile Open(const std::string& path);
 };
 
-}  // namespace freeloc
+}  // namespace freeloc::io

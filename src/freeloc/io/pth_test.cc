@@ -15,7 +15,7 @@
 #include "testing/pth_builder.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 using testing::SharedPath;
@@ -249,4 +249,4 @@ TEST(Pth, NotACheckpoint) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <limits>
 
-namespace freeloc::py {
+namespace freeloc::io::py {
 
 namespace {
 bool IsPySpace(unsigned char c) {
@@ -180,4 +180,4 @@ std::string FrameSlice(const std::string& name) {
 
 bool FrameKey(const std::string& name, int64_t* key) { return ParseInt(FrameSlice(name), key); }
 
-}  // namespace freeloc::py
+}  // namespace freeloc::io::py

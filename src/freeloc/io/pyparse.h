@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace freeloc::py {
+namespace freeloc::io::py {
 
 // Python float(s): surrounding whitespace allowed, underscores between digits, inf/infinity/nan in any case.
 bool ParseFloat(const std::string& s, double* out);
@@ -29,4 +29,4 @@ std::string FrameSlice(const std::string& name);
 // int(name[-9:-4]) — the official frame key. False when Python would raise ValueError.
 bool FrameKey(const std::string& name, int64_t* key);
 
-}  // namespace freeloc::py
+}  // namespace freeloc::io::py

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace freeloc::py {
+namespace freeloc::io::py {
 namespace {
 
 TEST(PyParse, FloatFollowsPythonRules) {
@@ -59,4 +59,4 @@ TEST(PyParse, Utf8Validation) {
 }
 
 }  // namespace
-}  // namespace freeloc::py
+}  // namespace freeloc::io::py

@@ -9,7 +9,7 @@
 #include "freeloc/core/limits.h"
 #include "freeloc/io/file_util.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 namespace {
 constexpr uint64_t kMaxHeader = 100ull << 20;  // the official loaders refuse headers over 100 MB as well
@@ -222,4 +222,4 @@ void WriteSafetensors(const std::string& path, const std::vector<std::pair<std::
   WriteFileAtomic(path, bytes.data(), bytes.size());
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

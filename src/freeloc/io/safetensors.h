@@ -11,7 +11,7 @@
 
 #include "freeloc/io/tensor.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 class MappedFile;
 
@@ -36,4 +36,4 @@ std::vector<uint8_t> SerializeSafetensors(const std::vector<std::pair<std::strin
 void WriteSafetensors(const std::string& path, const std::vector<std::pair<std::string, TensorView>>& tensors,
                       const std::map<std::string, std::string>& metadata = {});
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -7,7 +7,7 @@
 #include "freeloc/core/error.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 using testing::TempDir;
@@ -130,4 +130,4 @@ TEST(Safetensors, RejectsAbsurdShape) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

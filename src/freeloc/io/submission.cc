@@ -13,7 +13,7 @@
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/pyparse.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 std::string FormatDouble(double v) {
   FREELOC_CHECK(std::isfinite(v), "cannot write a non-finite number (" << v << ") into a submission");
@@ -196,4 +196,4 @@ size_t MergeSubmissions(const std::vector<std::string>& inputs, const std::strin
   return files.size();
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

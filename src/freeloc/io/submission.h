@@ -14,7 +14,7 @@
 
 #include "freeloc/core/rigid3d.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 struct SubmissionEntry {
   std::string frame;  // "seq1/frame_00012.jpg"
@@ -65,4 +65,4 @@ struct OfficialPoses {
 };
 OfficialPoses ParseOfficialPoses(const std::string& text, bool with_confidence);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

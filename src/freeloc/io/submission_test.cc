@@ -8,7 +8,7 @@
 #include "freeloc/core/error.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 TEST(Submission, FormatDoubleRoundTrips) {
@@ -97,4 +97,4 @@ TEST(Submission, CameraCentreConversion) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -5,7 +5,7 @@
 
 #include "freeloc/core/error.h"
 
-namespace freeloc {
+namespace freeloc::io {
 
 size_t DTypeSize(DType d) {
   switch (d) {
@@ -182,4 +182,4 @@ TensorView MakeTensor(DType dtype, std::vector<int64_t> shape, const void* bytes
   return t;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::io

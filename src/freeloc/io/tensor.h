@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace freeloc {
+namespace freeloc::io {
 
 enum class DType { kF64, kF32, kF16, kBF16, kI64, kI32, kI16, kI8, kU8, kBool };
 
@@ -43,4 +43,4 @@ struct TensorView {
 // Owns its bytes (for building tensors to write).
 TensorView MakeTensor(DType dtype, std::vector<int64_t> shape, const void* bytes, size_t nbytes);
 
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -6,7 +6,7 @@
 
 #include "freeloc/core/error.h"
 
-namespace freeloc {
+namespace freeloc::io {
 namespace {
 
 TEST(Tensor, HalfAndBFloat16Conversion) {
@@ -46,4 +46,4 @@ TEST(Tensor, MakeTensorAndConvert) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::io

@@ -24,13 +24,13 @@ std::vector<NnKernel> Kernels() {
   return k;
 }
 
-DescriptorView ViewOf(const TensorView& desc, const TensorView& conf) {
+DescriptorView ViewOf(const io::TensorView& desc, const io::TensorView& conf) {
   return {desc.as<float>(), conf.as<float>(), static_cast<int>(desc.shape[1]), static_cast<int>(desc.shape[2]),
           static_cast<int>(desc.shape[3])};
 }
 
 template <typename T>
-std::vector<T> Values(const TensorView& t) {
+std::vector<T> Values(const io::TensorView& t) {
   return std::vector<T>(t.as<T>(), t.as<T>() + t.numel());
 }
 
@@ -38,8 +38,8 @@ TEST(FastNn, EqualsUpstreamOnEveryFixtureList) {
   FREELOC_REQUIRE_SHARED("fixtures/mast3r/cases/land_s128.safetensors");
   int lists = 0;
   for (const char* name : {"land_s128", "mixed_s80", "odd_s112"}) {
-    const SafetensorsFile f =
-        SafetensorsFile::Open(SharedPath(std::string("fixtures/mast3r/cases/") + name + ".safetensors"));
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/mast3r/cases/") + name + ".safetensors"));
     const DescriptorView a = ViewOf(f.Get("pred1.desc"), f.Get("pred1.desc_conf"));
     const DescriptorView b = ViewOf(f.Get("pred2.desc"), f.Get("pred2.desc_conf"));
     for (int S : {8, 4}) {

@@ -21,7 +21,8 @@ void InstanceOptions::Validate() const {
 namespace {
 
 // Mask value at the original pixel nearest to network pixel (x, y).
-uint8_t MaskAtNetworkPixel(const std::vector<uint8_t>& mask, int w, int h, const Dust3rInput& in, int x, int y) {
+uint8_t MaskAtNetworkPixel(const std::vector<uint8_t>& mask, int w, int h, const vision::Dust3rInput& in, int x,
+                           int y) {
   double xo, yo;
   in.ToOriginal(x, y, &xo, &yo);
   const int xi = std::clamp(static_cast<int>(std::lround(xo)), 0, w - 1);
@@ -29,7 +30,7 @@ uint8_t MaskAtNetworkPixel(const std::vector<uint8_t>& mask, int w, int h, const
   return mask[static_cast<size_t>(yi) * w + xi];
 }
 
-std::vector<uint8_t> NetworkMask(const std::vector<uint8_t>& mask, int w, int h, const Dust3rInput& in) {
+std::vector<uint8_t> NetworkMask(const std::vector<uint8_t>& mask, int w, int h, const vision::Dust3rInput& in) {
   std::vector<uint8_t> out(static_cast<size_t>(in.width()) * in.height());
   for (int y = 0; y < in.height(); ++y)
     for (int x = 0; x < in.width(); ++x)
@@ -74,8 +75,8 @@ void Masked(const Image& img, const std::vector<uint8_t>& mask, const Box& box, 
     }
 }
 
-std::vector<Correspondence> ToCorrespondences(const std::vector<PixelMatch>& m, const Dust3rInput& a,
-                                              const Dust3rInput& b, int source, Eigen::Vector2d off_a,
+std::vector<Correspondence> ToCorrespondences(const std::vector<PixelMatch>& m, const vision::Dust3rInput& a,
+                                              const vision::Dust3rInput& b, int source, Eigen::Vector2d off_a,
                                               Eigen::Vector2d off_b) {
   std::vector<Correspondence> out;
   out.reserve(m.size());
@@ -95,8 +96,8 @@ size_t Count(const std::vector<uint8_t>& m) {
 
 }  // namespace
 
-std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const Dust3rInput& ref,
-                                                  const Dust3rInput& query, const ReciprocalOptions& options) {
+std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const vision::Dust3rInput& ref,
+                                                  const vision::Dust3rInput& query, const ReciprocalOptions& options) {
   const auto m = ReciprocalMatches({pm.pts1.data(), pm.conf1.data(), nullptr, pm.h1, pm.w1},
                                    {pm.pts2.data(), pm.conf2.data(), nullptr, pm.h2, pm.w2}, options);
   return ToCorrespondences(m, ref, query, -1, Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero());
@@ -122,8 +123,8 @@ std::vector<PixelMatch> MatchPair(const PairPointmaps& pm, const uint8_t* mask1,
   return out;
 }
 
-std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const Dust3rInput& ref,
-                                                  const Dust3rInput& query, const InstanceOptions& options) {
+std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const vision::Dust3rInput& ref,
+                                                  const vision::Dust3rInput& query, const InstanceOptions& options) {
   return ToCorrespondences(MatchPair(pm, nullptr, nullptr, options), ref, query, -1, Eigen::Vector2d::Zero(),
                            Eigen::Vector2d::Zero());
 }
@@ -135,14 +136,15 @@ Box ReferenceBox(const Image& ref, const std::vector<uint8_t>& mask, const Insta
 }
 }  // namespace
 
-Dust3rInput InstanceReferenceInput(const Image& ref, const std::vector<uint8_t>& ref_mask, const InstanceOptions& o) {
+vision::Dust3rInput InstanceReferenceInput(const Image& ref, const std::vector<uint8_t>& ref_mask,
+                                           const InstanceOptions& o) {
   FREELOC_CHECK(ref_mask.size() == ref.num_pixels(), "instance reference mask: " << ref_mask.size() << " pixels for a "
                                                                                  << ref.width << "x" << ref.height
                                                                                  << " image");
   Image ir;
   std::vector<uint8_t> mr;
   Masked(ref, ref_mask, ReferenceBox(ref, ref_mask, o), &ir, &mr);
-  return PreprocessForDust3r(ir, o.preprocess);
+  return vision::PreprocessForDust3r(ir, o.preprocess);
 }
 
 InstanceResult MatchInstance(const Image& ref, const Image& query, const InstanceMasks& masks, const PointmapFn& model,
@@ -171,8 +173,8 @@ InstanceResult MatchInstance(const Image& ref, const Image& query, const Instanc
   std::vector<uint8_t> mr, mq;
   Masked(ref, masks.ref, br, &ir, &mr);
   Masked(query, masks.query, bq, &iq, &mq);
-  const Dust3rInput a = PreprocessForDust3r(ir, o.preprocess);
-  const Dust3rInput b = PreprocessForDust3r(iq, o.preprocess);
+  const vision::Dust3rInput a = vision::PreprocessForDust3r(ir, o.preprocess);
+  const vision::Dust3rInput b = vision::PreprocessForDust3r(iq, o.preprocess);
   const PairPointmaps pm = model(a, b);
   const std::vector<uint8_t> na = NetworkMask(mr, ir.width, ir.height, a), nb = NetworkMask(mq, iq.width, iq.height, b);
   const auto m = MatchPair(pm, na.data(), nb.data(), o);

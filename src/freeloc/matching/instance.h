@@ -42,7 +42,7 @@ struct PairPointmaps {
   std::vector<float> desc1, desc_conf1, desc2, desc_conf2;  // H×W×D and H×W each (MASt3R)
   int h1 = 0, w1 = 0, h2 = 0, w2 = 0, desc_dim = 0;
 };
-using PointmapFn = std::function<PairPointmaps(const Dust3rInput& ref, const Dust3rInput& query)>;
+using PointmapFn = std::function<PairPointmaps(const vision::Dust3rInput& ref, const vision::Dust3rInput& query)>;
 
 struct InstanceOptions {
   InstanceMode mode = InstanceMode::kMask;
@@ -54,7 +54,7 @@ struct InstanceOptions {
   bool descriptors = false;
   FastNnOptions fast_nn;
   DescriptorMatchFilter descriptor_filter;
-  Dust3rPreprocessOptions preprocess;
+  vision::Dust3rPreprocessOptions preprocess;
   void Validate() const;
 };
 
@@ -66,12 +66,12 @@ struct InstanceResult {
 };
 
 // Correspondences of the global pair as `Correspondence`s (source −1) in original pixels.
-std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const Dust3rInput& ref,
-                                                  const Dust3rInput& query, const ReciprocalOptions& options);
+std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const vision::Dust3rInput& ref,
+                                                  const vision::Dust3rInput& query, const ReciprocalOptions& options);
 // The same with the matching `options` choose: 3D reciprocal (options.match) or, with options.descriptors, MASt3R's
 // fast reciprocal NN on the descriptors and its filter.
-std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const Dust3rInput& ref,
-                                                  const Dust3rInput& query, const InstanceOptions& options);
+std::vector<Correspondence> GlobalCorrespondences(const PairPointmaps& pm, const vision::Dust3rInput& ref,
+                                                  const vision::Dust3rInput& query, const InstanceOptions& options);
 
 // Network-pixel matches of a pair, restricted to the masks when given (network resolution, H×W each; a descriptor
 // match is kept when both pixels are inside). Throws when descriptors are asked for and the pair has none.
@@ -84,8 +84,8 @@ InstanceResult MatchInstance(const Image& ref, const Image& query, const Instanc
 
 // The network input MatchInstance builds for the reference side of an instance (the masked image, or its box in
 // kCrop mode, preprocessed): it depends on the reference alone, so a cache can encode it once per scene.
-Dust3rInput InstanceReferenceInput(const Image& ref, const std::vector<uint8_t>& ref_mask,
-                                   const InstanceOptions& options);
+vision::Dust3rInput InstanceReferenceInput(const Image& ref, const std::vector<uint8_t>& ref_mask,
+                                           const InstanceOptions& options);
 
 // Eq. 3: instance matches replace the global ones inside the reference masks of the instances that were used.
 std::vector<Correspondence> MergeMatches(const std::vector<Correspondence>& global,

@@ -20,9 +20,9 @@ Image Ramp(int w, int h) {
   return im;
 }
 
-PairPointmaps FakeModel(const Dust3rInput& a, const Dust3rInput& b) {
+PairPointmaps FakeModel(const vision::Dust3rInput& a, const vision::Dust3rInput& b) {
   PairPointmaps p;
-  auto fill = [](const Dust3rInput& in, std::vector<float>* pts, std::vector<float>* conf) {
+  auto fill = [](const vision::Dust3rInput& in, std::vector<float>* pts, std::vector<float>* conf) {
     for (size_t i = 0; i < in.image.num_pixels(); ++i) {
       pts->push_back(in.image.data[3 * i]);
       pts->push_back(in.image.data[3 * i + 1]);

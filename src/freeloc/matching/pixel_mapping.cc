@@ -2,8 +2,8 @@
 
 namespace freeloc::matching {
 
-Correspondences ToOriginalPixels(const std::vector<PixelMatch>& matches, const Dust3rInput& ref,
-                                 const Dust3rInput& query) {
+Correspondences ToOriginalPixels(const std::vector<PixelMatch>& matches, const vision::Dust3rInput& ref,
+                                 const vision::Dust3rInput& query) {
   Correspondences c;
   c.ref.reserve(matches.size());
   c.query.reserve(matches.size());

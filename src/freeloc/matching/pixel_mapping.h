@@ -11,7 +11,7 @@
 
 namespace freeloc::matching {
 
-Correspondences ToOriginalPixels(const std::vector<PixelMatch>& matches, const Dust3rInput& ref,
-                                 const Dust3rInput& query);
+Correspondences ToOriginalPixels(const std::vector<PixelMatch>& matches, const vision::Dust3rInput& ref,
+                                 const vision::Dust3rInput& query);
 
 }  // namespace freeloc::matching

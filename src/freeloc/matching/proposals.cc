@@ -148,7 +148,7 @@ std::vector<uint16_t> ProposeInstances(const float* pts, const float* conf, int 
   return Dilate(RankComponents(cc, valid, conf, o), h, w);
 }
 
-std::vector<uint16_t> ProposalsToImage(const std::vector<uint16_t>& labels, const Dust3rInput& in) {
+std::vector<uint16_t> ProposalsToImage(const std::vector<uint16_t>& labels, const vision::Dust3rInput& in) {
   std::vector<uint16_t> out(static_cast<size_t>(in.orig_width) * in.orig_height, 0);
   for (int y = 0; y < in.orig_height; ++y)
     for (int x = 0; x < in.orig_width; ++x) {

@@ -22,6 +22,6 @@ std::vector<uint16_t> ProposeInstances(const float* pts, const float* conf, int 
                                        const ProposalOptions& options = {});
 
 // Labels on the network grid → labels at the original image's resolution (via the preprocessing's mapping).
-std::vector<uint16_t> ProposalsToImage(const std::vector<uint16_t>& labels, const Dust3rInput& in);
+std::vector<uint16_t> ProposalsToImage(const std::vector<uint16_t>& labels, const vision::Dust3rInput& in);
 
 }  // namespace freeloc::matching

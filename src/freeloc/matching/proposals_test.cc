@@ -85,7 +85,7 @@ TEST(Proposals, MaxInstancesAndMapping) {
   const auto labels = ProposeInstances(pts.data(), nullptr, h, w, o);
   EXPECT_EQ(*std::max_element(labels.begin(), labels.end()), 1);
   // Back to an original image of 192×144 (network 96×72 after resize without crop at size 96).
-  Dust3rInput in;
+  vision::Dust3rInput in;
   in.orig_width = 192;
   in.orig_height = 144;
   in.resized_width = 96;

@@ -18,10 +18,10 @@ namespace {
 TEST(Reciprocal, IdenticalToFixtureMatches) {
   FREELOC_REQUIRE_SHARED("fixtures/dust3r/cases/png_s80.safetensors");
   for (const char* name : {"png_s80", "png_s80_mixed"}) {
-    const SafetensorsFile f =
-        SafetensorsFile::Open(testing::SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
-    const TensorView& p1 = f.Get("pred1.pts3d");
-    const TensorView& p2 = f.Get("pred2.pts3d_in_other_view");
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(testing::SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
+    const io::TensorView& p1 = f.Get("pred1.pts3d");
+    const io::TensorView& p2 = f.Get("pred2.pts3d_in_other_view");
     const PointmapView v1{p1.as<float>(), f.Get("pred1.conf").as<float>(), nullptr, static_cast<int>(p1.shape[1]),
                           static_cast<int>(p1.shape[2])};
     const PointmapView v2{p2.as<float>(), f.Get("pred2.conf").as<float>(), nullptr, static_cast<int>(p2.shape[1]),
@@ -31,8 +31,8 @@ TEST(Reciprocal, IdenticalToFixtureMatches) {
       ReciprocalOptions o;
       o.conf_threshold = std::string(prefix) == "match_conf" ? f.Get("match_conf.thr").as<float>()[0] : 0.0;
       const auto m = ReciprocalMatches(v1, v2, o);
-      const TensorView& a = f.Get(std::string(prefix) + ".xy_im0");
-      const TensorView& b = f.Get(std::string(prefix) + ".xy_im1");
+      const io::TensorView& a = f.Get(std::string(prefix) + ".xy_im0");
+      const io::TensorView& b = f.Get(std::string(prefix) + ".xy_im1");
       ASSERT_EQ(static_cast<int64_t>(m.size()), a.shape[0]);
       EXPECT_EQ(static_cast<int64_t>(m.size()),
                 // ToDouble, not as<int64_t>: the fixture's bytes need not be 8-byte aligned (UBSan).
@@ -102,7 +102,7 @@ TEST(Reciprocal, MasksRestrictBothSides) {
 // A point at a known original pixel survives resize + crop + match + map back.
 TEST(Reciprocal, PixelMappingBackToOriginal) {
   const Image img(1000, 700);
-  const Dust3rInput in = PreprocessForDust3r(img);  // 512×352 after resize to 512×358 and a 3-row crop
+  const vision::Dust3rInput in = vision::PreprocessForDust3r(img);  // 512×352 after resize to 512×358 and a 3-row crop
   const int h = in.height(), w = in.width();
   // Both views see the same plane; each network pixel's point is its original pixel coordinate.
   std::vector<float> p(3 * h * w);

@@ -16,7 +16,7 @@
 #include "testing/official_baseline.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::matching {
 namespace {
 
 struct Errors {
@@ -29,7 +29,7 @@ Errors Compare(const Rigid3d& est, const Rigid3d& gt) {
 
 // ExtractSift once + MatchSiftFeatures per query gives exactly MatchSift's correspondences.
 TEST(Sift, CachedReferenceFeaturesGiveTheSameMatches) {
-  const MapfreeScene s = MapfreeScene::Load(testing::DemoPath("val/s00003"));
+  const io::MapfreeScene s = io::MapfreeScene::Load(testing::DemoPath("val/s00003"));
   const Image ref = s.LoadImage(s.reference), query = s.LoadImage(s.queries.at(0));
   const matching::Correspondences a = matching::MatchSift(ref, query);
   const matching::SiftFeatures fr = matching::ExtractSift(ref);
@@ -49,8 +49,8 @@ TEST(Sift, FreelocBeatsOfficialRecipeOnRealTumPairs) {
   std::filesystem::create_directories(out_dir);
   for (const char* name : {"s00002", "s00003"}) {
     SCOPED_TRACE(name);
-    const MapfreeScene s = MapfreeScene::Load(testing::DemoPath(std::string("val/") + name));
-    const MapfreeFrame& q = s.queries.at(0);
+    const io::MapfreeScene s = io::MapfreeScene::Load(testing::DemoPath(std::string("val/") + name));
+    const io::MapfreeFrame& q = s.queries.at(0);
     const matching::Correspondences c = matching::MatchSift(s.LoadImage(s.reference), s.LoadImage(q));
     ASSERT_GT(c.size(), 100u);
     const DepthMap d0 = s.LoadDepth(s.reference, "sensor"), d1 = s.LoadDepth(q, "sensor");
@@ -88,4 +88,4 @@ TEST(Sift, FreelocBeatsOfficialRecipeOnRealTumPairs) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::matching

@@ -47,18 +47,19 @@ std::string BoundNetworkFamily(const std::shared_ptr<void>& network) {
 
 NamedTensors RunBoundPointmaps(const std::shared_ptr<void>& network, const Image& a, const Image& b, int size) {
   const nn::Dust3rModel& m = *As(network, BoundNetwork::kDust3r, "Dust3r").dust3r;
-  Dust3rPreprocessOptions po;
+  vision::Dust3rPreprocessOptions po;
   po.size = size;
-  const Dust3rInput ia = PreprocessForDust3r(a, po), ib = PreprocessForDust3r(b, po);
+  const vision::Dust3rInput ia = vision::PreprocessForDust3r(a, po), ib = vision::PreprocessForDust3r(b, po);
   const nn::Dust3rPrediction pr =
       m.Run({ia.normalized.data(), ia.height(), ia.width()}, {ib.normalized.data(), ib.height(), ib.width()});
-  NamedTensors t = {
-      {"pts3d_1", pr.pts3d_1},
-      {"conf_1", pr.conf_1},
-      {"pts3d_2", pr.pts3d_2},
-      {"conf_2", pr.conf_2},
-      {"image_1", MakeTensor(DType::kU8, {ia.height(), ia.width(), 3}, ia.image.data.data(), ia.image.data.size())},
-      {"image_2", MakeTensor(DType::kU8, {ib.height(), ib.width(), 3}, ib.image.data.data(), ib.image.data.size())}};
+  NamedTensors t = {{"pts3d_1", pr.pts3d_1},
+                    {"conf_1", pr.conf_1},
+                    {"pts3d_2", pr.pts3d_2},
+                    {"conf_2", pr.conf_2},
+                    {"image_1", io::MakeTensor(io::DType::kU8, {ia.height(), ia.width(), 3}, ia.image.data.data(),
+                                               ia.image.data.size())},
+                    {"image_2", io::MakeTensor(io::DType::kU8, {ib.height(), ib.width(), 3}, ib.image.data.data(),
+                                               ib.image.data.size())}};
   if (pr.desc_1.nbytes) {
     t.push_back({"desc_1", pr.desc_1});
     t.push_back({"desc_conf_1", pr.desc_conf_1});
@@ -72,9 +73,9 @@ NamedTensors RunBoundDepth(const std::shared_ptr<void>& network, const Image& im
   const nn::Metric3dModel& m = *As(network, BoundNetwork::kMetric3d, "Metric3D").metric3d;
   const nn::Metric3dOutput o = m.Estimate(image, camera);
   const int64_t h = o.depth.height, w = o.depth.width;
-  return {{"depth", MakeTensor(DType::kF32, {h, w}, o.depth.data.data(), o.depth.data.size() * 4)},
-          {"confidence", MakeTensor(DType::kF32, {h, w}, o.confidence.data(), o.confidence.size() * 4)},
-          {"normal", MakeTensor(DType::kF32, {3, h, w}, o.normal.data(), o.normal.size() * 4)},
+  return {{"depth", io::MakeTensor(io::DType::kF32, {h, w}, o.depth.data.data(), o.depth.data.size() * 4)},
+          {"confidence", io::MakeTensor(io::DType::kF32, {h, w}, o.confidence.data(), o.confidence.size() * 4)},
+          {"normal", io::MakeTensor(io::DType::kF32, {3, h, w}, o.normal.data(), o.normal.size() * 4)},
           {"canonical_depth", o.canonical_depth}};
 }
 

@@ -30,20 +30,20 @@ int Pointmap(const PointmapCommand& o) {
   const auto t_load = std::chrono::steady_clock::now();
   const auto model = nn::Dust3rModel::Load(o.model, o.config, rt);
   const double load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_load).count();
-  Dust3rPreprocessOptions p1, p2;
+  vision::Dust3rPreprocessOptions p1, p2;
   p1.size = s1;
   p2.size = s2;
-  const Dust3rInput a = PreprocessForDust3r(ReadImage(o.images[0]), p1);
-  const Dust3rInput b = PreprocessForDust3r(ReadImage(o.images[1]), p2);
+  const vision::Dust3rInput a = vision::PreprocessForDust3r(io::ReadImage(o.images[0]), p1);
+  const vision::Dust3rInput b = vision::PreprocessForDust3r(io::ReadImage(o.images[1]), p2);
   const nn::Dust3rPrediction pr =
       model->Run({a.normalized.data(), a.height(), a.width()}, {b.normalized.data(), b.height(), b.width()});
-  std::vector<std::pair<std::string, TensorView>> t = {
+  std::vector<std::pair<std::string, io::TensorView>> t = {
       {"pts3d_1", pr.pts3d_1},
       {"conf_1", pr.conf_1},
       {"pts3d_2", pr.pts3d_2},
       {"conf_2", pr.conf_2},
-      {"image_1", MakeTensor(DType::kU8, {a.height(), a.width(), 3}, a.image.data.data(), a.image.data.size())},
-      {"image_2", MakeTensor(DType::kU8, {b.height(), b.width(), 3}, b.image.data.data(), b.image.data.size())},
+      {"image_1", io::MakeTensor(io::DType::kU8, {a.height(), a.width(), 3}, a.image.data.data(), a.image.data.size())},
+      {"image_2", io::MakeTensor(io::DType::kU8, {b.height(), b.width(), 3}, b.image.data.data(), b.image.data.size())},
   };
   const bool mast3r = model->config().is_mast3r();
   if (mast3r) {
@@ -75,9 +75,9 @@ int Pointmap(const PointmapCommand& o) {
       orig.insert(orig.end(), {static_cast<float>(c.ref[i].x()), static_cast<float>(c.ref[i].y()),
                                static_cast<float>(c.query[i].x()), static_cast<float>(c.query[i].y())});
     t.emplace_back("matches",
-                   MakeTensor(DType::kI32, {static_cast<int64_t>(raw.size()), 4}, net.data(), net.size() * 4));
-    t.emplace_back("matches_orig",
-                   MakeTensor(DType::kF32, {static_cast<int64_t>(kept.size()), 4}, orig.data(), orig.size() * 4));
+                   io::MakeTensor(io::DType::kI32, {static_cast<int64_t>(raw.size()), 4}, net.data(), net.size() * 4));
+    t.emplace_back("matches_orig", io::MakeTensor(io::DType::kF32, {static_cast<int64_t>(kept.size()), 4}, orig.data(),
+                                                  orig.size() * 4));
     std::string sizes;
     for (size_t i = 0; i < st.query_sizes.size(); ++i) sizes += (i ? "," : "") + std::to_string(st.query_sizes[i]);
     match_info = "fast reciprocal NN, subsample " + std::to_string(fo.subsample) + ", " + st.kernel +
@@ -103,8 +103,8 @@ int Pointmap(const PointmapCommand& o) {
                                static_cast<float>(c.query[i].x()), static_cast<float>(c.query[i].y())});
     }
     const int64_t n = static_cast<int64_t>(m.size());
-    t.emplace_back("matches", MakeTensor(DType::kI32, {n, 4}, net.data(), net.size() * 4));
-    t.emplace_back("matches_orig", MakeTensor(DType::kF32, {n, 4}, orig.data(), orig.size() * 4));
+    t.emplace_back("matches", io::MakeTensor(io::DType::kI32, {n, 4}, net.data(), net.size() * 4));
+    t.emplace_back("matches_orig", io::MakeTensor(io::DType::kF32, {n, 4}, orig.data(), orig.size() * 4));
     std::printf("%lld reciprocal matches (conf ≥ %g, subsample %d)\n", static_cast<long long>(n), o.conf_thr,
                 mo.subsample);
     match_info = "reciprocal 3D, conf >= " + std::to_string(o.conf_thr) + ", subsample " + std::to_string(mo.subsample);
@@ -129,7 +129,7 @@ int Pointmap(const PointmapCommand& o) {
                       " -> crop at (" + std::to_string(b.crop_x) + "," + std::to_string(b.crop_y) + ")"},
   };
   if (!match_info.empty()) meta["matching"] = match_info;
-  WriteSafetensors(o.out, t, meta);
+  io::WriteSafetensors(o.out, t, meta);
   std::printf("%s pointmaps %dx%d and %dx%d written to %s (encode %.0f ms, decode %.0f ms, heads %.0f ms)\n",
               model->config().family(), a.width(), a.height(), b.width(), b.height(), o.out.c_str(), pr.encode_ms,
               pr.decode_ms, pr.heads_ms);
@@ -144,12 +144,12 @@ int Segment(const SegmentCommand& o) {
   const auto model = nn::SegGptModel::Load(o.model, o.config, rt);
   std::vector<Image> pi, pm;
   for (size_t k = 0; k < o.prompt_images.size(); ++k) {
-    pi.push_back(ReadImage(o.prompt_images[k]));
-    pm.push_back(ReadImage(o.prompt_masks[k]));
+    pi.push_back(io::ReadImage(o.prompt_images[k]));
+    pm.push_back(io::ReadImage(o.prompt_masks[k]));
   }
-  const Image target = ReadImage(o.target);
-  TensorView pred;
-  const SegGptMask m = model->Segment(pi, pm, target, nn::ParseSegType(o.type), &pred);
+  const Image target = io::ReadImage(o.target);
+  io::TensorView pred;
+  const vision::SegGptMask m = model->Segment(pi, pm, target, nn::ParseSegType(o.type), &pred);
   std::vector<uint8_t> png(m.mask.size());
   size_t on = 0;
   for (size_t i = 0; i < png.size(); ++i) {
@@ -165,13 +165,13 @@ int Segment(const SegmentCommand& o) {
         for (int x = 0; x < S; ++x)
           half[(static_cast<size_t>(c) * S + y) * S + x] =
               pred.as<float>()[(static_cast<size_t>(c) * 2 * S + S + y) * S + x];
-    WriteSafetensors(o.raw, {{"pred", MakeTensor(DType::kF32, {3, S, S}, half.data(), half.size() * 4)}},
-                     {{"model", o.model},
-                      {"config", model->config().Summary()},
-                      {"type", o.type},
-                      {"prompts", std::to_string(pi.size())}});
+    io::WriteSafetensors(o.raw, {{"pred", io::MakeTensor(io::DType::kF32, {3, S, S}, half.data(), half.size() * 4)}},
+                         {{"model", o.model},
+                          {"config", model->config().Summary()},
+                          {"type", o.type},
+                          {"prompts", std::to_string(pi.size())}});
   }
-  WritePng8(o.out, target.width, target.height, png);
+  io::WritePng8(o.out, target.width, target.height, png);
   std::printf("mask %dx%d written to %s (%.1f %% foreground, %zu prompt%s, %s)\n", target.width, target.height,
               o.out.c_str(), 100.0 * on / png.size(), pi.size(), pi.size() > 1 ? "s, feature ensemble" : "",
               o.type.c_str());
@@ -180,7 +180,7 @@ int Segment(const SegmentCommand& o) {
 
 int Depth(const DepthCommand& o) {
   const Camera cam = Camera::FromString(o.intrinsics, "intrinsics");
-  const Image img = ReadImage(o.image);
+  const Image img = io::ReadImage(o.image);
   cam.ValidateForImage(img.width, img.height, o.image + ": intrinsics");
   const nn::RuntimeOptions& rt = o.runtime;
   const auto model = nn::Metric3dModel::Load(o.model, o.config, rt);
@@ -190,14 +190,15 @@ int Depth(const DepthCommand& o) {
     std::map<std::string, std::string> meta = out.metadata;
     meta["image"] = o.image;
     meta["intrinsics"] = o.intrinsics;
-    WriteSafetensors(o.raw,
-                     {{"depth", MakeTensor(DType::kF32, {h, w}, out.depth.data.data(), out.depth.data.size() * 4)},
-                      {"confidence", MakeTensor(DType::kF32, {h, w}, out.confidence.data(), out.confidence.size() * 4)},
-                      {"normal", MakeTensor(DType::kF32, {3, h, w}, out.normal.data(), out.normal.size() * 4)},
-                      {"canonical_depth", out.canonical_depth}},
-                     meta);
+    io::WriteSafetensors(
+        o.raw,
+        {{"depth", io::MakeTensor(io::DType::kF32, {h, w}, out.depth.data.data(), out.depth.data.size() * 4)},
+         {"confidence", io::MakeTensor(io::DType::kF32, {h, w}, out.confidence.data(), out.confidence.size() * 4)},
+         {"normal", io::MakeTensor(io::DType::kF32, {3, h, w}, out.normal.data(), out.normal.size() * 4)},
+         {"canonical_depth", out.canonical_depth}},
+        meta);
   }
-  WriteDepthPng(o.out, out.depth);
+  io::WriteDepthPng(o.out, out.depth);
   float lo = 1e30f, hi = 0;
   for (float v : out.depth.data)
     if (v > 0) {

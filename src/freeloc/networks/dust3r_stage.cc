@@ -8,7 +8,8 @@
 namespace freeloc::networks {
 
 namespace {
-matching::PairPointmaps ToHost(const nn::Dust3rPrediction& p, const Dust3rInput& a, const Dust3rInput& b) {
+matching::PairPointmaps ToHost(const nn::Dust3rPrediction& p, const vision::Dust3rInput& a,
+                               const vision::Dust3rInput& b) {
   matching::PairPointmaps pm;
   pm.pts1.assign(p.pts3d_1.as<float>(), p.pts3d_1.as<float>() + p.pts3d_1.numel());
   pm.conf1.assign(p.conf_1.as<float>(), p.conf_1.as<float>() + p.conf_1.numel());
@@ -28,7 +29,7 @@ matching::PairPointmaps ToHost(const nn::Dust3rPrediction& p, const Dust3rInput&
   return pm;
 }
 
-nn::Dust3rView ViewOf(const Dust3rInput& in) { return {in.normalized.data(), in.height(), in.width()}; }
+nn::Dust3rView ViewOf(const vision::Dust3rInput& in) { return {in.normalized.data(), in.height(), in.width()}; }
 
 uint64_t Fnv1a(const void* data, size_t bytes) {
   uint64_t h = 1469598103934665603ull;
@@ -45,7 +46,7 @@ nn::DecodeOutputs Outputs(bool descriptors) {
 }
 
 matching::PointmapFn Dust3rPointmapFn(std::shared_ptr<nn::Dust3rModel> model, bool descriptors) {
-  return [model, descriptors](const Dust3rInput& a, const Dust3rInput& b) {
+  return [model, descriptors](const vision::Dust3rInput& a, const vision::Dust3rInput& b) {
     const auto ea = model->Encode(ViewOf(a));
     const auto eb = model->Encode(ViewOf(b));
     return ToHost(model->Decode(*ea, *eb, Outputs(descriptors)), a, b);
@@ -85,9 +86,9 @@ matching::PairPointmaps CachingDust3r::RunSwappedLast() {
   return pm;
 }
 
-void CachingDust3r::Prime(const Dust3rInput& ref) { Cached(ref); }
+void CachingDust3r::Prime(const vision::Dust3rInput& ref) { Cached(ref); }
 
-const CachingDust3r::Entry* CachingDust3r::Cached(const Dust3rInput& a) {
+const CachingDust3r::Entry* CachingDust3r::Cached(const vision::Dust3rInput& a) {
   const size_t bytes = a.normalized.size() * sizeof(float);
   const uint64_t hash = Fnv1a(a.normalized.data(), bytes);
   const Entry* hit = nullptr;
@@ -113,7 +114,7 @@ const CachingDust3r::Entry* CachingDust3r::Cached(const Dust3rInput& a) {
   return hit;
 }
 
-matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInput& b) {
+matching::PairPointmaps CachingDust3r::Run(const vision::Dust3rInput& a, const vision::Dust3rInput& b) {
   const Entry* hit = Cached(a);
   // (reference, reference), as for the instance proposals: the query side is that same encoding.
   const auto query = &a == &b ? hit->encoding : model_->Encode(ViewOf(b));
@@ -125,7 +126,7 @@ matching::PairPointmaps CachingDust3r::Run(const Dust3rInput& a, const Dust3rInp
 }
 
 matching::PointmapFn CachingDust3r::Fn() {
-  return [this](const Dust3rInput& a, const Dust3rInput& b) { return Run(a, b); };
+  return [this](const vision::Dust3rInput& a, const vision::Dust3rInput& b) { return Run(a, b); };
 }
 
 }  // namespace freeloc::networks

@@ -32,10 +32,10 @@ class CachingDust3r {
   CachingDust3r& operator=(const CachingDust3r&) = delete;
 
   matching::PointmapFn Fn();  // valid while this object lives
-  matching::PairPointmaps Run(const Dust3rInput& ref, const Dust3rInput& query);
+  matching::PairPointmaps Run(const vision::Dust3rInput& ref, const vision::Dust3rInput& query);
   // Encodes a reference-side input now (once: later Runs with it reuse the encoding), so a scene's reference work
   // happens when the reference is set, not in its first query.
-  void Prime(const Dust3rInput& ref);
+  void Prime(const vision::Dust3rInput& ref);
   // The last pair run again swapped — its query as view 1, its reference as view 2, both encodings reused — with
   // only head 1: pts1/conf1 are the query's points in the query's own camera frame (MASt3R's query depth,
   // spec/mast3r.md §5.5). Throws before any Run.
@@ -46,7 +46,7 @@ class CachingDust3r {
 
  private:
   struct Entry;
-  const Entry* Cached(const Dust3rInput& ref);  // the entry of `ref`, encoding it when new (counted)
+  const Entry* Cached(const vision::Dust3rInput& ref);  // the entry of `ref`, encoding it when new (counted)
   std::shared_ptr<nn::Dust3rModel> model_;
   bool descriptors_ = false;
   std::vector<std::unique_ptr<Entry>> entries_;

@@ -13,19 +13,19 @@ namespace {
 TEST(CachingDust3r, ReusesReferenceEncodingsAndMatchesTheOneShotPath) {
   const auto model = nn::Dust3rModel::Load(testing::TinyModelPath("dust3r_tiny.pth"));
   const std::string s = testing::DemoPath("val/s00001/");
-  Dust3rPreprocessOptions po;
+  vision::Dust3rPreprocessOptions po;
   po.size = 224;
-  const Dust3rInput ref = PreprocessForDust3r(ReadImage(s + "seq0/frame_00000.png"), po);
-  const Dust3rInput q1 = PreprocessForDust3r(ReadImage(s + "seq1/frame_00000.png"), po);
-  const Dust3rInput q2 = PreprocessForDust3r(ReadImage(s + "seq1/frame_00004.png"), po);
-  Dust3rInput ref_copy = ref;  // same content, other object: still a hit
-  Dust3rInput other = ref;
+  const vision::Dust3rInput ref = vision::PreprocessForDust3r(io::ReadImage(s + "seq0/frame_00000.png"), po);
+  const vision::Dust3rInput q1 = vision::PreprocessForDust3r(io::ReadImage(s + "seq1/frame_00000.png"), po);
+  const vision::Dust3rInput q2 = vision::PreprocessForDust3r(io::ReadImage(s + "seq1/frame_00004.png"), po);
+  vision::Dust3rInput ref_copy = ref;  // same content, other object: still a hit
+  vision::Dust3rInput other = ref;
   other.normalized[12345] += 0.01f;  // one value differs: a miss
 
   CachingDust3r cache(model);
   const auto plain = Dust3rPointmapFn(model);
   const auto fn = cache.Fn();
-  for (const Dust3rInput* q : {&q1, &q2}) {
+  for (const vision::Dust3rInput* q : {&q1, &q2}) {
     const auto a = fn(ref_copy, *q), b = plain(ref, *q);
     ASSERT_EQ(a.pts2.size(), b.pts2.size());
     ASSERT_EQ(a.h1, b.h1);

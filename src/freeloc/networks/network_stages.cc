@@ -56,7 +56,7 @@ class Dust3rMatcher : public Matcher {
     fn_.Clear();
     have_last_ = have_swapped_ = false;
     ref_focal_ = -1;
-    ref_in_ = PreprocessForDust3r(image, instance_.preprocess);
+    ref_in_ = vision::PreprocessForDust3r(image, instance_.preprocess);
     ref_masks_.clear();
     fn_.Prime(ref_in_);  // the reference's encoder pass, once per scene
     if (!o_.UsesInstances()) return;
@@ -78,8 +78,8 @@ class Dust3rMatcher : public Matcher {
 
   matching::Correspondences Match(const Image& query, const Camera&, const FrameInputs& in, QueryResult* r) override {
     auto t0 = std::chrono::steady_clock::now();
-    q_in_ = PreprocessForDust3r(query, instance_.preprocess);
-    const Dust3rInput& q_in = q_in_;
+    q_in_ = vision::PreprocessForDust3r(query, instance_.preprocess);
+    const vision::Dust3rInput& q_in = q_in_;
     const auto tp = std::chrono::steady_clock::now();
     last_ = fn_.Fn()(ref_in_, q_in);
     r->timings.pair_ms = MsSince(tp);
@@ -147,7 +147,7 @@ class Dust3rMatcher : public Matcher {
   // The focal (original pixels, principal point at the original image's centre) of view 1's own pointmap at network
   // resolution: each network pixel is placed where it lies in the original image (the pixel-centre mapping of
   // docs/architecture.md §2), so the resize and crop need no separate correction.
-  static double FocalOfOwnPointmap(const std::vector<float>& pts, int h, int w, const Dust3rInput& in) {
+  static double FocalOfOwnPointmap(const std::vector<float>& pts, int h, int w, const vision::Dust3rInput& in) {
     std::vector<Eigen::Vector2d> pixels;
     std::vector<Eigen::Vector3d> points;
     pixels.reserve(static_cast<size_t>(h) * w);
@@ -166,7 +166,7 @@ class Dust3rMatcher : public Matcher {
   // z of a network-resolution pointmap (view 1's own camera frame) at every pixel of the original image: the network
   // pixel nearest to each original pixel (the pixel-centre mapping of docs/architecture.md §2); 0 outside the crop or
   // behind the camera.
-  static DepthMap NetworkDepthToImage(const std::vector<float>& pts, int h, int w, const Dust3rInput& in) {
+  static DepthMap NetworkDepthToImage(const std::vector<float>& pts, int h, int w, const vision::Dust3rInput& in) {
     DepthMap d(in.orig_width, in.orig_height);
     for (int y = 0; y < d.height; ++y)
       for (int x = 0; x < d.width; ++x) {
@@ -213,7 +213,7 @@ class Dust3rMatcher : public Matcher {
     r->timings.segment_ms = o_.instance_source == InstanceSource::kGiven ? 0.0 : MsSince(ts);
     // The masked pairs' network passes, timed and counted.
     const matching::PointmapFn model = fn_.Fn();
-    const matching::PointmapFn timed = [&](const Dust3rInput& a, const Dust3rInput& b) {
+    const matching::PointmapFn timed = [&](const vision::Dust3rInput& a, const vision::Dust3rInput& b) {
       const auto t0 = std::chrono::steady_clock::now();
       matching::PairPointmaps pm = model(a, b);
       r->timings.instance_pass_ms += MsSince(t0);
@@ -236,7 +236,7 @@ class Dust3rMatcher : public Matcher {
   std::shared_ptr<nn::SegGptModel> seggpt_;
   matching::InstanceOptions instance_;
   Image ref_;
-  Dust3rInput ref_in_, q_in_;
+  vision::Dust3rInput ref_in_, q_in_;
   matching::PairPointmaps last_;  // the last query's global pass (MASt3R depth comes from it)
   bool have_last_ = false;
   matching::PairPointmaps swapped_;  // … and its swapped pass, when asked for (the query's own pointmap)

@@ -26,7 +26,7 @@ double RelRms(const float* a, const float* b, int64_t n) {
   }
   return std::sqrt(num / std::max(den, 1e-30));
 }
-double RelRms(const TensorView& a, const TensorView& b) {
+double RelRms(const io::TensorView& a, const io::TensorView& b) {
   EXPECT_EQ(a.numel(), b.numel());
   return RelRms(a.as<float>(), b.as<float>(), std::min(a.numel(), b.numel()));
 }
@@ -80,10 +80,10 @@ TEST(Bf16, AccuracyCostOnTheParityFixtures) {
   const auto dust3r = Dust3rModel::Load(SharedPath("fixtures/dust3r/weights.safetensors"),
                                         SharedPath("fixtures/dust3r/config.json"), rt);
   for (const char* name : {"land_64x48", "png_s80", "png_s128"}) {
-    const SafetensorsFile f =
-        SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
     const auto view = [&](const char* k) {
-      const TensorView& t = f.Get(k);
+      const io::TensorView& t = f.Get(k);
       return Dust3rView{t.as<float>(), static_cast<int>(t.shape[2]), static_cast<int>(t.shape[3])};
     };
     const Dust3rPrediction p = dust3r->Run(view("view1.img"), view("view2.img"));
@@ -95,9 +95,9 @@ TEST(Bf16, AccuracyCostOnTheParityFixtures) {
   }
   const auto seggpt = SegGptModel::Load(SharedPath("fixtures/seggpt/weights.safetensors"),
                                         SharedPath("fixtures/seggpt/config.json"), rt);
-  const SafetensorsFile s = SafetensorsFile::Open(SharedPath("fixtures/seggpt/cases/a_instance.safetensors"));
-  const TensorView& imgs = s.Get("imgs");
-  const TensorView pred =
+  const io::SafetensorsFile s = io::SafetensorsFile::Open(SharedPath("fixtures/seggpt/cases/a_instance.safetensors"));
+  const io::TensorView& imgs = s.Get("imgs");
+  const io::TensorView pred =
       seggpt->Forward(std::vector<float>(imgs.as<float>(), imgs.as<float>() + imgs.numel()),
                       std::vector<float>(s.Get("tgts").as<float>(), s.Get("tgts").as<float>() + s.Get("tgts").numel()),
                       static_cast<int>(imgs.shape[0]), SegType::kInstance, false);
@@ -106,9 +106,9 @@ TEST(Bf16, AccuracyCostOnTheParityFixtures) {
   EXPECT_LT(es, 3e-2);
   const std::string dir = SharedPath("fixtures/metric3d/final_norm/");
   const auto m3d = Metric3dModel::Load(dir + "weights.safetensors", dir + "config.json", rt);
-  const SafetensorsFile m = SafetensorsFile::Open(dir + "cases/nyu.safetensors");
-  const TensorView& x = m.Get("input");
-  TensorView d, c, n;
+  const io::SafetensorsFile m = io::SafetensorsFile::Open(dir + "cases/nyu.safetensors");
+  const io::TensorView& x = m.Get("input");
+  io::TensorView d, c, n;
   m3d->Forward(std::vector<float>(x.as<float>(), x.as<float>() + x.numel()), &d, &c, &n);
   const double ed = RelRms(d, m.Get("pred_depth"));
   std::printf("bf16 Metric3D nyu: depth %.2e relative RMS from the fp32 reference\n", ed);

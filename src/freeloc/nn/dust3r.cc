@@ -161,7 +161,7 @@ struct Dust3rModel::Impl {
   std::vector<DecBlock> dec1, dec2;
   DptHead head[2];
   LocalHead local[2];  // MASt3R only
-  mutable std::map<std::string, TensorView>* taps = nullptr;
+  mutable std::map<std::string, io::TensorView>* taps = nullptr;
 
   void Tap(const std::string& name, const torch::Tensor& t) const {
     if (taps) (*taps)[name] = ToView(t);
@@ -236,7 +236,7 @@ struct Dust3rModel::Impl {
   }
 
   // dust3r/heads/postprocess.py: reg_dense_depth('exp') and reg_dense_conf.
-  void Postprocess(const torch::Tensor& raw, TensorView* pts, TensorView* conf) const {
+  void Postprocess(const torch::Tensor& raw, io::TensorView* pts, io::TensorView* conf) const {
     const torch::Tensor f = raw.permute({0, 2, 3, 1});  // B,H,W,4
     const torch::Tensor xyz = f.slice(3, 0, 3);
     const torch::Tensor d = xyz.norm(2, -1, true);
@@ -249,7 +249,7 @@ struct Dust3rModel::Impl {
   // full resolution; mast3r/model.py postprocess: desc = f/‖f‖ (desc_mode 'norm', no epsilon), desc_conf =
   // reg_dense_conf(desc_conf_mode) of the last channel (two_confs) or a copy of conf.
   void LocalFeatures(int which, const torch::Tensor& enc, const torch::Tensor& dec, int64_t h, int64_t w, int view,
-                     const TensorView& conf, TensorView* desc, TensorView* desc_conf) const {
+                     const io::TensorView& conf, io::TensorView* desc, io::TensorView* desc_conf) const {
     const std::string tp = "head" + std::to_string(view) + ".";
     const int64_t P = cfg.patch_size, D = cfg.local_feat_dim;
     const torch::Tensor in = torch::cat({enc, dec}, -1);  // [1, N, Ce + Cd]
@@ -334,12 +334,12 @@ Dust3rModel::Dust3rModel(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Dust3rModel::~Dust3rModel() = default;
 const Dust3rConfig& Dust3rModel::config() const { return impl_->cfg; }
 const RuntimeOptions& Dust3rModel::runtime() const { return impl_->rt; }
-void Dust3rModel::SetTapSink(std::map<std::string, TensorView>* sink) const { impl_->taps = sink; }
+void Dust3rModel::SetTapSink(std::map<std::string, io::TensorView>* sink) const { impl_->taps = sink; }
 
 std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, const std::string& config_path,
                                                const RuntimeOptions& runtime) {
   ApplyRuntime(runtime);
-  const Checkpoint ckpt = Checkpoint::Open(model_path);
+  const io::Checkpoint ckpt = io::Checkpoint::Open(model_path);
   const auto sd = ckpt.StateDict({"model", ""});
   FREELOC_CHECK(!sd.empty(), model_path << ": no tensors found; expected DUSt3R weights");
   // Constructor arguments: explicit config, the .pth's args.model, or a config.json beside the weights.
@@ -348,7 +348,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, co
   std::string cfg_file = config_path;
   if (cfg_file.empty()) {
     const auto sibling = std::filesystem::path(model_path).parent_path() / "config.json";
-    if (ckpt.format() == Checkpoint::Format::kSafetensors && std::filesystem::exists(sibling))
+    if (ckpt.format() == io::Checkpoint::Format::kSafetensors && std::filesystem::exists(sibling))
       cfg_file = sibling.string();
   }
   if (!cfg_file.empty()) {
@@ -365,7 +365,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Load(const std::string& model_path, co
   return Create(sd, kw, source, runtime, model_path);
 }
 
-std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, TensorView>& sd,
+std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, io::TensorView>& sd,
                                                  const std::map<std::string, std::string>& kw,
                                                  const std::string& source, const RuntimeOptions& runtime,
                                                  const std::string& weights) {

@@ -25,15 +25,15 @@ struct Dust3rView {
 };
 
 struct Dust3rPrediction {
-  TensorView pts3d_1;  // [H1, W1, 3] view 1's points in view 1's frame
-  TensorView conf_1;   // [H1, W1]
-  TensorView pts3d_2;  // [H2, W2, 3] view 2's points in view 1's frame
-  TensorView conf_2;   // [H2, W2]
+  io::TensorView pts3d_1;  // [H1, W1, 3] view 1's points in view 1's frame
+  io::TensorView conf_1;   // [H1, W1]
+  io::TensorView pts3d_2;  // [H2, W2, 3] view 2's points in view 1's frame
+  io::TensorView conf_2;   // [H2, W2]
   // MASt3R only (empty for DUSt3R or when not asked for): unit descriptors and their confidence per view.
-  TensorView desc_1;       // [H1, W1, D]
-  TensorView desc_conf_1;  // [H1, W1]
-  TensorView desc_2;       // [H2, W2, D]
-  TensorView desc_conf_2;  // [H2, W2]
+  io::TensorView desc_1;       // [H1, W1, D]
+  io::TensorView desc_conf_1;  // [H1, W1]
+  io::TensorView desc_2;       // [H2, W2, D]
+  io::TensorView desc_conf_2;  // [H2, W2]
   double encode_ms = 0, decode_ms = 0, heads_ms = 0;
 };
 
@@ -58,7 +58,7 @@ class Dust3rModel {
                                            const RuntimeOptions& runtime = {});
   // The same from a state dict already in memory (upstream key names) and constructor kwargs (may be empty).
   // `source`: where the kwargs came from (config().source); `weights`: what weight errors name (default: source).
-  static std::shared_ptr<Dust3rModel> Create(const std::map<std::string, TensorView>& state_dict,
+  static std::shared_ptr<Dust3rModel> Create(const std::map<std::string, io::TensorView>& state_dict,
                                              const std::map<std::string, std::string>& kwargs,
                                              const std::string& source, const RuntimeOptions& runtime = {},
                                              const std::string& weights = "");
@@ -76,7 +76,7 @@ class Dust3rModel {
   // Debugging/parity: when set, intermediate tensors are stored under the fixture names ("enc1.out",
   // "dec2.block05", "head1.rn2", "head1.raw", MASt3R's "head1.mlp_in", "head1.mlp_hidden", "head1.mlp_out",
   // "head1.local", …) as float32 TensorViews.
-  void SetTapSink(std::map<std::string, TensorView>* sink) const;
+  void SetTapSink(std::map<std::string, io::TensorView>* sink) const;
 
  private:
   struct Impl;

@@ -86,13 +86,13 @@ std::map<std::string, std::string> ParseConstructorKwargs(const std::string& cal
 
 namespace {
 
-const TensorView& Need(const std::map<std::string, TensorView>& sd, const std::string& name) {
+const io::TensorView& Need(const std::map<std::string, io::TensorView>& sd, const std::string& name) {
   auto it = sd.find(name);
   FREELOC_CHECK(it != sd.end(), "DUSt3R weights: tensor '" << name << "' is missing; is this a DUSt3R checkpoint?");
   return it->second;
 }
 
-int CountBlocks(const std::map<std::string, TensorView>& sd, const std::string& prefix) {
+int CountBlocks(const std::map<std::string, io::TensorView>& sd, const std::string& prefix) {
   int n = 0;
   while (sd.count(prefix + std::to_string(n) + ".norm1.weight")) ++n;
   return n;
@@ -154,11 +154,11 @@ void ParseConfMode(const std::string& text, const std::string& key, double* vmin
   *vmax = ParseBound(items[2], key, text);
 }
 
-Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const std::map<std::string, std::string>& kw,
-                              const std::string& source) {
+Dust3rConfig MakeDust3rConfig(const std::map<std::string, io::TensorView>& sd,
+                              const std::map<std::string, std::string>& kw, const std::string& source) {
   Dust3rConfig c;
   c.source = source;
-  const TensorView& pe = Need(sd, "patch_embed.proj.weight");
+  const io::TensorView& pe = Need(sd, "patch_embed.proj.weight");
   FREELOC_CHECK(pe.shape.size() == 4 && pe.shape[1] == 3 && pe.shape[2] == pe.shape[3],
                 "DUSt3R weights: patch_embed.proj.weight has shape " << pe.ShapeString() << ", expected [C, 3, p, p]");
   c.patch_size = static_cast<int>(pe.shape[2]);
@@ -166,7 +166,7 @@ Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const
   c.enc_depth = CountBlocks(sd, "enc_blocks.");
   FREELOC_CHECK(c.enc_depth > 0, "DUSt3R weights: no enc_blocks.*");
   c.enc_mlp = static_cast<int>(Need(sd, "enc_blocks.0.mlp.fc1.weight").shape[0]);
-  const TensorView& de = Need(sd, "decoder_embed.weight");
+  const io::TensorView& de = Need(sd, "decoder_embed.weight");
   c.dec_dim = static_cast<int>(de.shape[0]);
   FREELOC_CHECK(de.shape[1] == c.enc_dim, "DUSt3R weights: decoder_embed.weight "
                                               << de.ShapeString() << " does not take the encoder width " << c.enc_dim);
@@ -247,8 +247,8 @@ Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& sd, const
       c.desc_conf_mode_source = "desc_conf_mode";
     }
     const std::string lf = "downstream_head1.head_local_features.";
-    const TensorView& fc1 = Need(sd, lf + "fc1.weight");
-    const TensorView& fc2 = Need(sd, lf + "fc2.weight");
+    const io::TensorView& fc1 = Need(sd, lf + "fc1.weight");
+    const io::TensorView& fc2 = Need(sd, lf + "fc2.weight");
     FREELOC_CHECK(fc1.shape.size() == 2 && fc1.shape[1] == c.enc_dim + c.dec_dim,
                   "MASt3R weights: " << lf << "fc1.weight has shape " << fc1.ShapeString() << ", expected [hidden, "
                                      << c.enc_dim + c.dec_dim << "] (encoder + decoder width)");

@@ -51,7 +51,7 @@ void ParseConfMode(const std::string& text, const std::string& key, double* vmin
 
 // Builds the configuration from the state dict (shapes) and the constructor kwargs (may be empty: released
 // defaults). Throws freeloc::Error when they disagree or describe something other than the DUSt3R DPT model.
-Dust3rConfig MakeDust3rConfig(const std::map<std::string, TensorView>& state_dict,
+Dust3rConfig MakeDust3rConfig(const std::map<std::string, io::TensorView>& state_dict,
                               const std::map<std::string, std::string>& kwargs, const std::string& source);
 
 }  // namespace freeloc::nn

@@ -23,7 +23,7 @@ namespace {
 
 using testing::SharedPath;
 
-double Budget(const TensorView& a, const TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
+double Budget(const io::TensorView& a, const io::TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
   return testing::BudgetUse(a, b, atol, rtol);
 }
 
@@ -41,14 +41,14 @@ std::shared_ptr<Dust3rModel> OwnTinyModel(bool pth = false) {
                            testing::TinyModelPath("dust3r/config.json"));
 }
 
-Dust3rView ViewOf(const TensorView& img) {
+Dust3rView ViewOf(const io::TensorView& img) {
   return {img.as<float>(), static_cast<int>(img.shape[2]), static_cast<int>(img.shape[3])};
 }
 
 void CheckCase(const std::string& name, const Dust3rModel& model, bool intermediates) {
   SCOPED_TRACE(name);
-  const SafetensorsFile f = SafetensorsFile::Open(SharedPath("fixtures/dust3r/cases/" + name + ".safetensors"));
-  std::map<std::string, TensorView> taps;
+  const io::SafetensorsFile f = io::SafetensorsFile::Open(SharedPath("fixtures/dust3r/cases/" + name + ".safetensors"));
+  std::map<std::string, io::TensorView> taps;
   model.SetTapSink(intermediates ? &taps : nullptr);
   const Dust3rPrediction p = model.Run(ViewOf(f.Get("view1.img")), ViewOf(f.Get("view2.img")));
   model.SetTapSink(nullptr);
@@ -114,8 +114,8 @@ TEST(Dust3r, FromPngsThroughFreelocPreprocessing) {
                                         testing::PngPairCase{"png_s128", "img_a", "img_b", 128}}) {
     SCOPED_TRACE(c.name);
     const auto p = testing::PreprocessPngPair(SharedPath("fixtures/dust3r/images"), c).Run(*m);
-    const SafetensorsFile f =
-        SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + c.name + ".safetensors"));
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + c.name + ".safetensors"));
     EXPECT_LE(Budget(p.pts3d_1, f.Get("pred1.pts3d")), 1.0);
     EXPECT_LE(Budget(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")), 1.0);
     EXPECT_LE(Budget(p.conf_2, f.Get("pred2.conf")), 1.0);
@@ -165,13 +165,13 @@ TEST(Dust3r, HfLayoutReadsTheSiblingConfig) {
 TEST(Dust3r, BadWeightsAndInputs) {
   testing::TempDir tmp;
   // Drop one tensor and add a stray one: the error lists both.
-  const SafetensorsFile w = SafetensorsFile::Open(testing::TinyModelPath("dust3r/model.safetensors"));
-  std::vector<std::pair<std::string, TensorView>> ts;
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(testing::TinyModelPath("dust3r/model.safetensors"));
+  std::vector<std::pair<std::string, io::TensorView>> ts;
   for (const auto& n : w.names)
     if (n != "dec_blocks2.3.norm_y.bias") ts.emplace_back(n, w.Get(n));
   const float z = 0;
-  ts.emplace_back("extra.thing", MakeTensor(DType::kF32, {1}, &z, 4));
-  WriteSafetensors(tmp.File("bad.safetensors"), ts);
+  ts.emplace_back("extra.thing", io::MakeTensor(io::DType::kF32, {1}, &z, 4));
+  io::WriteSafetensors(tmp.File("bad.safetensors"), ts);
   try {
     Dust3rModel::Load(tmp.File("bad.safetensors"), testing::TinyModelPath("dust3r/config.json"));
     FAIL();

@@ -30,13 +30,14 @@ std::vector<PropagatedInstance> InstanceSegmenter::Propagate(
       prompts.push_back(ref);
       masks.push_back(rgb);
     }
-    const SegGptInputs in = PrepareSegGptInputs(prompts, masks, query, S);
+    const vision::SegGptInputs in = vision::PrepareSegGptInputs(prompts, masks, query, S);
     // Independent passes: the ensemble stays off even though the batch has several items.
-    const TensorView pred = model_->Forward(in.imgs, in.tgts, in.k, SegType::kInstance, false);
+    const io::TensorView pred = model_->Forward(in.imgs, in.tgts, in.k, SegType::kInstance, false);
     const size_t item = static_cast<size_t>(3) * 2 * S * S;
     for (int k = 0; k < in.k; ++k) {
       const auto& [id, rm] = ref_masks[start + static_cast<size_t>(k)];
-      const SegGptMask sm = PostprocessSegGpt(pred.as<float>() + item * k, S, query.width, query.height);
+      const vision::SegGptMask sm =
+          vision::PostprocessSegGpt(pred.as<float>() + item * k, S, query.width, query.height);
       PropagatedInstance pi;
       pi.id = id;
       pi.query_mask = sm.mask;

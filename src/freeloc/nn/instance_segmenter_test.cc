@@ -12,8 +12,8 @@ TEST(InstanceSegmenter, BatchedInstancesEqualSinglePrompts) {
   // freeloc's own tiny SegGPT (written by the build) on two bundled TUM frames with two rectangular instances.
   const auto model = SegGptModel::Load(testing::TinyModelPath("seggpt/model.safetensors"),
                                        testing::TinyModelPath("seggpt/config.json"));
-  const Image ref = ReadImage(testing::DemoPath("val/s00001/seq0/frame_00000.png"));
-  const Image query = ReadImage(testing::DemoPath("val/s00001/seq1/frame_00000.png"));
+  const Image ref = io::ReadImage(testing::DemoPath("val/s00001/seq0/frame_00000.png"));
+  const Image query = io::ReadImage(testing::DemoPath("val/s00001/seq1/frame_00000.png"));
   Image mask_rgb(ref.width, ref.height);
   std::vector<uint8_t> m1(ref.num_pixels(), 0), m2(ref.num_pixels(), 0);
   for (int y = 120; y < 320; ++y)
@@ -31,7 +31,7 @@ TEST(InstanceSegmenter, BatchedInstancesEqualSinglePrompts) {
   const auto both = seg.Propagate(ref, {{1, m1}, {2, m2}}, query);
   ASSERT_EQ(both.size(), 2u);
   // The first instance equals SegGPT's own single-prompt result.
-  const SegGptMask single = model->Segment({ref}, {mask_rgb}, query);
+  const vision::SegGptMask single = model->Segment({ref}, {mask_rgb}, query);
   EXPECT_EQ(both[0].query_mask, single.mask);
   EXPECT_EQ(both[0].id, 1);
   // Batching does not mix instances: instance 2 alone gives the same mask as in the batch.

@@ -26,7 +26,7 @@ using testing::SharedPath;
 
 constexpr const char* kCases[] = {"land_s128", "mixed_s80", "odd_s112"};
 
-double Budget(const TensorView& a, const TensorView& b) { return testing::BudgetUse(a, b, 1e-4, 1e-3); }
+double Budget(const io::TensorView& a, const io::TensorView& b) { return testing::BudgetUse(a, b, 1e-4, 1e-3); }
 
 std::string Fixture(const std::string& f) { return SharedPath("fixtures/mast3r/" + f); }
 
@@ -41,12 +41,12 @@ std::shared_ptr<Dust3rModel> OwnTinyModel() {
   return Dust3rModel::Load(Own("mast3r/model.safetensors"), Own("mast3r/config.json"));
 }
 
-Dust3rView ViewOf(const TensorView& img) {
+Dust3rView ViewOf(const io::TensorView& img) {
   return {img.as<float>(), static_cast<int>(img.shape[2]), static_cast<int>(img.shape[3])};
 }
 
 // The fixture's tensors with a leading batch dimension of 1 compare against ours without it.
-double WorstPrediction(const Dust3rPrediction& p, const SafetensorsFile& f, const std::string& prefix = "") {
+double WorstPrediction(const Dust3rPrediction& p, const io::SafetensorsFile& f, const std::string& prefix = "") {
   return std::max({Budget(p.pts3d_1, f.Get("pred1.pts3d")), Budget(p.conf_1, f.Get("pred1.conf")),
                    Budget(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")), Budget(p.conf_2, f.Get("pred2.conf")),
                    Budget(p.desc_1, f.Get("pred1.desc")), Budget(p.desc_2, f.Get("pred2.desc")),
@@ -56,8 +56,8 @@ double WorstPrediction(const Dust3rPrediction& p, const SafetensorsFile& f, cons
 
 void CheckCase(const std::string& name, const Dust3rModel& model, bool intermediates) {
   SCOPED_TRACE(name);
-  const SafetensorsFile f = SafetensorsFile::Open(Fixture("cases/" + name + ".safetensors"));
-  std::map<std::string, TensorView> taps;
+  const io::SafetensorsFile f = io::SafetensorsFile::Open(Fixture("cases/" + name + ".safetensors"));
+  std::map<std::string, io::TensorView> taps;
   model.SetTapSink(intermediates ? &taps : nullptr);
   const Dust3rPrediction p = model.Run(ViewOf(f.Get("view1.img")), ViewOf(f.Get("view2.img")));
   model.SetTapSink(nullptr);
@@ -130,13 +130,13 @@ TEST(Mast3r, FromPngsThroughFreelocPreprocessing) {
                                         testing::PngPairCase{"odd_s112", "img_b", "img_a", 112}}) {
     SCOPED_TRACE(c.name);
     const testing::PreprocessedPair in = testing::PreprocessPngPair(Fixture("images"), c);
-    const SafetensorsFile f = SafetensorsFile::Open(Fixture(std::string("cases/") + c.name + ".safetensors"));
+    const io::SafetensorsFile f = io::SafetensorsFile::Open(Fixture(std::string("cases/") + c.name + ".safetensors"));
     // Preprocessing is bit-exact.
-    EXPECT_TRUE(testing::SameBytes(MakeTensor(DType::kU8, {static_cast<int64_t>(in.a.image.data.size())},
-                                              in.a.image.data.data(), in.a.image.data.size()),
+    EXPECT_TRUE(testing::SameBytes(io::MakeTensor(io::DType::kU8, {static_cast<int64_t>(in.a.image.data.size())},
+                                                  in.a.image.data.data(), in.a.image.data.size()),
                                    f.Get("view1.img_u8")));
-    EXPECT_TRUE(testing::SameBytes(MakeTensor(DType::kU8, {static_cast<int64_t>(in.b.image.data.size())},
-                                              in.b.image.data.data(), in.b.image.data.size()),
+    EXPECT_TRUE(testing::SameBytes(io::MakeTensor(io::DType::kU8, {static_cast<int64_t>(in.b.image.data.size())},
+                                                  in.b.image.data.data(), in.b.image.data.size()),
                                    f.Get("view2.img_u8")));
     EXPECT_LE(WorstPrediction(in.Run(*m), f), 1.0);
   }
@@ -145,17 +145,18 @@ TEST(Mast3r, FromPngsThroughFreelocPreprocessing) {
 // two_confs=False (fixture README §2): fc2 cut to its first D·256 rows; desc unchanged, desc_conf = conf.
 TEST(Mast3r, TwoConfsFalseVariant) {
   FREELOC_REQUIRE_SHARED("fixtures/mast3r/weights.safetensors");
-  const SafetensorsFile w = SafetensorsFile::Open(Fixture("weights.safetensors"));
-  std::map<std::string, TensorView> sd;
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(Fixture("weights.safetensors"));
+  std::map<std::string, io::TensorView> sd;
   std::vector<std::vector<float>> keep;
   for (const auto& n : w.names) {
-    TensorView t = w.Get(n);
+    io::TensorView t = w.Get(n);
     if (n.find("head_local_features.fc2") != std::string::npos) {
       const int64_t rows = 8 * 256;
       const int64_t cols = t.shape.size() == 2 ? t.shape[1] : 1;
       keep.emplace_back(t.as<float>(), t.as<float>() + rows * cols);
-      t = MakeTensor(DType::kF32, t.shape.size() == 2 ? std::vector<int64_t>{rows, cols} : std::vector<int64_t>{rows},
-                     keep.back().data(), keep.back().size() * 4);
+      t = io::MakeTensor(io::DType::kF32,
+                         t.shape.size() == 2 ? std::vector<int64_t>{rows, cols} : std::vector<int64_t>{rows},
+                         keep.back().data(), keep.back().size() * 4);
     }
     sd[n] = t;
   }
@@ -164,7 +165,7 @@ TEST(Mast3r, TwoConfsFalseVariant) {
                                            {"two_confs", "False"},         {"desc_conf_mode", "('exp', 0, inf)"}};
   const auto m = Dust3rModel::Create(sd, kw, "two_confs=False variant");
   EXPECT_FALSE(m->config().two_confs);
-  const SafetensorsFile f = SafetensorsFile::Open(Fixture("cases/mixed_s80.safetensors"));
+  const io::SafetensorsFile f = io::SafetensorsFile::Open(Fixture("cases/mixed_s80.safetensors"));
   const auto p = m->Run(ViewOf(f.Get("view1.img")), ViewOf(f.Get("view2.img")));
   EXPECT_LE(WorstPrediction(p, f, "noconf."), 1.0);
   // Saying two_confs=True of the cut weights is refused with both row counts.
@@ -176,8 +177,8 @@ TEST(Mast3r, TwoConfsFalseVariant) {
 // A missing desc_conf_mode falls back to conf_mode ('exp', 1, inf): desc_conf = 1 + exp(x), i.e. the stored
 // exp(x) + 1 (spec/mast3r.md pitfall 3).
 TEST(Mast3r, DescConfModeFallsBackToConfMode) {
-  const SafetensorsFile w = SafetensorsFile::Open(Own("mast3r/model.safetensors"));
-  std::map<std::string, TensorView> sd;
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(Own("mast3r/model.safetensors"));
+  std::map<std::string, io::TensorView> sd;
   for (const auto& n : w.names) sd[n] = w.Get(n);
   const auto m = Dust3rModel::Create(
       sd, {{"output_mode", "pts3d+desc8"}, {"enc_num_heads", "2"}, {"dec_num_heads", "2"}, {"two_confs", "True"}},
@@ -188,7 +189,7 @@ TEST(Mast3r, DescConfModeFallsBackToConfMode) {
   const std::vector<float> i1 = testing::RandomImage(112, 80, 3), i2 = testing::RandomImage(80, 112, 4);
   const auto p = m->Run({i1.data(), 112, 80}, {i2.data(), 80, 112});
   const auto normal = OwnTinyModel()->Run({i1.data(), 112, 80}, {i2.data(), 80, 112});
-  const TensorView& ref = normal.desc_conf_2;
+  const io::TensorView& ref = normal.desc_conf_2;
   double worst = 0;
   for (int64_t i = 0; i < ref.numel(); ++i)
     worst = std::max(worst, std::abs(p.desc_conf_2.as<float>()[i] - (ref.as<float>()[i] + 1.0)) /
@@ -203,8 +204,8 @@ TEST(Mast3r, DescConfModeFallsBackToConfMode) {
 // not scratch.layer_rn.{i}) and config.json is the flat kwargs with bare Infinity tokens.
 TEST(Mast3r, HfFolderWithInfinityTokens) {
   testing::TempDir tmp;
-  const SafetensorsFile w = SafetensorsFile::Open(Own("mast3r/model.safetensors"));
-  std::vector<std::pair<std::string, TensorView>> ts;
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(Own("mast3r/model.safetensors"));
+  std::vector<std::pair<std::string, io::TensorView>> ts;
   std::map<std::string, std::string> dropped;
   for (const auto& n : w.names) {
     if (n.find("scratch.layer_rn.") != std::string::npos) {
@@ -214,7 +215,7 @@ TEST(Mast3r, HfFolderWithInfinityTokens) {
     ts.emplace_back(n, w.Get(n));
   }
   EXPECT_EQ(dropped.size(), 8u);
-  WriteSafetensors(tmp.File("model.safetensors"), ts, dropped);
+  io::WriteSafetensors(tmp.File("model.safetensors"), ts, dropped);
   testing::WriteText(tmp.File("config.json"), R"({
   "conf_mode": ["exp", 1, Infinity],
   "dec_depth": 12, "dec_embed_dim": 24, "dec_num_heads": 2,
@@ -261,7 +262,7 @@ namespace {
 // grids. The fixture trunk with a random local-feature head; desc/desc_conf recomputed from the tapped MLP output
 // with plain index arithmetic (pixel shuffle k = c·256 + i·16 + j, f/‖f‖, exp or conf copy).
 TEST(Mast3r, OtherDescriptorSizesAndWidths) {
-  const SafetensorsFile w = SafetensorsFile::Open(Own("mast3r/model.safetensors"));
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(Own("mast3r/model.safetensors"));
   const std::vector<float> i1 = testing::RandomImage(112, 80, 8), i2 = testing::RandomImage(80, 112, 9);
   uint32_t state = 99;
   auto rnd = [&] {
@@ -274,7 +275,7 @@ TEST(Mast3r, OtherDescriptorSizesAndWidths) {
   };
   for (const Variant& v : {Variant{16, 40, false}, Variant{3, 17, true}, Variant{24, 64, true}}) {
     SCOPED_TRACE(::testing::Message() << "D=" << v.D << " hidden " << v.hidden << " two_confs " << v.two_confs);
-    std::map<std::string, TensorView> sd;
+    std::map<std::string, io::TensorView> sd;
     std::vector<std::vector<float>> keep;
     for (const auto& n : w.names)
       if (n.find("head_local_features") == std::string::npos) sd[n] = w.Get(n);
@@ -286,7 +287,7 @@ TEST(Mast3r, OtherDescriptorSizesAndWidths) {
         for (int64_t s : shape) n *= s;
         keep.emplace_back(static_cast<size_t>(n));
         for (auto& x : keep.back()) x = scale * rnd();
-        sd[name] = MakeTensor(DType::kF32, shape, keep.back().data(), keep.back().size() * 4);
+        sd[name] = io::MakeTensor(io::DType::kF32, shape, keep.back().data(), keep.back().size() * 4);
       };
       add(pre + "fc1.weight", {v.hidden, 56}, 0.3f);
       add(pre + "fc1.bias", {v.hidden}, 0.1f);
@@ -300,15 +301,15 @@ TEST(Mast3r, OtherDescriptorSizesAndWidths) {
                                         {"two_confs", v.two_confs ? "True" : "False"},
                                         {"desc_conf_mode", "('exp', 0, inf)"}},
                                        "variant");
-    std::map<std::string, TensorView> taps;
+    std::map<std::string, io::TensorView> taps;
     m->SetTapSink(&taps);
     const auto p = m->Run({i1.data(), 112, 80}, {i2.data(), 80, 112});
     m->SetTapSink(nullptr);
     for (int view = 1; view <= 2; ++view) {
-      const TensorView& out = taps.at("head" + std::to_string(view) + ".mlp_out");
-      const TensorView& desc = view == 1 ? p.desc_1 : p.desc_2;
-      const TensorView& dconf = view == 1 ? p.desc_conf_1 : p.desc_conf_2;
-      const TensorView& conf = view == 1 ? p.conf_1 : p.conf_2;
+      const io::TensorView& out = taps.at("head" + std::to_string(view) + ".mlp_out");
+      const io::TensorView& desc = view == 1 ? p.desc_1 : p.desc_2;
+      const io::TensorView& dconf = view == 1 ? p.desc_conf_1 : p.desc_conf_2;
+      const io::TensorView& conf = view == 1 ? p.conf_1 : p.conf_2;
       const int64_t H = desc.shape[0], W = desc.shape[1], wt = W / 16;
       ASSERT_EQ(desc.shape[2], v.D);
       double worst = 0;

@@ -156,7 +156,7 @@ struct Metric3dModel::Impl {
   ConvGru gru08, gru16, gru32;
   Conv fh1d, fh2d, fh1n, fh2n, mask0, mask2;
   torch::Tensor bins;
-  mutable std::map<std::string, TensorView>* taps = nullptr;
+  mutable std::map<std::string, io::TensorView>* taps = nullptr;
   void LoadEncoder(WeightStore& ws);
   void LoadDecoder(WeightStore& ws);
   void LoadRefiner(WeightStore& ws);
@@ -292,14 +292,14 @@ std::vector<int> Ints(const nlohmann::json& j) { return j.get<std::vector<int>>(
 Metric3dModel::Metric3dModel(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Metric3dModel::~Metric3dModel() = default;
 const Metric3dConfig& Metric3dModel::config() const { return impl_->cfg; }
-void Metric3dModel::SetTapSink(std::map<std::string, TensorView>* sink) const { impl_->taps = sink; }
+void Metric3dModel::SetTapSink(std::map<std::string, io::TensorView>* sink) const { impl_->taps = sink; }
 
 std::shared_ptr<Metric3dModel> Metric3dModel::Load(const std::string& model_path, const std::string& config_path,
                                                    const RuntimeOptions& runtime) {
-  const Checkpoint ckpt = Checkpoint::Open(model_path);
+  const io::Checkpoint ckpt = io::Checkpoint::Open(model_path);
   const auto sd = ckpt.StateDict({"model_state_dict", "state_dict", "model", ""});
   const std::string json =
-      ReadModelConfig(model_path, config_path, ckpt.format() == Checkpoint::Format::kSafetensors, "Metric3D");
+      ReadModelConfig(model_path, config_path, ckpt.format() == io::Checkpoint::Format::kSafetensors, "Metric3D");
   return Create(sd, json, model_path, runtime);
 }
 
@@ -500,7 +500,7 @@ void Metric3dModel::Impl::LoadRefiner(WeightStore& ws) {
   Conv1(ws, p, mask2, "decoder.update_block.mask.2", 144, hd);
 }
 
-std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string, TensorView>& sd_in,
+std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string, io::TensorView>& sd_in,
                                                      const std::string& config_json, const std::string& source,
                                                      const RuntimeOptions& runtime) {
   ApplyRuntime(runtime);
@@ -530,8 +530,8 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string,
   return std::shared_ptr<Metric3dModel>(new Metric3dModel(std::move(impl)));
 }
 
-void Metric3dModel::Forward(const std::vector<float>& input, TensorView* pred_depth, TensorView* confidence,
-                            TensorView* pred_normal) const {
+void Metric3dModel::Forward(const std::vector<float>& input, io::TensorView* pred_depth, io::TensorView* confidence,
+                            io::TensorView* pred_normal) const {
   torch::NoGradGuard ng;
   const int H = impl_->cfg.input_h, W = impl_->cfg.input_w;
   FREELOC_CHECK(input.size() == static_cast<size_t>(3) * H * W,
@@ -550,15 +550,15 @@ Metric3dOutput Metric3dModel::Estimate(const Image& image, const Camera& camera)
   camera.Validate("Metric3D intrinsics");
   torch::NoGradGuard ng;
   Metric3dOutput out;
-  out.input = PrepareMetric3dInput(image, impl_->cfg.input_h, impl_->cfg.input_w);
+  out.input = vision::PrepareMetric3dInput(image, impl_->cfg.input_h, impl_->cfg.input_w);
   const auto t0 = std::chrono::steady_clock::now();
-  TensorView d, c, n;
+  io::TensorView d, c, n;
   Forward(out.input.input, &d, &c, &n);
   out.network_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   out.canonical_depth = d;
   const auto& pad = out.input.pad;
   const int H = out.input.height, W = out.input.width;
-  auto unpad = [&](const TensorView& t, int ch) {
+  auto unpad = [&](const io::TensorView& t, int ch) {
     const torch::Tensor full = ToTorch(t).reshape({1, ch, H, W});
     return full.slice(2, pad[0], H - pad[1]).slice(3, pad[2], W - pad[3]);
   };

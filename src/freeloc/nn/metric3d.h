@@ -35,11 +35,11 @@ struct Metric3dConfig {
 };
 
 struct Metric3dOutput {
-  DepthMap depth;                 // metric depth at the original resolution (metres, clamp [0, 300])
-  std::vector<float> confidence;  // [h, w], raw network confidence resized like depth
-  std::vector<float> normal;      // [3, h, w] unit normal xyz (camera frame), not re-normalised after resizing
-  TensorView canonical_depth;     // [H, W] network-resolution canonical depth (metres at focal 1000), padded
-  Metric3dInput input;            // the preprocessing that was applied
+  DepthMap depth;                  // metric depth at the original resolution (metres, clamp [0, 300])
+  std::vector<float> confidence;   // [h, w], raw network confidence resized like depth
+  std::vector<float> normal;       // [3, h, w] unit normal xyz (camera frame), not re-normalised after resizing
+  io::TensorView canonical_depth;  // [H, W] network-resolution canonical depth (metres at focal 1000), padded
+  vision::Metric3dInput input;     // the preprocessing that was applied
   double network_ms = 0;
   std::map<std::string, std::string> metadata;  // model, variant, precision, input size, scale, focal factor
 };
@@ -50,22 +50,22 @@ class Metric3dModel {
   // with the same names, plus an optional config.json (the fixture's layout: encoder/decoder/data sections).
   static std::shared_ptr<Metric3dModel> Load(const std::string& model_path, const std::string& config_path = "",
                                              const RuntimeOptions& runtime = {});
-  static std::shared_ptr<Metric3dModel> Create(const std::map<std::string, TensorView>& state_dict,
+  static std::shared_ptr<Metric3dModel> Create(const std::map<std::string, io::TensorView>& state_dict,
                                                const std::string& config_json, const std::string& source,
                                                const RuntimeOptions& runtime = {});
   ~Metric3dModel();
   const Metric3dConfig& config() const;
 
   // The network on a prepared input [3, H, W]: canonical depth, confidence [H, W] and normal [4, H, W].
-  void Forward(const std::vector<float>& input, TensorView* pred_depth, TensorView* confidence,
-               TensorView* pred_normal) const;
+  void Forward(const std::vector<float>& input, io::TensorView* pred_depth, io::TensorView* confidence,
+               io::TensorView* pred_normal) const;
   // Preprocessing + network + postprocessing (hubconf.py): metric depth with this frame's intrinsics.
   Metric3dOutput Estimate(const Image& image, const Camera& camera) const;
 
   // Parity taps under the fixture names (patch_embed_out, pos_embed_interp, tokens_prepared, encoder_features,
   // readout_{0..3}, ref_feat, init_depth_expectation, normal_head_raw, depth_init, net_init_*, context_*,
   // iter_state, net_final_*, up_mask_final).
-  void SetTapSink(std::map<std::string, TensorView>* sink) const;
+  void SetTapSink(std::map<std::string, io::TensorView>* sink) const;
 
  private:
   struct Impl;

@@ -17,7 +17,7 @@ namespace {
 
 using testing::SharedPath;
 
-double MaxAbs(const float* a, const TensorView& b, int64_t n, double skip_below = -1) {
+double MaxAbs(const float* a, const io::TensorView& b, int64_t n, double skip_below = -1) {
   EXPECT_EQ(n, b.numel());
   double w = 0;
   for (int64_t i = 0; i < std::min(n, b.numel()); ++i) {
@@ -27,7 +27,7 @@ double MaxAbs(const float* a, const TensorView& b, int64_t n, double skip_below 
   }
   return w;
 }
-double MaxAbs(const TensorView& a, const TensorView& b, double skip_below = -1) {
+double MaxAbs(const io::TensorView& a, const io::TensorView& b, double skip_below = -1) {
   return MaxAbs(a.as<float>(), b, a.numel(), skip_below);
 }
 
@@ -44,12 +44,12 @@ TEST(Metric3d, ParityOnBothPathsAndEveryCase) {
     EXPECT_EQ(m->config().multi_output, std::string(variant) == "intermediate");
     for (const char* name : {"nyu", "kitti", "portrait"}) {
       SCOPED_TRACE(std::string(variant) + " " + name);
-      const SafetensorsFile f = SafetensorsFile::Open(dir + "cases/" + name + ".safetensors");
+      const io::SafetensorsFile f = io::SafetensorsFile::Open(dir + "cases/" + name + ".safetensors");
       // Preprocessing from the stored image.
-      const TensorView& rgb = f.Get("image_rgb");
+      const io::TensorView& rgb = f.Get("image_rgb");
       Image im(static_cast<int>(rgb.shape[1]), static_cast<int>(rgb.shape[0]));
       std::memcpy(im.data.data(), rgb.data, rgb.nbytes);
-      const Metric3dInput in = PrepareMetric3dInput(im, m->config().input_h, m->config().input_w);
+      const vision::Metric3dInput in = vision::PrepareMetric3dInput(im, m->config().input_h, m->config().input_w);
       EXPECT_EQ(in.resized_h, f.Get("resized_hw").as<int64_t>()[0]);
       EXPECT_EQ(in.resized_w, f.Get("resized_hw").as<int64_t>()[1]);
       for (int k = 0; k < 4; ++k) EXPECT_EQ(in.pad[k], f.Get("pad_info").as<int64_t>()[k]);
@@ -57,10 +57,10 @@ TEST(Metric3d, ParityOnBothPathsAndEveryCase) {
       EXPECT_EQ(std::memcmp(in.padded.data.data(), f.Get("image_padded").data, f.Get("image_padded").nbytes), 0);
       EXPECT_LE(MaxAbs(in.input.data(), f.Get("input"), static_cast<int64_t>(in.input.size())), 1e-6);
       // Network from the stored input, every stored intermediate.
-      std::map<std::string, TensorView> taps;
+      std::map<std::string, io::TensorView> taps;
       m->SetTapSink(&taps);
-      const TensorView& x = f.Get("input");
-      TensorView d, c, n;
+      const io::TensorView& x = f.Get("input");
+      io::TensorView d, c, n;
       m->Forward(std::vector<float>(x.as<float>(), x.as<float>() + x.numel()), &d, &c, &n);
       m->SetTapSink(nullptr);
       const Tol tols[] = {{"patch_embed_out", 1e-4}, {"pos_embed_interp", 1e-4},
@@ -90,7 +90,7 @@ TEST(Metric3d, ParityOnBothPathsAndEveryCase) {
       EXPECT_LE(en, 2e-4);
       worst_ratio = std::max({worst_ratio, ed / 5e-3, ec / 2e-4, en / 2e-4});
       // Metric depth and normals at the original resolution, through Estimate() with the case's intrinsics.
-      const TensorView& K = f.Get("intrinsics");
+      const io::TensorView& K = f.Get("intrinsics");
       const Camera cam{K.as<double>()[0], K.as<double>()[1], K.as<double>()[2], K.as<double>()[3], im.width, im.height};
       const Metric3dOutput out = m->Estimate(im, cam);
       const double factor = K.as<double>()[0] * in.scale / 1000.0;
@@ -107,12 +107,12 @@ TEST(Metric3d, ParityOnBothPathsAndEveryCase) {
 
 TEST(Metric3d, MissingAndUnexpectedTensorsAreListed) {
   const std::string dir = testing::TinyModelPath("metric3d/");  // freeloc's own tiny model, written by the build
-  const SafetensorsFile w = SafetensorsFile::Open(dir + "model.safetensors");
-  std::map<std::string, TensorView> sd;
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(dir + "model.safetensors");
+  std::map<std::string, io::TensorView> sd;
   for (const auto& n : w.names)
     if (n != "depth_model.decoder.update_block.gru16.convq.bias") sd[n] = w.Get(n);
   const float z = 0;
-  sd["depth_model.decoder.extra"] = MakeTensor(DType::kF32, {1}, &z, 4);
+  sd["depth_model.decoder.extra"] = io::MakeTensor(io::DType::kF32, {1}, &z, 4);
   try {
     Metric3dModel::Create(sd, testing::ReadText(dir + "config.json"), "broken.pth");
     FAIL();

@@ -98,7 +98,7 @@ struct SegGptModel::Impl {
   Linear dec_embed;
   Conv dec_conv, dec_head;
   torch::Tensor dec_ln_w, dec_ln_b;
-  mutable std::map<std::string, TensorView>* taps = nullptr;
+  mutable std::map<std::string, io::TensorView>* taps = nullptr;
   void Tap(const std::string& n, const torch::Tensor& t) const {
     if (taps) (*taps)[n] = ToView(t);
   }
@@ -218,14 +218,14 @@ int JsonInt(const nlohmann::json& j, std::initializer_list<const char*> keys, in
 SegGptModel::SegGptModel(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 SegGptModel::~SegGptModel() = default;
 const SegGptConfig& SegGptModel::config() const { return impl_->cfg; }
-void SegGptModel::SetTapSink(std::map<std::string, TensorView>* sink) const { impl_->taps = sink; }
+void SegGptModel::SetTapSink(std::map<std::string, io::TensorView>* sink) const { impl_->taps = sink; }
 
 std::shared_ptr<SegGptModel> SegGptModel::Load(const std::string& model_path, const std::string& config_path,
                                                const RuntimeOptions& runtime) {
-  const Checkpoint ckpt = Checkpoint::Open(model_path);
+  const io::Checkpoint ckpt = io::Checkpoint::Open(model_path);
   auto sd = ckpt.StateDict({"model", ""});
   const std::string json =
-      ReadModelConfig(model_path, config_path, ckpt.format() == Checkpoint::Format::kSafetensors, "SegGPT");
+      ReadModelConfig(model_path, config_path, ckpt.format() == io::Checkpoint::Format::kSafetensors, "SegGPT");
   return Create(sd, json, model_path, runtime);
 }
 
@@ -279,7 +279,7 @@ SegGptConfig ConfigFromTensors(const std::map<std::string, torch::Tensor>& tenso
 
 }  // namespace
 
-std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, TensorView>& sd_in,
+std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, io::TensorView>& sd_in,
                                                  const std::string& config_json, const std::string& source,
                                                  const RuntimeOptions& runtime) {
   ApplyRuntime(runtime);
@@ -327,8 +327,8 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, Ten
   return std::shared_ptr<SegGptModel>(new SegGptModel(std::move(impl)));
 }
 
-TensorView SegGptModel::Forward(const std::vector<float>& imgs, const std::vector<float>& tgts, int k, SegType type,
-                                bool ensemble) const {
+io::TensorView SegGptModel::Forward(const std::vector<float>& imgs, const std::vector<float>& tgts, int k, SegType type,
+                                    bool ensemble) const {
   torch::NoGradGuard ng;
   const int S = impl_->cfg.half;
   const size_t item = static_cast<size_t>(3) * 2 * S * S;
@@ -340,13 +340,13 @@ TensorView SegGptModel::Forward(const std::vector<float>& imgs, const std::vecto
   return ToView(impl_->Forward(a.clone(), b.clone(), type, ensemble));
 }
 
-SegGptMask SegGptModel::Segment(const std::vector<Image>& prompt_images, const std::vector<Image>& prompt_masks,
-                                const Image& target, SegType type, TensorView* raw_pred) const {
-  const SegGptInputs in = PrepareSegGptInputs(prompt_images, prompt_masks, target, impl_->cfg.half);
+vision::SegGptMask SegGptModel::Segment(const std::vector<Image>& prompt_images, const std::vector<Image>& prompt_masks,
+                                        const Image& target, SegType type, io::TensorView* raw_pred) const {
+  const vision::SegGptInputs in = vision::PrepareSegGptInputs(prompt_images, prompt_masks, target, impl_->cfg.half);
   // run_one_image: the ensemble is on exactly when there are several prompts.
-  const TensorView pred = Forward(in.imgs, in.tgts, in.k, type, in.k > 1);
+  const io::TensorView pred = Forward(in.imgs, in.tgts, in.k, type, in.k > 1);
   if (raw_pred) *raw_pred = pred;
-  return PostprocessSegGpt(pred.as<float>(), in.half, target.width, target.height);
+  return vision::PostprocessSegGpt(pred.as<float>(), in.half, target.width, target.height);
 }
 
 }  // namespace freeloc::nn

@@ -39,7 +39,7 @@ class SegGptModel {
   // safetensors with original names plus `config_path` (the fixture's config.json).
   static std::shared_ptr<SegGptModel> Load(const std::string& model_path, const std::string& config_path = "",
                                            const RuntimeOptions& runtime = {});
-  static std::shared_ptr<SegGptModel> Create(const std::map<std::string, TensorView>& state_dict,
+  static std::shared_ptr<SegGptModel> Create(const std::map<std::string, io::TensorView>& state_dict,
                                              const std::string& config_json, const std::string& source,
                                              const RuntimeOptions& runtime = {});
   ~SegGptModel();
@@ -47,15 +47,16 @@ class SegGptModel {
 
   // The network on prepared inputs [K, 3, 2S, S]; the feature ensemble runs when `ensemble` (the original code
   // turns it on exactly when K > 1). Returns pred [K, 3, 2S, S] in normalised space.
-  TensorView Forward(const std::vector<float>& imgs, const std::vector<float>& tgts, int k, SegType type,
-                     bool ensemble) const;
+  io::TensorView Forward(const std::vector<float>& imgs, const std::vector<float>& tgts, int k, SegType type,
+                         bool ensemble) const;
   // Preprocessing + network + post-processing of item 0 (as run_one_image): the binary mask at the target's size.
-  SegGptMask Segment(const std::vector<Image>& prompt_images, const std::vector<Image>& prompt_masks,
-                     const Image& target, SegType type = SegType::kInstance, TensorView* raw_pred = nullptr) const;
+  vision::SegGptMask Segment(const std::vector<Image>& prompt_images, const std::vector<Image>& prompt_masks,
+                             const Image& target, SegType type = SegType::kInstance,
+                             io::TensorView* raw_pred = nullptr) const;
 
   // Parity taps under the fixture names: embeddings, block0_out, merged, decoder_input, decoder_pixel_shuffled,
   // pos_embed_resized.
-  void SetTapSink(std::map<std::string, TensorView>* sink) const;
+  void SetTapSink(std::map<std::string, io::TensorView>* sink) const;
 
  private:
   struct Impl;

@@ -18,7 +18,7 @@ namespace {
 
 using testing::SharedPath;
 
-double Budget(const TensorView& a, const TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
+double Budget(const io::TensorView& a, const io::TensorView& b, double atol = 1e-4, double rtol = 1e-3) {
   return testing::BudgetUse(a, b, atol, rtol);
 }
 
@@ -34,7 +34,7 @@ std::shared_ptr<SegGptModel> OwnTiny() {
                            testing::TinyModelPath("seggpt/config.json"));
 }
 
-std::vector<float> Vec(const TensorView& t) { return std::vector<float>(t.as<float>(), t.as<float>() + t.numel()); }
+std::vector<float> Vec(const io::TensorView& t) { return std::vector<float>(t.as<float>(), t.as<float>() + t.numel()); }
 
 TEST(SegGpt, ConfigFromShapesAndJson) {
   const auto m = OwnTiny();
@@ -50,15 +50,15 @@ TEST(SegGpt, ParityOnEveryCaseFromStoredInputs) {
   const auto m = Tiny();
   for (const char* name : {"a_instance", "b_semantic", "c_ensemble", "d_resize_back"}) {
     SCOPED_TRACE(name);
-    const SafetensorsFile f =
-        SafetensorsFile::Open(SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
-    const TensorView& imgs = f.Get("imgs");
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
+    const io::TensorView& imgs = f.Get("imgs");
     const int k = static_cast<int>(imgs.shape[0]);
     const SegType type = f.Get("seg_type").as<float>()[0] > 0.5f ? SegType::kInstance : SegType::kSemantic;
     const bool ensemble = f.Get("merge_between_batch").as<int64_t>()[0] >= 0;
-    std::map<std::string, TensorView> taps;
+    std::map<std::string, io::TensorView> taps;
     m->SetTapSink(&taps);
-    const TensorView pred = m->Forward(Vec(imgs), Vec(f.Get("tgts")), k, type, ensemble);
+    const io::TensorView pred = m->Forward(Vec(imgs), Vec(f.Get("tgts")), k, type, ensemble);
     m->SetTapSink(nullptr);
     double worst = Budget(pred, f.Get("pred"));
     EXPECT_LE(worst, 1.0) << "pred";
@@ -83,25 +83,25 @@ TEST(SegGpt, FromPngsToTheBinaryMask) {
   for (const char* name : {"a_instance", "b_semantic", "c_ensemble", "d_resize_back"}) {
     SCOPED_TRACE(name);
     const std::string dir = SharedPath(std::string("fixtures/seggpt/images/") + name + "/");
-    const SafetensorsFile f =
-        SafetensorsFile::Open(SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
     std::vector<Image> pi, pm;
     for (int k = 0; std::filesystem::exists(dir + "prompt_image_" + std::to_string(k) + ".png"); ++k) {
-      pi.push_back(ReadImage(dir + "prompt_image_" + std::to_string(k) + ".png"));
-      pm.push_back(ReadImage(dir + "prompt_mask_" + std::to_string(k) + ".png"));
+      pi.push_back(io::ReadImage(dir + "prompt_image_" + std::to_string(k) + ".png"));
+      pm.push_back(io::ReadImage(dir + "prompt_mask_" + std::to_string(k) + ".png"));
     }
-    const Image target = ReadImage(dir + "target_image.png");
+    const Image target = io::ReadImage(dir + "target_image.png");
     const SegType type = std::string(name) == "b_semantic" ? SegType::kSemantic : SegType::kInstance;
-    TensorView pred;
-    const SegGptMask out = m->Segment(pi, pm, target, type, &pred);
+    io::TensorView pred;
+    const vision::SegGptMask out = m->Segment(pi, pm, target, type, &pred);
     EXPECT_LE(Budget(pred, f.Get("pred")), 1.0);
-    const TensorView& gold = f.Get("mask");
+    const io::TensorView& gold = f.Get("mask");
     ASSERT_EQ(out.mask.size(), static_cast<size_t>(gold.numel()));
     int flips = 0;
     for (size_t i = 0; i < out.mask.size(); ++i) flips += out.mask[i] != gold.as<uint8_t>()[i];
     const int footprint = static_cast<int>(std::ceil(target.height / 64.0) * std::ceil(target.width / 64.0));
     EXPECT_LE(flips, 4 * footprint);  // the README's allowance; 0 expected
-    const Image expected = ReadImage(dir + "expected_mask.png");
+    const Image expected = io::ReadImage(dir + "expected_mask.png");
     int png_flips = 0;
     for (size_t i = 0; i < out.mask.size(); ++i) png_flips += (expected.data[3 * i] == 255) != (out.mask[i] == 1);
     EXPECT_LE(png_flips, 4 * footprint);
@@ -109,7 +109,7 @@ TEST(SegGpt, FromPngsToTheBinaryMask) {
 }
 
 TEST(SegGpt, HfNamesAreRenamedOnLoad) {
-  const SafetensorsFile w = SafetensorsFile::Open(testing::TinyModelPath("seggpt/model.safetensors"));
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(testing::TinyModelPath("seggpt/model.safetensors"));
   auto hf = [](std::string n) {
     const std::vector<std::pair<std::string, std::string>> m = {
         {"patch_embed.proj.", "model.embeddings.patch_embeddings.projection."},
@@ -139,7 +139,7 @@ TEST(SegGpt, HfNamesAreRenamedOnLoad) {
     }
     return n;
   };
-  std::map<std::string, TensorView> sd;
+  std::map<std::string, io::TensorView> sd;
   for (const auto& n : w.names) sd[hf(n)] = w.Get(n);
   const std::string cfg = testing::ReadText(testing::TinyModelPath("seggpt/config.json"));
   const auto a = OwnTiny();
@@ -150,14 +150,14 @@ TEST(SegGpt, HfNamesAreRenamedOnLoad) {
   std::uniform_real_distribution<float> u(-2, 2);
   for (auto& x : imgs) x = u(rng);
   for (auto& x : tgts) x = u(rng);
-  const TensorView pa = a->Forward(imgs, tgts, 1, SegType::kInstance, false);
-  const TensorView pb = b->Forward(imgs, tgts, 1, SegType::kInstance, false);
+  const io::TensorView pa = a->Forward(imgs, tgts, 1, SegType::kInstance, false);
+  const io::TensorView pb = b->Forward(imgs, tgts, 1, SegType::kInstance, false);
   ASSERT_EQ(pa.nbytes, pb.nbytes);
   EXPECT_TRUE(testing::SameBytes(pa, pb));
   // Missing and unexpected tensors are listed.
   sd.erase("model.encoder.layers.7.attention.rel_pos_w");
   const float z = 0;
-  sd["something.else"] = MakeTensor(DType::kF32, {1}, &z, 4);
+  sd["something.else"] = io::MakeTensor(io::DType::kF32, {1}, &z, 4);
   try {
     SegGptModel::Create(sd, cfg, "broken.safetensors");
     FAIL();

@@ -4,7 +4,7 @@
 
 namespace freeloc::pipeline {
 
-IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_source, const ExifInfo& exif,
+IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_source, const io::ExifInfo& exif,
                                   const Image& image, bool pointmap, const std::string& what, bool warn) {
   IntrinsicsChoice c;
   c.orientation = exif.orientation;
@@ -16,7 +16,7 @@ IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_so
   }
   Camera k;
   std::string refused;
-  if (CameraFromExif(exif, image.width, image.height, &k, &c.why, &refused)) {
+  if (io::CameraFromExif(exif, image.width, image.height, &k, &c.why, &refused)) {
     c.camera = k;
     c.source = IntrinsicsSource::kExif;
     if (warn && !refused.empty())

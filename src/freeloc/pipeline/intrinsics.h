@@ -26,7 +26,7 @@ struct IntrinsicsChoice {
 // `exif` its EXIF; `pointmap`: the matcher can estimate a focal (PipelineOptions::UsesPointmapModel). EXIF that has
 // focal fields but absurd or damaged values is said in one warning naming `what`, and the next source is used.
 // `warn` false: no warning (a caller that prints `why` itself).
-IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_source, const ExifInfo& exif,
+IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_source, const io::ExifInfo& exif,
                                   const Image& image, bool pointmap, const std::string& what, bool warn = true);
 
 // The choice as the Relocalizer takes it: the camera to hand in, and the frame's source and orientation.

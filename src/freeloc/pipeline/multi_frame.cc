@@ -503,7 +503,7 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
   double relation_ms = 0;
   if (need_images && !frames[qi].image.empty()) {
     PipelineOptions lo = o;
-    lo.track = Track::kSingleFrame;
+    lo.track = io::Track::kSingleFrame;
     if (lo.UsesPrecomputed()) lo.matcher = MatcherSpec{};
     Relocalizer local(lo, Relocalizer::kOptionsValidated);  // the run validated them
     FrameInputs qin;

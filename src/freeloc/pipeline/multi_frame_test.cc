@@ -309,7 +309,7 @@ std::vector<Image> Photos() {
   std::vector<Image> photos;
   for (const char* p : {"s00001/seq0/frame_00000.png", "s00002/seq0/frame_00000.png", "s00003/seq0/frame_00000.png",
                         "s00003/seq1/frame_00000.png"})
-    photos.push_back(ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
+    photos.push_back(io::ReadImage(std::string(FREELOC_SOURCE_DIR) + "/data/demo/val/" + p));
   return photos;
 }
 
@@ -361,7 +361,7 @@ TEST(MultiFrameRun, OneLinePerEvaluatedFrameAndNothingOutsideTheWindowsIsRead) {
       EXPECT_EQ(r.window.votes.front().frame, names[s][r.frame == names[s][9] ? 1 : 11]);
     }
   }
-  const ZipContents za = ZipContents::Read(tmp.File("a.zip"));
+  const io::ZipContents za = io::ZipContents::Read(tmp.File("a.zip"));
   // Frames at linear positions 0, 10 and the trailing ones replaced by noise (images and depth maps): the same bytes.
   std::mt19937 rng(5);
   for (int s = 0; s < 2; ++s)
@@ -369,12 +369,12 @@ TEST(MultiFrameRun, OneLinePerEvaluatedFrameAndNothingOutsideTheWindowsIsRead) {
       const std::string dir = split + "/s0000" + std::to_string(s) + "/";
       Image noise(240, 320);
       for (auto& v : noise.data) v = static_cast<uint8_t>(rng());
-      WriteImagePng(dir + names[s][pos], noise);
+      io::WriteImagePng(dir + names[s][pos], noise);
       const std::string stem = dir + names[s][pos].substr(0, names[s][pos].size() - 4);
       testing::WriteText(stem + ".exact.png", "not a png");
     }
   RunSplit(split, tmp.File("b.zip"), o);
-  const ZipContents zb = ZipContents::Read(tmp.File("b.zip"));
+  const io::ZipContents zb = io::ZipContents::Read(tmp.File("b.zip"));
   EXPECT_EQ(za.files, zb.files);
   // Interrupted after the first scene and resumed: the same bytes (the window records go through the journal).
   {
@@ -391,7 +391,7 @@ TEST(MultiFrameRun, OneLinePerEvaluatedFrameAndNothingOutsideTheWindowsIsRead) {
     spec.resume = true;
     const RunResult resumed = ExecuteRun(spec, o);
     EXPECT_EQ(resumed.resumed_scenes, 1u);
-    EXPECT_EQ(ZipContents::Read(tmp.File("r.zip")).files, zb.files);
+    EXPECT_EQ(io::ZipContents::Read(tmp.File("r.zip")).files, zb.files);
     EXPECT_EQ(resumed.results.at("s00000")[1].window.votes.size(), 9u);
   }
   // --frames 1 is the single-frame answer on the same frames.
@@ -399,10 +399,10 @@ TEST(MultiFrameRun, OneLinePerEvaluatedFrameAndNothingOutsideTheWindowsIsRead) {
   PipelineOptions single = ResolvePreset("sift-essential");
   single.depth = DepthSpec::FromString("provided:exact");
   Relocalizer reloc(single);
-  const MapfreeScene sc = MapfreeScene::Load(split + "/s00000");
+  const io::MapfreeScene sc = io::MapfreeScene::Load(split + "/s00000");
   reloc.SetReference(sc.LoadImage(sc.reference), sc.reference.camera, sc.LoadDepth(sc.reference, "exact"));
   for (const auto& r : one.results.at("s00000")) {
-    const MapfreeFrame* f = nullptr;
+    const io::MapfreeFrame* f = nullptr;
     for (const auto& q : sc.queries)
       if (q.name == r.frame) f = &q;
     ASSERT_NE(f, nullptr);
@@ -417,14 +417,14 @@ TEST(MultiFrameRun, EvalScoresTheEvaluatedFramesAsAnIndependentComputation) {
   const std::string split = tmp.path() + "/val";
   const auto names = WriteSequences(split, 515151);
   const RunResult r = RunSplit(split, tmp.File("m.zip"), MultiFrameOptions("degraded8", 9, "ignore"));
-  const eval::EvalRun run = eval::RunEvaluation(split, r.scenes, tmp.File("m.zip"), Track::kMultiFrame);
+  const eval::EvalRun run = eval::RunEvaluation(split, r.scenes, tmp.File("m.zip"), io::Track::kMultiFrame);
   // Independently: the camera-centre and rotation errors of the frames at linear positions 9 and 19, the median per
   // scene, the average of the medians (two frames per scene: the mean of the two).
   double sum_t = 0, sum_r = 0;
   int ok = 0;
   for (int s = 0; s < 2; ++s) {
     const std::string scene = "s0000" + std::to_string(s);
-    const MapfreeScene& sc = r.loaded.at(scene);
+    const io::MapfreeScene& sc = r.loaded.at(scene);
     std::vector<double> te, re;
     for (const auto& q : r.results.at(scene)) {
       const Rigid3d& gt = sc.gt.at(q.frame);

@@ -46,7 +46,7 @@ struct DepthCommand {
 // The networks one by one, for the bindings (Python's Dust3r, Metric3D, SegGPT): a handle from load_network, results
 // as named host tensors (the names `freeloc pointmap` and `freeloc depth --raw` write).
 enum class BoundNetwork { kDust3r, kMetric3d, kSegGpt };
-using NamedTensors = std::vector<std::pair<std::string, TensorView>>;
+using NamedTensors = std::vector<std::pair<std::string, io::TensorView>>;
 
 struct NetworksApi {
   int abi;  // kNetworksAbi of the build that made the module

@@ -126,7 +126,7 @@ std::string PipelineOptions::Summary() const {
          std::to_string(mast3r_subsample) + ")";
   if (UsesInstances()) s += ", instances " + ToString(instance_source) + ", instance-mode " + ToString(instance_mode);
   if (UsesSegGpt()) s += ", seggpt " + seggpt_model;
-  if (track == Track::kMultiFrame)
+  if (track == io::Track::kMultiFrame)
     s += ", track multi-frame (" + std::to_string(frames) + " frames, device poses " + ToString(device_poses) + ")";
   if (UsesMetric3d()) s += ", metric3d " + metric3d_model;
   if (UsesPointmapModel() || UsesMetric3d()) s += ", " + ToString(runtime.device) + " " + ToString(runtime.precision);

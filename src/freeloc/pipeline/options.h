@@ -34,7 +34,7 @@ enum class SolverKind { kEssential, kPnp, kProcrustes, kHybrid };
 // (no SegGPT).
 enum class InstanceSource { kPropagate, kGiven };
 // The benchmark track (io/mapfree.h): multi-frame answers each evaluated frame from its window (multi_frame.h).
-using freeloc::Track;
+using freeloc::io::Track;
 // Multi-frame: the phone's tracking poses (poses_device.txt). auto — used where they agree with the images, per
 // window; use — trusted in the documented convention; ignore — never read.
 enum class DevicePoseUse { kAuto, kUse, kIgnore };
@@ -98,12 +98,12 @@ struct PipelineOptions {
   double mast3r_conf_threshold = 0;
   matching::InstanceMode instance_mode = matching::InstanceMode::kMask;
   InstanceSource instance_source = InstanceSource::kPropagate;
-  int min_instance_matches = 16;           // instances with fewer matches keep the global ones
-  matching::ProposalOptions proposals;     // reference instances from the reference pointmap
-  nn::InstanceSegmenterOptions segmenter;  // SegGPT propagation and its filters
-  nn::RuntimeOptions runtime;              // device, precision, threads of every network stage
-  Track track = Track::kSingleFrame;       // run/eval: which queries are answered and how
-  int frames = 9;                          // multi-frame: the last `frames` (1–9) frames of each window
+  int min_instance_matches = 16;              // instances with fewer matches keep the global ones
+  matching::ProposalOptions proposals;        // reference instances from the reference pointmap
+  nn::InstanceSegmenterOptions segmenter;     // SegGPT propagation and its filters
+  nn::RuntimeOptions runtime;                 // device, precision, threads of every network stage
+  io::Track track = io::Track::kSingleFrame;  // run/eval: which queries are answered and how
+  int frames = 9;                             // multi-frame: the last `frames` (1–9) frames of each window
   DevicePoseUse device_poses = DevicePoseUse::kAuto;
 
   bool UsesDust3r() const {

@@ -228,7 +228,7 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
 
 namespace {
 
-std::vector<QueryResult> FailScene(const MapfreeScene& scene, const PipelineOptions& o, const std::string& message,
+std::vector<QueryResult> FailScene(const io::MapfreeScene& scene, const PipelineOptions& o, const std::string& message,
                                    const std::function<void(const QueryResult&)>& on_query) {
   FREELOC_LOG(WARNING) << scene.name << ": " << message;
   std::vector<QueryResult> out;
@@ -245,7 +245,7 @@ std::vector<QueryResult> FailScene(const MapfreeScene& scene, const PipelineOpti
 }
 
 // The scene's provided depth of `f` when the depth stage reads it and the file exists; empty otherwise.
-DepthMap ProvidedDepthOf(const MapfreeScene& scene, const MapfreeFrame& f, const PipelineOptions& o) {
+DepthMap ProvidedDepthOf(const io::MapfreeScene& scene, const io::MapfreeFrame& f, const PipelineOptions& o) {
   if (!o.UsesProvidedDepth()) return {};
   const std::string path = scene.DepthPath(f, o.depth.suffix);
   std::error_code ec;
@@ -255,7 +255,7 @@ DepthMap ProvidedDepthOf(const MapfreeScene& scene, const MapfreeFrame& f, const
 
 // A query that failed on an exception (a damaged image or depth map, a network error): status error naming the
 // file, logged, answered as an unsolved query is.
-QueryResult FailedQuery(const MapfreeScene& scene, const MapfreeFrame& f, const std::exception& e,
+QueryResult FailedQuery(const io::MapfreeScene& scene, const io::MapfreeFrame& f, const std::exception& e,
                         const PipelineOptions& o) {
   QueryResult r;
   r.status = QueryStatus::kError;
@@ -267,7 +267,7 @@ QueryResult FailedQuery(const MapfreeScene& scene, const MapfreeFrame& f, const 
 }
 
 // The scene's device poses for the Multi Frame track: empty when off, absent or unreadable (said once per scene).
-std::map<std::string, Rigid3d> SceneDevicePoses(const MapfreeScene& scene, const PipelineOptions& o) {
+std::map<std::string, Rigid3d> SceneDevicePoses(const io::MapfreeScene& scene, const PipelineOptions& o) {
   if (o.device_poses == DevicePoseUse::kIgnore) return {};
   const std::string path = scene.DevicePosesPath();
   std::error_code ec;
@@ -276,7 +276,7 @@ std::map<std::string, Rigid3d> SceneDevicePoses(const MapfreeScene& scene, const
     return {};
   }
   try {
-    return ReadDevicePoses(path);
+    return io::ReadDevicePoses(path);
   } catch (const std::exception& e) {
     FREELOC_LOG(WARNING) << scene.name << ": " << e.what() << "; the device poses are ignored for this scene";
     return {};
@@ -285,18 +285,18 @@ std::map<std::string, Rigid3d> SceneDevicePoses(const MapfreeScene& scene, const
 
 // The Multi Frame track: one result per evaluated frame (linear positions 9, 19, …), each from its window. Only
 // the window's frames are read for it.
-std::vector<QueryResult> RelocalizeWindows(const MapfreeScene& scene, Relocalizer& reloc,
+std::vector<QueryResult> RelocalizeWindows(const io::MapfreeScene& scene, Relocalizer& reloc,
                                            const std::vector<std::vector<Eigen::Vector4d>>& pre,
                                            const std::function<void(const QueryResult&)>& on_query,
                                            const MatchesCallback& on_matches) {
   const PipelineOptions& o = reloc.options();
   const std::map<std::string, Rigid3d> device = SceneDevicePoses(scene, o);
   std::vector<QueryResult> out;
-  for (const QueryWindow& win : MultiFrameWindows(scene, o.frames)) {
-    const MapfreeFrame& q = scene.queries[win.evaluated];
+  for (const io::QueryWindow& win : io::MultiFrameWindows(scene, o.frames)) {
+    const io::MapfreeFrame& q = scene.queries[win.evaluated];
     std::vector<WindowFrame> frames;
     for (size_t i : win.frames) {
-      const MapfreeFrame& f = scene.queries[i];
+      const io::MapfreeFrame& f = scene.queries[i];
       WindowFrame wf;
       wf.name = f.name;
       wf.camera = f.camera;
@@ -347,17 +347,17 @@ std::vector<QueryResult> RelocalizeWindows(const MapfreeScene& scene, Relocalize
 
 }  // namespace
 
-std::vector<size_t> AnsweredQueries(const MapfreeScene& scene, const PipelineOptions& o) {
+std::vector<size_t> AnsweredQueries(const io::MapfreeScene& scene, const PipelineOptions& o) {
   std::vector<size_t> out;
-  if (o.track == Track::kMultiFrame) {
-    for (const QueryWindow& w : MultiFrameWindows(scene, o.frames)) out.push_back(w.evaluated);
+  if (o.track == io::Track::kMultiFrame) {
+    for (const io::QueryWindow& w : io::MultiFrameWindows(scene, o.frames)) out.push_back(w.evaluated);
   } else {
     for (size_t i = 0; i < scene.queries.size(); ++i) out.push_back(i);
   }
   return out;
 }
 
-std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer& reloc,
+std::vector<QueryResult> RelocalizeScene(const io::MapfreeScene& scene, Relocalizer& reloc,
                                          const std::function<void(const QueryResult&)>& on_query,
                                          const MatchesCallback& on_matches) {
   const PipelineOptions& o = reloc.options();
@@ -376,10 +376,10 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
     // A missing or damaged reference (or correspondence file) fails the scene's queries; the run goes on.
     return FailScene(scene, o, "reference: " + ErrorMessage(e, scene.FramePath(scene.reference)), on_query);
   }
-  if (o.track == Track::kMultiFrame) return RelocalizeWindows(scene, reloc, pre, on_query, on_matches);
+  if (o.track == io::Track::kMultiFrame) return RelocalizeWindows(scene, reloc, pre, on_query, on_matches);
   std::vector<QueryResult> out;
   for (size_t i = 0; i < scene.queries.size(); ++i) {
-    const MapfreeFrame& q = scene.queries[i];
+    const io::MapfreeFrame& q = scene.queries[i];
     QueryResult r;
     matching::Correspondences c;
     try {
@@ -399,7 +399,7 @@ std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer&
   return out;
 }
 
-std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& o, CacheStats* stats,
+std::vector<QueryResult> RelocalizeScene(const io::MapfreeScene& scene, const PipelineOptions& o, CacheStats* stats,
                                          const std::function<void(const QueryResult&)>& on_query) {
   Relocalizer reloc(o);  // validates and loads the networks: a bad weights file stops here
   auto out = RelocalizeScene(scene, reloc, on_query);

@@ -93,7 +93,7 @@ void LoadModels(const PipelineOptions& options);
 // The queries (indices into scene.queries) a run answers: every one (track single-frame), or the evaluated frames
 // of the Multi Frame track (linear positions 9, 19, …; io/mapfree.h MultiFrameWindows). Throws naming a frame that
 // the Multi Frame track cannot order.
-std::vector<size_t> AnsweredQueries(const MapfreeScene& scene, const PipelineOptions& options);
+std::vector<size_t> AnsweredQueries(const io::MapfreeScene& scene, const PipelineOptions& options);
 
 // Every query of a map-free scene through `reloc` (multi-frame: every evaluated frame, fused from its window,
 // pipeline/multi_frame.h); the reference's image, depth, encodings and instances are
@@ -102,11 +102,11 @@ std::vector<size_t> AnsweredQueries(const MapfreeScene& scene, const PipelineOpt
 // after each query.
 // `on_matches` (optional) receives each query's correspondences (original pixels) before `on_query`.
 using MatchesCallback = std::function<void(const QueryResult&, const matching::Correspondences&)>;
-std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, Relocalizer& reloc,
+std::vector<QueryResult> RelocalizeScene(const io::MapfreeScene& scene, Relocalizer& reloc,
                                          const std::function<void(const QueryResult&)>& on_query = nullptr,
                                          const MatchesCallback& on_matches = nullptr);
 // The same with a Relocalizer made from `options`; `stats` (optional) receives the scene's cache counters.
-std::vector<QueryResult> RelocalizeScene(const MapfreeScene& scene, const PipelineOptions& options,
+std::vector<QueryResult> RelocalizeScene(const io::MapfreeScene& scene, const PipelineOptions& options,
                                          CacheStats* stats = nullptr,
                                          const std::function<void(const QueryResult&)>& on_query = nullptr);
 

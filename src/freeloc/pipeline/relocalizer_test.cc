@@ -24,7 +24,7 @@ TEST(Relocalizer, SiftEssentialOnTumScenes) {
   const PipelineOptions o = ResolvePreset("sift-essential");
   for (const char* name : {"s00002", "s00003"}) {
     SCOPED_TRACE(name);
-    const MapfreeScene s = MapfreeScene::Load(testing::DemoPath(std::string("val/") + name));
+    const io::MapfreeScene s = io::MapfreeScene::Load(testing::DemoPath(std::string("val/") + name));
     const auto res = RelocalizeScene(s, o);
     ASSERT_EQ(res.size(), 1u);
     ASSERT_TRUE(res[0].ok()) << res[0].StatusText();
@@ -35,7 +35,7 @@ TEST(Relocalizer, SiftEssentialOnTumScenes) {
     EXPECT_GT(res[0].confidence, 0);
   }
   // A scene without depth: every query fails with a status, nothing thrown.
-  const MapfreeScene s1 = MapfreeScene::Load(testing::DemoPath("val/s00001"));
+  const io::MapfreeScene s1 = io::MapfreeScene::Load(testing::DemoPath("val/s00001"));
   const auto r1 = RelocalizeScene(s1, o);
   ASSERT_EQ(r1.size(), 5u);
   for (const auto& q : r1) {
@@ -336,7 +336,7 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
   o.segmenter.min_area_ratio = 0;
   o.segmenter.max_area_ratio = 1e9;
   o.min_instance_matches = 1;
-  const MapfreeScene s = MapfreeScene::Load(testing::DemoPath("val/s00001"));
+  const io::MapfreeScene s = io::MapfreeScene::Load(testing::DemoPath("val/s00001"));
   ASSERT_EQ(s.queries.size(), 5u);
   CacheStats st;
   const auto res = RelocalizeScene(s, o, &st);
@@ -388,18 +388,18 @@ TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
   PipelineOptions o = ResolvePreset("mast3r");
   o.mast3r_model = weights;
   o.dust3r_size = 224;
-  const MapfreeScene s = MapfreeScene::Load(testing::DemoPath("val/s00001"));
+  const io::MapfreeScene s = io::MapfreeScene::Load(testing::DemoPath("val/s00001"));
   const Image ref = s.LoadImage(s.reference);
   Relocalizer reloc(o);
   reloc.SetReference(ref, s.reference.camera, FrameInputs{});
   const auto model = nn::Dust3rModel::Load(weights);
-  Dust3rPreprocessOptions pre;
+  vision::Dust3rPreprocessOptions pre;
   pre.size = 224;
-  const Dust3rInput ri = PreprocessForDust3r(ref, pre);
+  const vision::Dust3rInput ri = vision::PreprocessForDust3r(ref, pre);
   std::vector<QueryStatus> first;
   std::vector<int> first_matches;
   for (size_t k = 0; k < 2; ++k) {  // two queries (random matches keep RANSAC busy up to its budget)
-    const MapfreeFrame& q = s.queries[k];
+    const io::MapfreeFrame& q = s.queries[k];
     SCOPED_TRACE(q.name);
     const Image qi = s.LoadImage(q);
     const QueryResult r = reloc.Relocalize(qi, q.camera, FrameInputs{});
@@ -407,7 +407,7 @@ TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
     first_matches.push_back(r.matches);
     // Random weights: a status, never a confident pose.
     EXPECT_FALSE(r.ok()) << r.StatusText();
-    const Dust3rInput qn = PreprocessForDust3r(qi, pre);
+    const vision::Dust3rInput qn = vision::PreprocessForDust3r(qi, pre);
     const auto p =
         model->Run({ri.normalized.data(), ri.height(), ri.width()}, {qn.normalized.data(), qn.height(), qn.width()});
     const int D = static_cast<int>(p.desc_1.shape.back());

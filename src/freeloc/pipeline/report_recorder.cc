@@ -16,8 +16,8 @@ namespace freeloc::pipeline {
 namespace fs = std::filesystem;
 
 namespace {
-OfficialPose Official(const Rigid3d& query_from_ref) {
-  OfficialPose p;
+io::OfficialPose Official(const Rigid3d& query_from_ref) {
+  io::OfficialPose p;
   const Eigen::Quaterniond c2w = query_from_ref.rotation.conjugate();
   p.q_c2w = {c2w.w(), c2w.x(), c2w.y(), c2w.z()};
   p.t_c2w = query_from_ref.Center();
@@ -32,7 +32,7 @@ std::string VisualName(const std::string& scene, const std::string& frame) {
   return n;
 }
 
-eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r) {
+eval::ReportQuery ToReportQuery(const io::MapfreeScene& scene, const QueryResult& r) {
   eval::ReportQuery q;
   q.scene = scene.name;
   q.frame = r.frame;
@@ -65,7 +65,7 @@ eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r)
   q.gt_centre = gt->second.Center();
   q.has_gt = true;
   if (!q.has_pose) return q;
-  for (const MapfreeFrame& f : scene.queries) {
+  for (const io::MapfreeFrame& f : scene.queries) {
     if (f.name != r.frame) continue;
     const std::array<float, 4> k = {static_cast<float>(f.camera.fx), static_cast<float>(f.camera.fy),
                                     static_cast<float>(f.camera.cx), static_cast<float>(f.camera.cy)};
@@ -82,7 +82,7 @@ ReportRecorder::ReportRecorder(std::string dir, eval::ReportOptions options) : d
   FREELOC_CHECK(fs::is_directory(dir_), dir_ << ": cannot create the report folder (" << ec.message() << ")");
 }
 
-void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, const matching::Correspondences& c,
+void ReportRecorder::Consider(const io::MapfreeScene& scene, const QueryResult& r, const matching::Correspondences& c,
                               const Relocalizer& reloc) {
   const eval::ReportQuery q = ToReportQuery(scene, r);
   const double bad = eval::ReportBadness(q);
@@ -110,7 +110,7 @@ void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, c
     }
   }
   try {
-    const MapfreeFrame* f = nullptr;
+    const io::MapfreeFrame* f = nullptr;
     for (const auto& x : scene.queries)
       if (x.name == r.frame) f = &x;
     if (!f) return;
@@ -135,14 +135,14 @@ void ReportRecorder::Consider(const MapfreeScene& scene, const QueryResult& r, c
     if (gt != scene.gt.end()) cams.push_back({gt->second, kq, "#3399ff", "true"});
     const std::string js = "window.freelocViews=window.freelocViews||{};freelocViews[" + nlohmann::json(name).dump() +
                            "]=" + eval::View3dJson(ref_, reloc.reference_depth(), kr, cams, 6000) + ";\n";
-    WriteFileAtomic(dir_ + "/" + name + ".3d.js", js.data(), js.size());
+    io::WriteFileAtomic(dir_ + "/" + name + ".3d.js", js.data(), js.size());
   } catch (const std::exception& e) {
     FREELOC_LOG(WARNING) << "report: " << scene.name << "/" << r.frame << ": no detail image (" << e.what() << ")";
   }
 }
 
 void ReportRecorder::Write(const std::string& split_dir, const std::vector<std::string>& scenes,
-                           const std::map<std::string, MapfreeScene>& loaded,
+                           const std::map<std::string, io::MapfreeScene>& loaded,
                            const std::map<std::string, std::vector<QueryResult>>& results,
                            const std::string& submission) const {
   std::vector<eval::ReportQuery> queries;

@@ -21,11 +21,11 @@ class ReportRecorder {
  public:
   ReportRecorder(std::string dir, eval::ReportOptions options);
   // After each query of `scene` (its correspondences `c`; the depths from `reloc`).
-  void Consider(const MapfreeScene& scene, const QueryResult& r, const matching::Correspondences& c,
+  void Consider(const io::MapfreeScene& scene, const QueryResult& r, const matching::Correspondences& c,
                 const Relocalizer& reloc);
   // Rank 0, after the submission is written: the final selection, then index.html.
   void Write(const std::string& split_dir, const std::vector<std::string>& scenes,
-             const std::map<std::string, MapfreeScene>& loaded,
+             const std::map<std::string, io::MapfreeScene>& loaded,
              const std::map<std::string, std::vector<QueryResult>>& results, const std::string& submission) const;
 
  private:
@@ -40,7 +40,7 @@ class ReportRecorder {
 };
 
 // The report's view of one query (errors from the scene's ground truth when it has some).
-eval::ReportQuery ToReportQuery(const MapfreeScene& scene, const QueryResult& r);
+eval::ReportQuery ToReportQuery(const io::MapfreeScene& scene, const QueryResult& r);
 // The detail image's file name of a query.
 std::string VisualName(const std::string& scene, const std::string& frame);
 

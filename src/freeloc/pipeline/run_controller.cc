@@ -40,7 +40,7 @@ void SaveMatches(const std::string& dir, const std::string& scene, const QueryRe
   fs::path p = fs::path(dir) / scene / r.frame;
   p.replace_extension(".matches.txt");
   fs::create_directories(p.parent_path());
-  WriteCorrespondenceFile(p.string(), c.Rows());
+  io::WriteCorrespondenceFile(p.string(), c.Rows());
 }
 
 // The scenes a resumed journal already holds, moved into `res`.
@@ -163,7 +163,7 @@ class SceneRunner {
 // The submission (solved queries, and the answered ones with confidence 0; an empty pose file for every scene
 // attempted), the log (header + one record per query) and the sidecar (header + summary), each written atomically.
 void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) {
-  std::map<std::string, std::vector<SubmissionEntry>> sub;
+  std::map<std::string, std::vector<io::SubmissionEntry>> sub;
   std::string log = RunHeaderJson(header) + "\n";
   for (const auto& name : res->scenes) {
     sub[name];
@@ -181,13 +181,13 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
       log += QueryRecordJson(name, q) + "\n";
     }
   }
-  WriteSubmission(spec.out, sub);
-  if (!spec.log.empty()) WriteFileAtomic(spec.log, log.data(), log.size());
+  io::WriteSubmission(spec.out, sub);
+  if (!spec.log.empty()) io::WriteFileAtomic(spec.log, log.data(), log.size());
   const std::string summary = "{\"summary\":{\"scenes\":" + std::to_string(res->scenes.size()) +
                               ",\"queries\":" + std::to_string(res->queries) +
                               ",\"relocalized\":" + std::to_string(res->relocalized) + "}}";
   const std::string sidecar = RunHeaderJson(header, summary) + "\n";
-  WriteFileAtomic(spec.out + ".json", sidecar.data(), sidecar.size());
+  io::WriteFileAtomic(spec.out + ".json", sidecar.data(), sidecar.size());
 }
 
 }  // namespace
@@ -201,15 +201,15 @@ RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const 
   // Every output path is checked before the first byte of any output (the journal included) is written: a run that
   // cannot write its log must fail now, not after hours, and a failed start leaves nothing behind.
   if (root) {
-    CheckWritableFile(spec.out, "the submission");
+    io::CheckWritableFile(spec.out, "the submission");
     if (!spec.log.empty()) {
       FREELOC_OPTION_CHECK("log", fs::absolute(spec.log) != fs::absolute(spec.out),
                            ": " << spec.log << " is also the submission; give the log another path");
-      CheckWritableFile(spec.log, "the run log");
+      io::CheckWritableFile(spec.log, "the run log");
     }
   }
-  if (!spec.save_matches.empty()) CheckWritableFolder(spec.save_matches, "the saved matches");
-  if (!spec.report.empty()) CheckWritableFolder(spec.report, "the HTML report");
+  if (!spec.save_matches.empty()) io::CheckWritableFolder(spec.save_matches, "the saved matches");
+  if (!spec.report.empty()) io::CheckWritableFolder(spec.report, "the HTML report");
   RunResult res;
   res.scenes = spec.shard.Select(ResolveScenes(spec.data, spec.split, spec.scenes, &res.split_dir));
   if (!spec.shard.whole() && root)

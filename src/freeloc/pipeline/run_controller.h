@@ -53,7 +53,7 @@ struct RunSpec {
 struct RunResult {
   std::string split_dir;
   std::vector<std::string> scenes;                          // the scenes run (this shard's), sorted
-  std::map<std::string, MapfreeScene> loaded;               // … as read (cameras, ground truth)
+  std::map<std::string, io::MapfreeScene> loaded;           // … as read (cameras, ground truth)
   std::map<std::string, std::vector<QueryResult>> results;  // per scene, queries in poses.txt order
   size_t queries = 0, relocalized = 0, resumed_scenes = 0;
   // Rank 0, after the outputs are written: how many queries ended with each status, and the queries that failed on

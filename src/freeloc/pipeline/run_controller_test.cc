@@ -69,7 +69,7 @@ TEST(RunController, WritesSubmissionLogAndProvenance) {
     EXPECT_GE(ok, 2) << name;
   }
   // Submission: the answered queries; log: header then one record per query; sidecar: header + summary.
-  const auto zip = ZipContents::Read(split.out()).files;
+  const auto zip = io::ZipContents::Read(split.out()).files;
   EXPECT_EQ(zip.size(), 2u);
   const std::string log = testing::ReadText(split.tmp.File("run.jsonl"));
   EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1 + 8);

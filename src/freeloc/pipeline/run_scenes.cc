@@ -41,19 +41,19 @@ void RunSpec::Validate() const {
 
 std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split,
                                        const std::vector<std::string>& only, std::string* split_dir) {
-  *split_dir = ResolveSplitDir(data, split);
-  std::vector<std::string> scenes = ListScenes(*split_dir, only);
+  *split_dir = io::ResolveSplitDir(data, split);
+  std::vector<std::string> scenes = io::ListScenes(*split_dir, only);
   FREELOC_CHECK(!scenes.empty(), *split_dir << ": no scene folders to process");
   return scenes;
 }
 
-std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
-                                               const PipelineOptions& o) {
+std::map<std::string, io::MapfreeScene> LoadScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
+                                                   const PipelineOptions& o) {
   bool any_depth = !o.UsesProvidedDepth();
   std::string example;
-  std::map<std::string, MapfreeScene> loaded;
+  std::map<std::string, io::MapfreeScene> loaded;
   for (const auto& name : scenes) {
-    const MapfreeScene& scene = loaded[name] = MapfreeScene::Load(split_dir + "/" + name);
+    const io::MapfreeScene& scene = loaded[name] = io::MapfreeScene::Load(split_dir + "/" + name);
     AnsweredQueries(scene, o);  // multi-frame: every query must be orderable by its frame number
     if (!o.UsesProvidedDepth()) continue;
     const std::string p = scene.DepthPath(scene.reference, o.depth.suffix);
@@ -68,7 +68,7 @@ std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, con
 }
 
 std::vector<std::vector<std::string>> AssignScenes(const std::vector<std::string>& scenes,
-                                                   const std::map<std::string, MapfreeScene>& loaded, int ranks) {
+                                                   const std::map<std::string, io::MapfreeScene>& loaded, int ranks) {
   std::vector<std::string> order = scenes;
   auto queries = [&](const std::string& n) { return loaded.at(n).queries.size(); };
   std::stable_sort(order.begin(), order.end(), [&](const std::string& a, const std::string& b) {

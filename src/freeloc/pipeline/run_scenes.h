@@ -13,12 +13,12 @@ namespace freeloc::pipeline {
 
 // Every scene read before any work: a missing or malformed intrinsics.txt/poses.txt is one error now, not after
 // hours, and a provided-depth suffix must exist for at least one reference (a typo is an error, not N failures).
-std::map<std::string, MapfreeScene> LoadScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
-                                               const PipelineOptions& o);
+std::map<std::string, io::MapfreeScene> LoadScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
+                                                   const PipelineOptions& o);
 
 // Scenes over ranks: longest first (by query count, then name) to the least loaded rank (ties: the lowest) —
 // deterministic, so every rank computes the same assignment.
 std::vector<std::vector<std::string>> AssignScenes(const std::vector<std::string>& scenes,
-                                                   const std::map<std::string, MapfreeScene>& loaded, int ranks);
+                                                   const std::map<std::string, io::MapfreeScene>& loaded, int ranks);
 
 }  // namespace freeloc::pipeline

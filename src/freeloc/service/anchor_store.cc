@@ -21,8 +21,8 @@ DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOpti
   DecodedPhoto p;
   FREELOC_CHECK(!upload.image.empty(), frame << " image: missing or empty; send the photo as the multipart field "
                                                 "'image'");
-  p.image = DecodeImage(upload.image, frame + " image");
-  const ExifInfo exif = ReadExif(upload.image);
+  p.image = io::DecodeImage(upload.image, frame + " image");
+  const io::ExifInfo exif = io::ReadExif(upload.image);
   Camera given;
   const bool has_k = !upload.intrinsics.empty();
   if (has_k) given = Camera::FromString(upload.intrinsics, frame + " intrinsics");
@@ -34,7 +34,7 @@ DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOpti
                          "the focal from the pointmap)");
   p.camera = pipeline::ApplyIntrinsics(c, &p.inputs);
   if (!upload.depth.empty()) {
-    p.inputs.depth = DecodeDepthPng(upload.depth, frame + " depth");
+    p.inputs.depth = io::DecodeDepthPng(upload.depth, frame + " depth");
     FREELOC_CHECK(p.inputs.depth.width == p.image.width && p.inputs.depth.height == p.image.height,
                   frame << " depth: " << p.inputs.depth.width << "x" << p.inputs.depth.height << " for a "
                         << p.image.width << "x" << p.image.height
@@ -76,9 +76,9 @@ AnchorStore::AnchorStore(const pipeline::PipelineOptions& options, int max_ancho
     if (!entry.is_directory() || !ValidId(id) || !fs::exists(entry.path() / "meta.json")) continue;
     try {
       PhotoUpload u;
-      const nlohmann::json meta = nlohmann::json::parse(ReadFileBytes((entry.path() / "meta.json").string()));
-      u.image = ReadFileBytes((entry.path() / "image").string());
-      if (meta.value("depth", false)) u.depth = ReadFileBytes((entry.path() / "depth.png").string());
+      const nlohmann::json meta = nlohmann::json::parse(io::ReadFileBytes((entry.path() / "meta.json").string()));
+      u.image = io::ReadFileBytes((entry.path() / "image").string());
+      if (meta.value("depth", false)) u.depth = io::ReadFileBytes((entry.path() / "depth.png").string());
       u.intrinsics = meta.value("intrinsics", std::string());
       if (static_cast<int>(anchors_.size()) >= max_anchors_) break;
       anchors_[id] = Make(id, std::move(u));
@@ -112,11 +112,11 @@ void AnchorStore::Persist(const Anchor& a) const {
   if (dir_.empty()) return;
   const fs::path d = fs::path(dir_) / a.id;
   fs::create_directories(d);
-  WriteFileAtomic((d / "image").string(), a.upload.image.data(), a.upload.image.size());
-  if (a.has_depth) WriteFileAtomic((d / "depth.png").string(), a.upload.depth.data(), a.upload.depth.size());
+  io::WriteFileAtomic((d / "image").string(), a.upload.image.data(), a.upload.image.size());
+  if (a.has_depth) io::WriteFileAtomic((d / "depth.png").string(), a.upload.depth.data(), a.upload.depth.size());
   const std::string meta =
       nlohmann::json{{"intrinsics", a.upload.intrinsics}, {"depth", a.has_depth}}.dump();  // last: marks it complete
-  WriteFileAtomic((d / "meta.json").string(), meta.data(), meta.size());
+  io::WriteFileAtomic((d / "meta.json").string(), meta.data(), meta.size());
 }
 
 std::shared_ptr<Anchor> AnchorStore::Add(PhotoUpload upload) {

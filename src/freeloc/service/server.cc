@@ -257,14 +257,14 @@ std::vector<uint8_t> DepthPicture(const DepthMap& d) {
       im.data[3 * i] = im.data[3 * i + 1] = im.data[3 * i + 2] = g;
     }
   }
-  return EncodeJpeg(im, 85, "depth picture");
+  return io::EncodeJpeg(im, 85, "depth picture");
 }
 
 // A static file's text, "" when it is not there (three.js is optional for the API).
 std::string ReadStatic(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return "";
-  const std::vector<uint8_t> b = ReadFileBytes(path);
+  const std::vector<uint8_t> b = io::ReadFileBytes(path);
   return std::string(b.begin(), b.end());
 }
 
@@ -429,7 +429,8 @@ struct Server::Impl {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
       if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
-      const std::vector<uint8_t> jpg = EncodeJpeg(a->image, 90, "anchor image");  // upright, as the pipeline sees it
+      const std::vector<uint8_t> jpg =
+          io::EncodeJpeg(a->image, 90, "anchor image");  // upright, as the pipeline sees it
       res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
     });
     http.Get(id + "/depth", [this](const httplib::Request& req, httplib::Response& res) {
@@ -512,7 +513,7 @@ struct Server::Impl {
         std::vector<eval::View3dCamera> cams = {{Rigid3d(), kr, "#33dd66", "reference"}};
         if (q.ok() || q.weak()) cams.push_back({q.query_from_ref, kq, "#ff9922", "predicted"});
         j["view"]["view3d"] = Json::parse(eval::View3dJson(a->image, a->reloc->reference_depth(), kr, cams));
-        const std::vector<uint8_t> qj = EncodeJpeg(p.image, 85, "query image");
+        const std::vector<uint8_t> qj = io::EncodeJpeg(p.image, 85, "query image");
         j["view"]["query_image"] = "data:image/jpeg;base64," + Base64(qj);
       }
       SendJson(res, 200, j);

@@ -21,7 +21,7 @@ namespace {
 using Json = nlohmann::json;
 
 std::string Bytes(const std::string& path) {
-  const std::vector<uint8_t> b = ReadFileBytes(path);
+  const std::vector<uint8_t> b = io::ReadFileBytes(path);
   return std::string(b.begin(), b.end());
 }
 

@@ -7,7 +7,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/vision/resize.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 namespace {
 // Python's round() on a double: round half to even.
@@ -108,4 +108,4 @@ void Dust3rInput::ToNetwork(double xo, double yo, double* xn, double* yn) const 
   *yn = (yo + 0.5) * resized_height / orig_height - 0.5 - crop_y;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -8,7 +8,7 @@
 
 #include "freeloc/core/image.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 struct Dust3rPreprocessOptions {
   int size = 512;          // 224, or any value whose crop is a multiple of the patch size
@@ -41,4 +41,4 @@ Dust3rInput PreprocessForDust3r(const Image& image, const Dust3rPreprocessOption
 // (u8/255 − 0.5)/0.5 in float32, HWC → CHW.
 std::vector<float> NormalizeToCHW(const Image& image);
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -9,13 +9,14 @@
 #include "freeloc/io/safetensors.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 namespace {
 
 // Every load_images result in the fixture (4 images × sizes 80/128/224/512): crop bytes and true_shape exact.
 TEST(Dust3rPreprocess, BitExactOnEveryFixtureEntry) {
   FREELOC_REQUIRE_SHARED("fixtures/dust3r/preprocess.safetensors");
-  const SafetensorsFile pre = SafetensorsFile::Open(testing::SharedPath("fixtures/dust3r/preprocess.safetensors"));
+  const io::SafetensorsFile pre =
+      io::SafetensorsFile::Open(testing::SharedPath("fixtures/dust3r/preprocess.safetensors"));
   int checked = 0;
   for (const auto& name : pre.names) {
     const size_t p = name.find(".u8");
@@ -24,12 +25,12 @@ TEST(Dust3rPreprocess, BitExactOnEveryFixtureEntry) {
     const std::string key = name.substr(0, name.find('.'));
     const std::string stem = name.substr(0, p);  // img_a.s80
     const int size = std::stoi(stem.substr(stem.find(".s") + 2));
-    const Image src = ReadImage(testing::SharedPath("fixtures/dust3r/images/" + key + ".png"));
+    const Image src = io::ReadImage(testing::SharedPath("fixtures/dust3r/images/" + key + ".png"));
     Dust3rPreprocessOptions o;
     o.size = size;
     const Dust3rInput in = PreprocessForDust3r(src, o);
-    const TensorView& ref = pre.Get(name);
-    const TensorView& shape = pre.Get(stem + ".true_shape");
+    const io::TensorView& ref = pre.Get(name);
+    const io::TensorView& shape = pre.Get(stem + ".true_shape");
     EXPECT_EQ(shape.as<int32_t>()[0], in.height());
     EXPECT_EQ(shape.as<int32_t>()[1], in.width());
     ASSERT_EQ(ref.shape, (std::vector<int64_t>{in.height(), in.width(), 3}));
@@ -37,7 +38,7 @@ TEST(Dust3rPreprocess, BitExactOnEveryFixtureEntry) {
     for (size_t i = 0; i < ref.nbytes; ++i) diff += in.image.data[i] != ref.data[i];
     EXPECT_EQ(diff, 0u);
     if (pre.tensors.count(stem + ".resized_u8")) {
-      const TensorView& rs = pre.Get(stem + ".resized_u8");
+      const io::TensorView& rs = pre.Get(stem + ".resized_u8");
       EXPECT_EQ(rs.shape[0], in.resized_height);
       EXPECT_EQ(rs.shape[1], in.resized_width);
     }
@@ -58,18 +59,18 @@ TEST(Dust3rPreprocess, NormalisedInputMatchesCases) {
   for (const Case& c : {Case{"png_s80", "img_a", "img_b", 80}, Case{"png_s80_mixed", "img_a", "img_c", 80},
                         Case{"png_s128", "img_a", "img_b", 128}}) {
     SCOPED_TRACE(c.file);
-    const SafetensorsFile f =
-        SafetensorsFile::Open(testing::SharedPath(std::string("fixtures/dust3r/cases/") + c.file + ".safetensors"));
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(testing::SharedPath(std::string("fixtures/dust3r/cases/") + c.file + ".safetensors"));
     int v = 1;
     for (const char* img : {c.img1, c.img2}) {
       Dust3rPreprocessOptions o;
       o.size = c.size;
-      const Dust3rInput in =
-          PreprocessForDust3r(ReadImage(testing::SharedPath(std::string("fixtures/dust3r/images/") + img + ".png")), o);
-      const TensorView& ref = f.Get("view" + std::to_string(v) + ".img");
+      const Dust3rInput in = PreprocessForDust3r(
+          io::ReadImage(testing::SharedPath(std::string("fixtures/dust3r/images/") + img + ".png")), o);
+      const io::TensorView& ref = f.Get("view" + std::to_string(v) + ".img");
       ASSERT_EQ(ref.shape, (std::vector<int64_t>{1, 3, in.height(), in.width()}));
       EXPECT_EQ(std::memcmp(ref.data, in.normalized.data(), ref.nbytes), 0);
-      const TensorView& u8 = f.Get("view" + std::to_string(v) + ".img_u8");
+      const io::TensorView& u8 = f.Get("view" + std::to_string(v) + ".img_u8");
       EXPECT_EQ(std::memcmp(u8.data, in.image.data.data(), u8.nbytes), 0);
       ++v;
     }
@@ -132,4 +133,4 @@ TEST(Dust3rPreprocess, PixelMappingRoundTrip) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -6,7 +6,7 @@
 
 #include "freeloc/core/error.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 Metric3dInput PrepareMetric3dInput(const Image& image, int H, int W) {
   FREELOC_CHECK(!image.empty(), "Metric3D: empty image");
@@ -40,4 +40,4 @@ Metric3dInput PrepareMetric3dInput(const Image& image, int H, int W) {
   return in;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

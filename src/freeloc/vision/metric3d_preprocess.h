@@ -9,7 +9,7 @@
 
 #include "freeloc/core/image.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 struct Metric3dInput {
   int height = 0, width = 0;              // network input H, W
@@ -22,4 +22,4 @@ struct Metric3dInput {
 
 Metric3dInput PrepareMetric3dInput(const Image& image, int input_h, int input_w);
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

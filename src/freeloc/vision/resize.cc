@@ -7,7 +7,7 @@
 
 #include "freeloc/core/error.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 namespace {
 
@@ -200,4 +200,4 @@ std::vector<int> TorchNearestIndices(int in_size, int out_size) {
   return idx;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -5,7 +5,7 @@
 
 #include "freeloc/core/image.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 enum class ResampleFilter { kBilinear, kBicubic, kLanczos };
 
@@ -26,4 +26,4 @@ std::vector<uint8_t> PillowResizeNearest(const uint8_t* in, int width, int heigh
 // arithmetic as LibTorch's CPU kernel. Works on any element type through the index maps.
 std::vector<int> TorchNearestIndices(int in_size, int out_size);
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -9,7 +9,7 @@
 #include "freeloc/io/safetensors.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 namespace {
 
 TEST(Resize, ConstantImageStaysConstant) {
@@ -39,15 +39,16 @@ TEST(Resize, RejectsZeroSize) {
 // Pillow 9.4 results stored in the fixture (`k.s{S}.resized_u8`, before the crop): bit-exact.
 TEST(Resize, BitExactWithPillowFixture) {
   FREELOC_REQUIRE_SHARED("fixtures/dust3r/preprocess.safetensors");
-  const SafetensorsFile pre = SafetensorsFile::Open(testing::SharedPath("fixtures/dust3r/preprocess.safetensors"));
+  const io::SafetensorsFile pre =
+      io::SafetensorsFile::Open(testing::SharedPath("fixtures/dust3r/preprocess.safetensors"));
   int checked = 0;
   for (const auto& name : pre.names) {
     const size_t p = name.find(".resized_u8");
     if (p == std::string::npos) continue;
     SCOPED_TRACE(name);
     const std::string key = name.substr(0, name.find('.'));
-    const Image src = ReadImage(testing::SharedPath("fixtures/dust3r/images/" + key + ".png"));
-    const TensorView& ref = pre.Get(name);
+    const Image src = io::ReadImage(testing::SharedPath("fixtures/dust3r/images/" + key + ".png"));
+    const io::TensorView& ref = pre.Get(name);
     const int h = static_cast<int>(ref.shape[0]), w = static_cast<int>(ref.shape[1]);
     const bool lanczos = std::max(src.width, src.height) > std::max(w, h);  // shrinking
     const Image out = PillowResize(src, w, h, lanczos ? ResampleFilter::kLanczos : ResampleFilter::kBicubic);
@@ -61,4 +62,4 @@ TEST(Resize, BitExactWithPillowFixture) {
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -5,7 +5,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/vision/resize.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 namespace {
 constexpr double kMean[3] = {0.485, 0.456, 0.406};
@@ -89,4 +89,4 @@ SegGptMask PostprocessSegGpt(const float* pred0, int S, int tw, int th) {
   return m;
 }
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -9,7 +9,7 @@
 
 #include "freeloc/core/image.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 
 struct SegGptInputs {
   int k = 0, half = 0;      // prompts, S (each half is S×S)
@@ -33,4 +33,4 @@ struct SegGptMask {
 // `pred0`: item 0 of the network output, [3, 2S, S] in normalised space.
 SegGptMask PostprocessSegGpt(const float* pred0, int half_size, int target_width, int target_height);
 
-}  // namespace freeloc
+}  // namespace freeloc::vision

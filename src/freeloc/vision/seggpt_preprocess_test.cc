@@ -9,10 +9,10 @@
 #include "freeloc/io/safetensors.h"
 #include "testing/testing.h"
 
-namespace freeloc {
+namespace freeloc::vision {
 namespace {
 
-Image FromU8(const TensorView& t) {
+Image FromU8(const io::TensorView& t) {
   Image im(static_cast<int>(t.shape[1]), static_cast<int>(t.shape[0]));
   std::memcpy(im.data.data(), t.data, t.nbytes);
   return im;
@@ -24,24 +24,24 @@ TEST(SegGptPreprocess, MatchesFixturesFromThePngs) {
   FREELOC_REQUIRE_SHARED("fixtures/seggpt/cases/a_instance.safetensors");
   for (const char* name : {"a_instance", "b_semantic", "c_ensemble", "d_resize_back"}) {
     SCOPED_TRACE(name);
-    const SafetensorsFile f =
-        SafetensorsFile::Open(testing::SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(testing::SharedPath(std::string("fixtures/seggpt/cases/") + name + ".safetensors"));
     const std::string dir = testing::SharedPath(std::string("fixtures/seggpt/images/") + name + "/");
     std::vector<Image> pi, pm;
     for (int k = 0; f.tensors.count("prompt_image_" + std::to_string(k)); ++k) {
-      pi.push_back(ReadImage(dir + "prompt_image_" + std::to_string(k) + ".png"));
-      pm.push_back(ReadImage(dir + "prompt_mask_" + std::to_string(k) + ".png"));
+      pi.push_back(io::ReadImage(dir + "prompt_image_" + std::to_string(k) + ".png"));
+      pm.push_back(io::ReadImage(dir + "prompt_mask_" + std::to_string(k) + ".png"));
       EXPECT_EQ(pi.back(), FromU8(f.Get("prompt_image_" + std::to_string(k))));
     }
-    const Image target = ReadImage(dir + "target_image.png");
+    const Image target = io::ReadImage(dir + "target_image.png");
     const SegGptInputs in = PrepareSegGptInputs(pi, pm, target, 64);
     EXPECT_EQ(in.target_resized, FromU8(f.Get("target_image_resized")));
     for (int k = 0; k < in.k; ++k) {
       EXPECT_EQ(in.prompt_images_resized[k], FromU8(f.Get("prompt_image_" + std::to_string(k) + "_resized")));
       EXPECT_EQ(in.prompt_masks_resized[k], FromU8(f.Get("prompt_mask_" + std::to_string(k) + "_resized")));
     }
-    const TensorView& imgs = f.Get("imgs");
-    const TensorView& tgts = f.Get("tgts");
+    const io::TensorView& imgs = f.Get("imgs");
+    const io::TensorView& tgts = f.Get("tgts");
     ASSERT_EQ(static_cast<size_t>(imgs.numel()), in.imgs.size());
     double worst = 0;
     for (size_t i = 0; i < in.imgs.size(); ++i) {
@@ -50,10 +50,10 @@ TEST(SegGptPreprocess, MatchesFixturesFromThePngs) {
     }
     EXPECT_LE(worst, 5e-7);
     // Post-processing from the stored prediction.
-    const TensorView& th = f.Get("mask");
+    const io::TensorView& th = f.Get("mask");
     const int ht = static_cast<int>(th.shape[0]), wt = static_cast<int>(th.shape[1]);
     const SegGptMask m = PostprocessSegGpt(f.Get("pred").as<float>(), 64, wt, ht);
-    const TensorView& painted = f.Get("painted");
+    const io::TensorView& painted = f.Get("painted");
     double pw = 0;
     for (size_t i = 0; i < m.painted.size(); ++i)
       pw = std::max(pw,
@@ -62,10 +62,10 @@ TEST(SegGptPreprocess, MatchesFixturesFromThePngs) {
     int flips = 0;
     for (size_t i = 0; i < m.mask.size(); ++i) flips += m.mask[i] != th.as<uint8_t>()[i];
     EXPECT_EQ(flips, 0);
-    const Image expected = ReadImage(dir + "expected_mask.png");
+    const Image expected = io::ReadImage(dir + "expected_mask.png");
     EXPECT_EQ(expected.at(0, 0, 0) == 255, m.mask[0] == 1);
   }
 }
 
 }  // namespace
-}  // namespace freeloc
+}  // namespace freeloc::vision

@@ -10,7 +10,7 @@
 
 #include "freeloc/core/image.h"
 
-namespace freeloc::internal {
+namespace freeloc::io::internal {
 
 struct CodecsApi {
   int abi;  // kCodecsAbi of the build that made the module
@@ -26,4 +26,4 @@ constexpr const char* kCodecsEntry = "freeloc_codecs_v1";
 // The module's table (loaded on first call; throws freeloc::Error when it cannot be).
 const CodecsApi& Codecs();
 
-}  // namespace freeloc::internal
+}  // namespace freeloc::io::internal

@@ -39,10 +39,10 @@ bool EncodeJpeg(const freeloc::Image& rgb, int quality, std::vector<uint8_t>* ou
   return false;
 }
 
-const freeloc::internal::CodecsApi kApi = {freeloc::internal::kCodecsAbi, DecodeRgb, EncodeJpeg};
+const freeloc::io::internal::CodecsApi kApi = {freeloc::io::internal::kCodecsAbi, DecodeRgb, EncodeJpeg};
 
 }  // namespace
 
-extern "C" __attribute__((visibility("default"))) const freeloc::internal::CodecsApi* freeloc_codecs_v1() {
+extern "C" __attribute__((visibility("default"))) const freeloc::io::internal::CodecsApi* freeloc_codecs_v1() {
   return &kApi;
 }

@@ -9,7 +9,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/limits.h"
 
-namespace freeloc::internal {
+namespace freeloc::io::internal {
 
 namespace {
 
@@ -149,4 +149,4 @@ std::vector<uint8_t> EncodePng(const void* data, int width, int height, int chan
   return out;
 }
 
-}  // namespace freeloc::internal
+}  // namespace freeloc::io::internal

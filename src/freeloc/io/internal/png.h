@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace freeloc::internal {
+namespace freeloc::io::internal {
 
 // A single-channel PNG of 1–16 bits; 1/2/4-bit grey is scaled to 8 bits as OpenCV's IMREAD_UNCHANGED does. Values
 // row-major; `bits` 8 or 16. Throws freeloc::Error naming `what` (not grey, damaged).
@@ -17,4 +17,4 @@ std::vector<uint16_t> DecodeGreyPng(const std::vector<uint8_t>& bytes, const std
 std::vector<uint8_t> EncodePng(const void* data, int width, int height, int channels, int bits,
                                const std::string& what);
 
-}  // namespace freeloc::internal
+}  // namespace freeloc::io::internal

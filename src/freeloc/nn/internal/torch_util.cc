@@ -13,19 +13,19 @@ bool CudaAvailable() { return torch::cuda::is_available(); }
 
 namespace internal {
 
-torch::Tensor ToTorch(const TensorView& t) {
+torch::Tensor ToTorch(const io::TensorView& t) {
   torch::Dtype d;
   switch (t.dtype) {
-    case DType::kF32: d = torch::kFloat32; break;
-    case DType::kF64: d = torch::kFloat64; break;
-    case DType::kF16: d = torch::kFloat16; break;
-    case DType::kBF16: d = torch::kBFloat16; break;
-    case DType::kI64: d = torch::kInt64; break;
-    case DType::kI32: d = torch::kInt32; break;
-    case DType::kI16: d = torch::kInt16; break;
-    case DType::kI8: d = torch::kInt8; break;
-    case DType::kU8: d = torch::kUInt8; break;
-    case DType::kBool: d = torch::kBool; break;
+    case io::DType::kF32: d = torch::kFloat32; break;
+    case io::DType::kF64: d = torch::kFloat64; break;
+    case io::DType::kF16: d = torch::kFloat16; break;
+    case io::DType::kBF16: d = torch::kBFloat16; break;
+    case io::DType::kI64: d = torch::kInt64; break;
+    case io::DType::kI32: d = torch::kInt32; break;
+    case io::DType::kI16: d = torch::kInt16; break;
+    case io::DType::kI8: d = torch::kInt8; break;
+    case io::DType::kU8: d = torch::kUInt8; break;
+    case io::DType::kBool: d = torch::kBool; break;
     default: FREELOC_THROW("unsupported dtype");
   }
   auto owner = new std::shared_ptr<const void>(t.owner);
@@ -33,10 +33,10 @@ torch::Tensor ToTorch(const TensorView& t) {
       const_cast<uint8_t*>(t.data), t.shape, [owner](void*) { delete owner; }, torch::TensorOptions().dtype(d));
 }
 
-TensorView ToView(const torch::Tensor& t_in) {
+io::TensorView ToView(const torch::Tensor& t_in) {
   torch::Tensor t = t_in.detach().to(torch::kCPU, torch::kFloat32).contiguous();
-  TensorView v;
-  v.dtype = DType::kF32;
+  io::TensorView v;
+  v.dtype = io::DType::kF32;
   v.shape = t.sizes().vec();
   v.nbytes = static_cast<size_t>(t.numel()) * 4;
   auto holder = std::make_shared<torch::Tensor>(t);

@@ -16,9 +16,9 @@
 namespace freeloc::nn::internal {
 
 // Zero-copy view of a checkpoint tensor (the TensorView's owner is kept alive by the torch tensor's deleter).
-torch::Tensor ToTorch(const TensorView& t);
+torch::Tensor ToTorch(const io::TensorView& t);
 // Contiguous float32 CPU copy as a TensorView (owns its bytes through the tensor).
-TensorView ToView(const torch::Tensor& t);
+io::TensorView ToView(const torch::Tensor& t);
 
 torch::Device DeviceOf(const RuntimeOptions& r);
 
