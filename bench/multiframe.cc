@@ -6,9 +6,10 @@
 // in another convention and as garbage), generated here from --seed (tune on one seed, report on others).
 //
 //   multiframe [--scenes N] [--windows W] [--seed S] [--depth exact,degraded8,mono] [--hard] [--keep DIR]
-//              [--per-query]
+//              [--per-query] [--variants 0,1,...]   (indices into the table's variants; default all)
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -45,7 +46,7 @@ struct Errors {
 int main(int argc, char** argv) {
   int n_scenes = 6, windows = 3;
   uint32_t seed = 9001;  // scene s has seed + 17·s
-  std::string keep, depths = "exact,degraded8,mono";
+  std::string keep, depths = "exact,degraded8,mono", only;
   bool per_query = false, hard = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--scenes") && i + 1 < argc) n_scenes = std::atoi(argv[++i]);
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--keep") && i + 1 < argc) keep = argv[++i];
     if (!std::strcmp(argv[i], "--depth") && i + 1 < argc) depths = argv[++i];
     if (!std::strcmp(argv[i], "--per-query")) per_query = true;
+    if (!std::strcmp(argv[i], "--variants") && i + 1 < argc) only = argv[++i];
     if (!std::strcmp(argv[i], "--hard")) hard = true;
     if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) seed = static_cast<uint32_t>(std::atoll(argv[++i]));
   }
@@ -105,6 +107,10 @@ int main(int argc, char** argv) {
     std::vector<eval::EvalRun> reports;
     double single_median = 0;
     for (const Variant& v : variants) {
+      const std::vector<std::string> wanted = bench::SplitList(only);
+      if (!only.empty() &&
+          std::find(wanted.begin(), wanted.end(), std::to_string(&v - variants.data())) == wanted.end())
+        continue;
       for (const auto& name : scenes) {
         const std::string dir = split + "/" + name;
         std::error_code ec;
@@ -118,6 +124,7 @@ int main(int argc, char** argv) {
       pipeline::SetOption(&o, "device_poses", v.device);
       pipeline::RunSpec spec;
       spec.data = split;
+      spec.scenes = scenes;  // a --keep folder may hold more scenes than this run's
       spec.out = tmp + "/" + depth + "_" + std::to_string(&v - variants.data()) + ".zip";
       spec.progress_bar = false;
       fs::create_directories(tmp);

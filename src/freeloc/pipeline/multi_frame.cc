@@ -6,6 +6,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
+#include "freeloc/geometry/window_scale.h"
 #include "freeloc/pipeline/confidence.h"
 #include "freeloc/pipeline/relocalizer.h"
 
@@ -156,6 +157,51 @@ bool RobustTriangulate(const std::vector<Eigen::Vector3d>& c, const std::vector<
     best = *p;
   }
   return true;
+}
+
+}  // namespace
+
+namespace {
+
+geometry::AnchoredLength Anchored(bool has, double log_length, double se) {
+  geometry::AnchoredLength a;
+  a.has = has;
+  a.log_length = log_length;
+  a.se = se;
+  return a;
+}
+
+// The window's distance from every depth map's anchoring at once (geometry/window_scale.h): the kept votes' rays,
+// their metric image relations' directions, each frame's two anchorings of its answer and of its relation.
+geometry::WindowScaleResult JointScale(const std::vector<FrameEvidence>& frames, const std::vector<Vote>& kept,
+                                       size_t qi, double ray_floor_rad) {
+  const auto self = std::find_if(kept.begin(), kept.end(), [&](const Vote& v) { return v.k == qi; });
+  if (self == kept.end() || !frames[qi].to_ref.metric()) return {};
+  const auto ray_sigma = [&](const Vote& v) { return std::max(ray_floor_rad, kDeg / std::sqrt(v.weight)); };
+  geometry::WindowScaleInput in;
+  const geometry::ScaleAnchors& qa = frames[qi].anchors;
+  in.ray = self->d;
+  in.ray_sigma_rad = ray_sigma(*self);
+  in.to_ref_by_ref = Anchored(qa.kept_ref >= 3, qa.log_ref, qa.se_ref);
+  in.to_ref_by_own = Anchored(qa.kept_query >= 3, qa.log_query, qa.se_query);
+  for (const Vote& v : kept) {
+    const FrameEvidence& f = frames[v.k];
+    if (v.k == qi || !v.metric_relation || !f.has_image_relation || v.c.norm() < 1e-6) continue;
+    geometry::WindowFrameGeometry g;
+    g.ray = v.d;
+    g.ray_sigma_rad = ray_sigma(v);
+    g.baseline = v.c;
+    g.baseline_sigma_rad = std::clamp(v.position_sigma / v.c.norm(), 0.5 * kDeg, 20 * kDeg);
+    const geometry::ScaleAnchors& a = f.anchors;
+    const bool metric = f.to_ref.metric();
+    g.to_ref_by_ref = Anchored(metric && a.kept_ref >= 3, a.log_ref, a.se_ref);
+    g.to_ref_by_own = Anchored(metric && a.kept_query >= 3, a.log_query, a.se_query);
+    const geometry::ScaleAnchors& ra = f.relation_anchors;
+    g.relation_by_q = Anchored(ra.kept_ref >= 3, ra.log_ref, ra.se_ref);
+    g.relation_by_own = Anchored(ra.kept_query >= 3, ra.log_query, ra.se_query);
+    in.frames.push_back(g);
+  }
+  return geometry::EstimateWindowScale(in);
 }
 
 }  // namespace
@@ -325,6 +371,7 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
   bool metric = false;
   const double scale_prior = rig_device ? kTrackerScaleSigma : 0;
   double dep_sigma0 = 0;
+  double map_spread = -1;  // how much the frames' own-map distances scatter (−1: too few to say)
   if (!log_depth.empty()) {
     std::vector<double> absdev;
     const double med = Median(log_depth);
@@ -354,6 +401,7 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
       const double mq = Median(lq);
       for (double l : lq) dq.push_back(std::abs(l - mq));
       const double per_map = 1.4826 * Median(dq);
+      map_spread = per_map;
       if (per_map > kConsistentMapSpread) {
         // Each frame's own-map distance: its map's error, plus its relation's scale error (a depth map's too) times
         // its lever; frames far off the median are left out.
@@ -412,6 +460,18 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
     w.scale = "depth";
     metric = true;
   }
+  // Without a tracker every length is a depth map's: when the maps disagree, all of them at once, each map's error
+  // shared by every length it anchors (geometry/window_scale.h).
+  if (!rig_device) {
+    const geometry::WindowScaleResult joint = JointScale(frames, kept, qi, ray_sigma);
+    if (joint.ok && joint.map_sigma > kConsistentMapSpread) {
+      log_dist = std::log(joint.distance);
+      log_sigma = joint.log_sigma;
+      w.depth_distance_m = joint.distance;
+      w.scale = "maps (" + std::to_string(joint.maps) + " jointly)";
+      metric = true;
+    }
+  }
 
   // 5. Direction: the points of the rays at the fused distance, averaged (rays without metric origins: their
   //    directions). Rays far off the mean are left out.
@@ -462,8 +522,34 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
   out.predicted_rotation_deg = pe.rotation_deg;
   out.predicted_translation_m = metric ? pe.translation_m : 0;
   out.confidence = metric ? ConfidenceFromPredictedError(pe) : used;
+  // Good depth maps (their own-map distances agree) make the evaluated frame's own answer as good as the maps allow:
+  // the window replaces it only when it shows that answer wrong — a move beyond twice its predicted error.
+  const QueryResult& self = frames[qi].to_ref;
+  if (map_spread >= 0 && map_spread <= kConsistentMapSpread && self.metric() && metric &&
+      (out.query_from_ref.Center() - self.query_from_ref.Center()).norm() <= 2 * self.predicted_translation_m) {
+    const WindowSummary account = out.window;
+    out = self;
+    out.frame = frames[qi].name;
+    out.window = account;
+    out.window.scale = "single frame (the window agrees)";
+  }
   return out;
 }
+
+namespace {
+
+// The anchored |t| of a metric answer as each of its two depth maps alone gives it, from its inliers.
+geometry::ScaleAnchors AnchorInliers(const matching::Correspondences& c, const QueryResult& r,
+                                     const DepthMap& depth_ref, const DepthMap& depth_query, const Camera& ref,
+                                     const Camera& query) {
+  if (r.inlier_mask.size() != c.size()) return {};
+  std::vector<Eigen::Vector2d> pr, pq;
+  for (size_t i = 0; i < c.size(); ++i)
+    if (r.inlier_mask[i]) pr.push_back(c.ref[i]), pq.push_back(c.query[i]);
+  return geometry::AnchorScales(pr, pq, r.query_from_ref, depth_ref, depth_query, ref, query);
+}
+
+}  // namespace
 
 QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames, matching::Correspondences* matches) {
   FREELOC_CHECK(!frames.empty() && frames.size() <= 9, "a window holds 1 to 9 frames, got " << frames.size());
@@ -483,15 +569,11 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
     ev[k].to_ref = reloc.Relocalize(f.image, f.camera, f.inputs, &c);
     ev[k].to_ref.frame = f.name;
     const QueryResult& r = ev[k].to_ref;
-    if (r.metric() && r.inlier_mask.size() == c.size()) {
+    if (r.metric()) {
       // The two depth maps' anchorings of this frame's |t| apart (the fusion weighs them separately).
-      std::vector<Eigen::Vector2d> pr, pq;
-      for (size_t i = 0; i < c.size(); ++i)
-        if (r.inlier_mask[i]) pr.push_back(c.ref[i]), pq.push_back(c.query[i]);
       const Camera kr = reloc.reference_intrinsics().known() ? reloc.reference_intrinsics().camera : f.camera;
       const Camera kq = r.query_intrinsics.known() ? r.query_intrinsics.camera : f.camera;
-      ev[k].anchors =
-          geometry::AnchorScales(pr, pq, r.query_from_ref, reloc.reference_depth(), reloc.last_query_depth(), kr, kq);
+      ev[k].anchors = AnchorInliers(c, r, reloc.reference_depth(), reloc.last_query_depth(), kr, kq);
     }
     if (k == qi && matches) *matches = std::move(c);
   }
@@ -516,9 +598,16 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
       FrameInputs in;
       in.depth = frames[k].inputs.depth;
       in.intrinsics_source = frames[k].inputs.intrinsics_source;
-      const QueryResult rel = local.Relocalize(frames[k].image, frames[k].camera, std::move(in));
+      matching::Correspondences rc;
+      const QueryResult rel = local.Relocalize(frames[k].image, frames[k].camera, std::move(in), &rc);
       relation_ms += rel.timings.depth_ms + rel.timings.match_ms + rel.timings.solve_ms;
       if (!rel.ok()) continue;
+      if (rel.metric()) {
+        const Camera kq =
+            local.reference_intrinsics().known() ? local.reference_intrinsics().camera : frames[qi].camera;
+        const Camera kj = rel.query_intrinsics.known() ? rel.query_intrinsics.camera : frames[k].camera;
+        ev[k].relation_anchors = AnchorInliers(rc, rel, local.reference_depth(), local.last_query_depth(), kq, kj);
+      }
       ev[k].has_image_relation = true;
       ev[k].image_relation_metric = rel.metric();
       ev[k].image_relation = rel.query_from_ref;

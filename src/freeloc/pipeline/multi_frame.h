@@ -7,11 +7,12 @@
 // frame's answer into a vote for the evaluated frame's pose:
 //   rotation   a robust average of the votes (medoid, then the mean of the votes near it);
 //   direction  the reference camera's centre seen along nine rays from nine known places;
-//   distance   two independent sources in log space: the depth maps' (each frame's metric answer) and the rig's
-//              (the rays triangulated over the window's metric baseline: the tracker's, or the images'). Their
-//              weights come from the geometry, and a disagreement larger than the rig's own uncertainty is charged
-//              to the depth maps (a monocular map's scale error is shared by every frame of the window and shows
-//              only against an independent baseline).
+//   distance   every length the window measures is a depth map's: good maps leave the evaluated frame's own answer;
+//              maps that scatter are taken all at once (geometry/window_scale.h: each map's error shared by what it
+//              anchors, so ten independent maps beat the one reference map every answer leans on); a tracker's
+//              metric baseline is an independent second source, fused in log space by the uncertainties.
+// With good maps the fused pose replaces the evaluated frame's own only where it moves it beyond twice its predicted
+// error (the window shows it wrong).
 // Frames whose rotation or ray disagrees are left out; the confidence comes from the agreement that remains.
 #pragma once
 
@@ -51,6 +52,8 @@ struct FrameEvidence {
   bool has_device = false;
   Rigid3d device;                  // frame_from_query by the tracker
   geometry::ScaleAnchors anchors;  // metric to_ref: its |t| as each depth map alone anchors it
+  // The image relation's length as the evaluated frame's map ("ref") and this frame's map ("query") alone anchor it.
+  geometry::ScaleAnchors relation_anchors;
 };
 
 // Fuses a window's evidence into the evaluated frame's result (its own to_ref when nothing else is usable). Pure
