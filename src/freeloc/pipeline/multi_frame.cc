@@ -371,7 +371,7 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
   bool metric = false;
   const double scale_prior = rig_device ? kTrackerScaleSigma : 0;
   double dep_sigma0 = 0;
-  double map_spread = -1;  // how much the frames' own-map distances scatter (−1: too few to say)
+  double own_map_spread = -1;  // how much the frames' own-map distances scatter (−1: too few to say)
   if (!log_depth.empty()) {
     std::vector<double> absdev;
     const double med = Median(log_depth);
@@ -401,7 +401,7 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
       const double mq = Median(lq);
       for (double l : lq) dq.push_back(std::abs(l - mq));
       const double per_map = 1.4826 * Median(dq);
-      map_spread = per_map;
+      own_map_spread = per_map;
       if (per_map > kConsistentMapSpread) {
         // Each frame's own-map distance: its map's error, plus its relation's scale error (a depth map's too) times
         // its lever; frames far off the median are left out.
@@ -420,6 +420,17 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
     }
     w.depth_distance_m = std::exp(dep_log);
   }
+  // How good the depth maps are — two measures of one map's error, with different noise: the frames' own-map distances
+  // placed through their relations (above), and each frame's two anchorings of its own |t| (the reference map's and its
+  // own: both maps' errors, whatever ties the frame to the others; a robust spread over √2). The maps are good when
+  // either is within 3 % — a monocular map fails both by far.
+  std::vector<double> halves_apart;
+  for (const FrameEvidence& f : frames)
+    if (f.to_ref.metric() && f.anchors.kept_ref >= 3 && f.anchors.kept_query >= 3)
+      halves_apart.push_back(std::abs(f.anchors.log_ref - f.anchors.log_query));
+  const double halves_spread = halves_apart.size() >= 3 ? 1.4826 * Median(halves_apart) / std::sqrt(2.0) : -1;
+  const bool good_maps = (own_map_spread >= 0 && own_map_spread <= kConsistentMapSpread) ||
+                         (halves_spread >= 0 && halves_spread <= kConsistentMapSpread);
   if (rig) {
     // The rig's baseline is the tracker's (a few per cent of scale drift on top) or the images' (the relations'
     // own predicted errors, already in rig_rel).
@@ -442,9 +453,9 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
         s_r = std::sqrt(s_rig * s_rig + 0.5 * D * D);
       }
       const double wd = 1 / (s_dep * s_dep), wr = 1 / (s_r * s_r);
-      if (dep_sigma0 <= s_rig && D * D <= 4 * (dep_sigma0 * dep_sigma0 + s_rig * s_rig)) {
-        // The depth maps predict a smaller error than the rig's and the rig does not contradict them: the single
-        // frame's distance is already the better one, and stands.
+      if (good_maps || (dep_sigma0 <= s_rig && D * D <= 4 * (dep_sigma0 * dep_sigma0 + s_rig * s_rig))) {
+        // Good maps, or maps that predict a smaller error than the rig's and that the rig does not contradict: the
+        // depth distance is already the better one, and stands (a tracker drifts by per cents; good maps do not).
         log_dist = l_dep, log_sigma = dep_sigma0;
         w.scale = std::string("depth (") + (rig_device ? "tracker" : "images") + " agrees)";
       } else {
@@ -522,10 +533,10 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
   out.predicted_rotation_deg = pe.rotation_deg;
   out.predicted_translation_m = metric ? pe.translation_m : 0;
   out.confidence = metric ? ConfidenceFromPredictedError(pe) : used;
-  // Good depth maps (their own-map distances agree) make the evaluated frame's own answer as good as the maps allow:
-  // the window replaces it only when it shows that answer wrong — a move beyond twice its predicted error.
+  // Good maps make the evaluated frame's own answer as good as they allow: the window replaces it only when it shows
+  // that answer wrong — a move beyond twice its predicted error.
   const QueryResult& self = frames[qi].to_ref;
-  if (map_spread >= 0 && map_spread <= kConsistentMapSpread && self.metric() && metric &&
+  if (good_maps && self.metric() && metric &&
       (out.query_from_ref.Center() - self.query_from_ref.Center()).norm() <= 2 * self.predicted_translation_m) {
     const WindowSummary account = out.window;
     out = self;

@@ -227,6 +227,29 @@ TEST(FuseWindow, AllDepthMapsAtOnceWithoutDevicePoses) {
   EXPECT_LE(good.fused, 1.05 * good.single + 1e-3) << good.fused << " vs " << good.single;
 }
 
+// Good maps: a window that agrees with the evaluated frame leaves its pose exactly as it is; a window that shows it
+// wrong (a move beyond twice its predicted error) still repairs it.
+TEST(FuseWindow, GoodMapsKeepTheSingleFrameUnlessTheWindowShowsItWrong) {
+  EvidenceOptions o;
+  o.anchors = true;
+  o.relation_anchors = true;
+  o.map_sigma = 0.005;
+  int kept = 0, repaired = 0;
+  for (uint32_t seed = 8101; seed < 8121; ++seed) {
+    const Truth t = MakeTruth(seed);
+    std::vector<FrameEvidence> ev = MakeEvidence(t, o, seed + 3);
+    const QueryResult agree = FuseWindow(ev, DevicePoseUse::kIgnore);
+    kept += agree.query_from_ref.translation == ev.back().to_ref.query_from_ref.translation &&
+            agree.window.scale == "single frame (the window agrees)";
+    // The evaluated frame's answer 10 % long: five times its predicted error of 2 %.
+    ev.back().to_ref.query_from_ref.translation *= 1.1;
+    const QueryResult fixed = FuseWindow(ev, DevicePoseUse::kIgnore);
+    repaired += CentreError(fixed, t) < 0.5 * CentreError(ev.back().to_ref, t);
+  }
+  EXPECT_GE(kept, 18);
+  EXPECT_GE(repaired, 18);
+}
+
 TEST(FuseWindow, DevicePosesInAnotherConventionOrGarbageAreIgnored) {
   for (auto kind : {EvidenceOptions::kOther, EvidenceOptions::kGarbage}) {
     EvidenceOptions o;
