@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
       so.difficulty.max_baseline_m, so.difficulty.max_rotation_rad * 180 / 3.14159265358979, 100 * so.min_step_m,
       100 * so.max_step_m, so.max_turn_deg, bench::NowSeconds() - t0, split.c_str());
 
+  const std::vector<std::string> wanted = bench::SplitList(only);
   const std::vector<Variant> variants = {
       {"single frame (--frames 1)", 1, "ignore", ""},
       {"window, images only (--device-poses ignore)", 9, "ignore", ""},
@@ -107,7 +108,6 @@ int main(int argc, char** argv) {
     std::vector<eval::EvalRun> reports;
     double single_median = 0;
     for (const Variant& v : variants) {
-      const std::vector<std::string> wanted = bench::SplitList(only);
       if (!only.empty() &&
           std::find(wanted.begin(), wanted.end(), std::to_string(&v - variants.data())) == wanted.end())
         continue;

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 
 #include "freeloc/geometry/levenberg_marquardt.h"
 
