@@ -189,11 +189,13 @@ int main(int argc, char** argv) {
   for (const auto& name : want) {
     pl::PipelineOptions o = pl::ResolvePreset(name);
     o.runtime = rt;
-    o.dust3r_size = 512;
-    o.segmenter.min_score = 0;
-    o.segmenter.min_area_ratio = 0;
-    o.segmenter.max_area_ratio = 1e9;
-    for (std::string* p : {&o.dust3r_model, &o.mast3r_model, &o.seggpt_model, &o.metric3d_model}) *p = "random";
+    o.pointmap.dust3r_size = 512;
+    o.instances.segmenter.min_score = 0;
+    o.instances.segmenter.min_area_ratio = 0;
+    o.instances.segmenter.max_area_ratio = 1e9;
+    for (std::string* p :
+         {&o.models.dust3r_model, &o.models.mast3r_model, &o.models.seggpt_model, &o.models.metric3d_model})
+      *p = "random";
     std::unique_ptr<pl::Matcher> matcher =
         o.UsesPointmapModel() ? freeloc::networks::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt)
                               : pl::MakeMatcher(o);

@@ -236,7 +236,7 @@ class PyRelocalizer {
     } catch (const Error& e) {
       BadValue(e.what());
     }
-    if (!models.is_none()) options_.models_dir = PathOf(models);
+    if (!models.is_none()) options_.models.models_dir = PathOf(models);
     ApplyOptions(&options_, kw);
     depth_overridden_ = kw.contains("depth");
     pipeline::FindModels(&options_);
@@ -432,7 +432,7 @@ py::dict Run(const std::string& data, const std::string& out, const std::string&
   } catch (const Error& e) {
     BadValue(e.what());
   }
-  if (!models.is_none()) o.models_dir = PathOf(models);
+  if (!models.is_none()) o.models.models_dir = PathOf(models);
   ApplyOptions(&o, kw);
   pipeline::FindModels(&o);  // validated once, by ExecuteRun (an option's error is a ValueError naming it)
   pipeline::RunSpec spec;

@@ -185,7 +185,7 @@ void ApplyMaskArgs(pipeline::PipelineOptions* o, bool ref_masks, bool query_mask
   FREELOC_CHECK(o->UsesInstances(), "--ref-masks: the matcher "
                                         << o->matcher.ToString()
                                         << " takes no instances; use --matcher dust3r+instances or mast3r+instances");
-  o->instance_source = query_masks ? pipeline::InstanceSource::kGiven : pipeline::InstanceSource::kPropagate;
+  o->instances.instance_source = query_masks ? pipeline::InstanceSource::kGiven : pipeline::InstanceSource::kPropagate;
 }
 
 }  // namespace freeloc::cli

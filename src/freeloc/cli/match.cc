@@ -53,13 +53,13 @@ pipeline::PipelineOptions Options(const MatchArgs& a, const GlobalOptions& g) {
     FREELOC_CHECK(a.ref_masks.empty() == a.query_masks.empty(), "give both --ref-masks and --query-masks, or neither");
     ApplyMaskArgs(o, !a.ref_masks.empty(), !a.query_masks.empty());
     if (mast3r) {
-      o->mast3r_conf_threshold = a.conf_thr;
-      if (a.subsample > 0) o->mast3r_subsample = a.subsample;
-      if (a.border >= 0) o->mast3r_border = a.border;
+      o->pointmap.mast3r_conf_threshold = a.conf_thr;
+      if (a.subsample > 0) o->pointmap.mast3r_subsample = a.subsample;
+      if (a.border >= 0) o->pointmap.mast3r_border = a.border;
     } else {
       FREELOC_CHECK(a.border < 0, "--border applies to --matcher mast3r only");
-      o->match_conf_threshold = a.conf_thr;
-      if (a.subsample > 0) o->match_subsample = a.subsample;
+      o->pointmap.match_conf_threshold = a.conf_thr;
+      if (a.subsample > 0) o->pointmap.match_subsample = a.subsample;
     }
   });
 }

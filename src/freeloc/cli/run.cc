@@ -102,11 +102,11 @@ void PrintDemoTable(const pipeline::RunResult& r) {
 // The best preset whose weights are installed: the full method (seed) when all three networks are found.
 std::string DemoPreset(const std::string& models, std::string* missing) {
   pipeline::PipelineOptions seed = pipeline::ResolvePreset("seed");
-  seed.models_dir = models;
+  seed.models.models_dir = models;
   pipeline::FindModels(&seed);
-  if (seed.dust3r_model.empty()) *missing += " DUSt3R";
-  if (seed.seggpt_model.empty()) *missing += " SegGPT";
-  if (seed.metric3d_model.empty()) *missing += " Metric3D";
+  if (seed.models.dust3r_model.empty()) *missing += " DUSt3R";
+  if (seed.models.seggpt_model.empty()) *missing += " SegGPT";
+  if (seed.models.metric3d_model.empty()) *missing += " Metric3D";
   return missing->empty() ? "seed" : "sift-essential";
 }
 

@@ -34,20 +34,20 @@ class Dust3rMatcher : public Matcher {
                 std::shared_ptr<nn::SegGptModel> seggpt)
       : o_(o), fn_(dust3r, o.UsesMast3r()), seggpt_(std::move(seggpt)) {
     FREELOC_CHECK(!o.UsesMast3r() || dust3r->config().is_mast3r(),
-                  "mast3r_model " << o.mast3r_model
+                  "mast3r_model " << o.models.mast3r_model
                                   << ": a DUSt3R checkpoint (no local-feature head); give the MASt3R weights "
                                      "(MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth)");
-    instance_.mode = o.instance_mode;
-    instance_.preprocess.size = o.dust3r_size;
-    instance_.match.conf_threshold = o.match_conf_threshold;
-    instance_.match.subsample = o.match_subsample;
+    instance_.mode = o.instances.instance_mode;
+    instance_.preprocess.size = o.pointmap.dust3r_size;
+    instance_.match.conf_threshold = o.pointmap.match_conf_threshold;
+    instance_.match.subsample = o.pointmap.match_subsample;
     instance_.match.threads = o.runtime.threads;
     instance_.descriptors = o.UsesMast3r();
-    instance_.fast_nn.subsample = o.mast3r_subsample;
+    instance_.fast_nn.subsample = o.pointmap.mast3r_subsample;
     instance_.fast_nn.threads = o.runtime.threads;
-    instance_.descriptor_filter.border = o.mast3r_border;
-    instance_.descriptor_filter.min_conf = o.mast3r_conf_threshold;
-    instance_.min_matches = o.min_instance_matches;
+    instance_.descriptor_filter.border = o.pointmap.mast3r_border;
+    instance_.descriptor_filter.min_conf = o.pointmap.mast3r_conf_threshold;
+    instance_.min_matches = o.instances.min_instance_matches;
     instance_.Validate();
   }
 
@@ -67,7 +67,8 @@ class Dust3rMatcher : public Matcher {
       // Reference instances from the reference's own pointmap: DUSt3R on (reference, reference), its monocular
       // convention; the encoder pass is the one every query reuses.
       const matching::PairPointmaps pm = fn_.Run(ref_in_, ref_in_);
-      const auto proposals = matching::ProposeInstances(pm.pts1.data(), pm.conf1.data(), pm.h1, pm.w1, o_.proposals);
+      const auto proposals =
+          matching::ProposeInstances(pm.pts1.data(), pm.conf1.data(), pm.h1, pm.w1, o_.instances.proposals);
       ref_masks_ = matching::SplitLabels(matching::ProposalsToImage(proposals, ref_in_));
     }
     // The reference side of every instance's masked pair, encoded once here (queries reuse them).
@@ -189,7 +190,7 @@ class Dust3rMatcher : public Matcher {
   // The (reference, query) mask pairs: the query's given labels with the same ids, or SegGPT's propagations.
   std::vector<matching::InstanceMasks> InstancePairs(const Image& query, const FrameInputs& in) const {
     std::vector<matching::InstanceMasks> pairs;
-    if (o_.instance_source == InstanceSource::kGiven) {
+    if (o_.instances.instance_source == InstanceSource::kGiven) {
       FREELOC_CHECK(in.instance_labels != nullptr,
                     "instance_source given: the query has no instance labels; give a label image for each frame");
       CheckLabels(*in.instance_labels, query, "query");
@@ -198,7 +199,7 @@ class Dust3rMatcher : public Matcher {
           if (id == idr) pairs.push_back({id, mr, mq});
       return pairs;
     }
-    const auto props = nn::InstanceSegmenter(seggpt_, o_.segmenter).Propagate(ref_, ref_masks_, query);
+    const auto props = nn::InstanceSegmenter(seggpt_, o_.instances.segmenter).Propagate(ref_, ref_masks_, query);
     for (size_t i = 0; i < props.size(); ++i)
       if (props[i].kept) pairs.push_back({props[i].id, ref_masks_[i].second, props[i].query_mask});
     return pairs;
@@ -210,7 +211,7 @@ class Dust3rMatcher : public Matcher {
                                                        QueryResult* r) {
     const auto ts = std::chrono::steady_clock::now();
     const std::vector<matching::InstanceMasks> pairs = InstancePairs(query, in);
-    r->timings.segment_ms = o_.instance_source == InstanceSource::kGiven ? 0.0 : MsSince(ts);
+    r->timings.segment_ms = o_.instances.instance_source == InstanceSource::kGiven ? 0.0 : MsSince(ts);
     // The masked pairs' network passes, timed and counted.
     const matching::PointmapFn model = fn_.Fn();
     const matching::PointmapFn timed = [&](const vision::Dust3rInput& a, const vision::Dust3rInput& b) {
@@ -226,8 +227,8 @@ class Dust3rMatcher : public Matcher {
       r->instances_used += results.back().used;
       if (!results.back().used) FREELOC_LOG(DEBUG) << "instance " << p.id << " not used: " << results.back().reason;
     }
-    r->instances = o_.instance_source == InstanceSource::kGiven ? static_cast<int>(pairs.size())
-                                                                : static_cast<int>(ref_masks_.size());
+    r->instances = o_.instances.instance_source == InstanceSource::kGiven ? static_cast<int>(pairs.size())
+                                                                          : static_cast<int>(ref_masks_.size());
     return matching::MergeMatches(global, results, pairs, ref_.width, ref_.height);
   }
 
@@ -263,14 +264,14 @@ class Metric3dDepth : public DepthEstimator {
 std::unique_ptr<Matcher> MakeNetworkMatcher(const PipelineOptions& o) {
   FREELOC_CHECK(o.UsesPointmapModel(), "matcher: " << o.matcher.ToString() << " runs no network");
   return MakeNetworkMatcher(o,
-                            o.UsesMast3r() ? CachedDust3r(o.mast3r_model, "", o.runtime)
-                                           : CachedDust3r(o.dust3r_model, o.dust3r_config, o.runtime),
-                            o.UsesSegGpt() ? CachedSegGpt(o.seggpt_model, o.runtime) : nullptr);
+                            o.UsesMast3r() ? CachedDust3r(o.models.mast3r_model, "", o.runtime)
+                                           : CachedDust3r(o.models.dust3r_model, o.models.dust3r_config, o.runtime),
+                            o.UsesSegGpt() ? CachedSegGpt(o.models.seggpt_model, o.runtime) : nullptr);
 }
 
 std::unique_ptr<DepthEstimator> MakeNetworkDepthEstimator(const PipelineOptions& o) {
   FREELOC_CHECK(o.depth.kind == DepthKind::kMetric3d, "depth: " << o.depth.ToString() << " runs no network");
-  return MakeNetworkDepthEstimator(CachedMetric3d(o.metric3d_model, o.runtime));
+  return MakeNetworkDepthEstimator(CachedMetric3d(o.models.metric3d_model, o.runtime));
 }
 
 std::unique_ptr<Matcher> MakeNetworkMatcher(const PipelineOptions& o, std::shared_ptr<nn::Dust3rModel> model,

@@ -53,18 +53,18 @@ TEST(Models, FoundByPublishedNamesInModelsDirThenEnvironment) {
   EXPECT_EQ(FindModel(Network::kMetric3d, dirs), b.File("metric_depth_vit_large_800k.pth"));  // large before small
 
   PipelineOptions o = ResolvePreset("seed");
-  o.models_dir = a.path();
+  o.models.models_dir = a.path();
   FindModels(&o);
-  EXPECT_EQ(o.dust3r_model, a.File("DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth"));
-  EXPECT_EQ(o.seggpt_model, b.File("seggpt-vit-large/model.safetensors"));
-  EXPECT_EQ(o.metric3d_model, b.File("metric_depth_vit_large_800k.pth"));
+  EXPECT_EQ(o.models.dust3r_model, a.File("DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth"));
+  EXPECT_EQ(o.models.seggpt_model, b.File("seggpt-vit-large/model.safetensors"));
+  EXPECT_EQ(o.models.metric3d_model, b.File("metric_depth_vit_large_800k.pth"));
   EXPECT_NO_THROW(o.Validate());
   // An explicit file wins over discovery.
   PipelineOptions e = ResolvePreset("seed");
-  e.models_dir = a.path();
-  e.metric3d_model = "/my/metric3d.safetensors";
+  e.models.models_dir = a.path();
+  e.models.metric3d_model = "/my/metric3d.safetensors";
   FindModels(&e);
-  EXPECT_EQ(e.metric3d_model, "/my/metric3d.safetensors");
+  EXPECT_EQ(e.models.metric3d_model, "/my/metric3d.safetensors");
 }
 
 TEST(Models, MissingWeightsNameTheFileWhereToGetItAndTheAlternatives) {
@@ -73,7 +73,7 @@ TEST(Models, MissingWeightsNameTheFileWhereToGetItAndTheAlternatives) {
   for (const char* preset : {"seed", "seed-no-instance", "seed-provided-depth", "dust3r"}) {
     SCOPED_TRACE(preset);
     PipelineOptions o = ResolvePreset(preset);
-    o.models_dir = a.path();
+    o.models.models_dir = a.path();
     FindModels(&o);
     try {
       o.Validate();
@@ -89,7 +89,7 @@ TEST(Models, MissingWeightsNameTheFileWhereToGetItAndTheAlternatives) {
   }
   // With DUSt3R given, seed-no-instance asks for Metric3D next, seed-provided-depth for SegGPT.
   PipelineOptions o = ResolvePreset("seed-no-instance");
-  o.dust3r_model = "d.pth";
+  o.models.dust3r_model = "d.pth";
   try {
     o.Validate();
     FAIL();
@@ -98,7 +98,7 @@ TEST(Models, MissingWeightsNameTheFileWhereToGetItAndTheAlternatives) {
     EXPECT_NE(std::string(e.what()).find("neither models_dir nor $FREELOC_MODELS"), std::string::npos) << e.what();
   }
   PipelineOptions p = ResolvePreset("seed-provided-depth");
-  p.dust3r_model = "d.pth";
+  p.models.dust3r_model = "d.pth";
   try {
     p.Validate();
     FAIL();

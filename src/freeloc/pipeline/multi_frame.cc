@@ -570,7 +570,7 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
   for (size_t k = 0; k < n; ++k) {
     WindowFrame& f = frames[k];
     ev[k].name = f.name;
-    ev[k].has_device = f.has_device && o.device_poses != DevicePoseUse::kIgnore;
+    ev[k].has_device = f.has_device && o.multi_frame.device_poses != DevicePoseUse::kIgnore;
     ev[k].device = f.device_from_query;
     if (f.image.empty()) {  // the caller could not read it: it only loses its vote
       ev[k].to_ref.status = QueryStatus::kError;
@@ -591,7 +591,7 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
   if (n == 1) return ev[0].to_ref;
   // The relations from the images: the evaluated frame as the reference of a local relocalizer (SIFT where the
   // run's matches are precomputed: those exist only against the scene's reference).
-  const bool need_images = o.device_poses != DevicePoseUse::kUse ||
+  const bool need_images = o.multi_frame.device_poses != DevicePoseUse::kUse ||
                            std::any_of(ev.begin(), ev.end() - 1, [](const FrameEvidence& e) { return !e.has_device; });
   double relation_ms = 0;
   if (need_images && !frames[qi].image.empty()) {
@@ -626,7 +626,7 @@ QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames
       ev[k].image_relation_position_sigma_m = rel.predicted_translation_m;
     }
   }
-  QueryResult r = FuseWindow(ev, o.device_poses);
+  QueryResult r = FuseWindow(ev, o.multi_frame.device_poses);
   // The cost of the whole window: every frame's stages, the relations counted as solving.
   r.timings.depth_ms = r.timings.match_ms = r.timings.instance_ms = r.timings.solve_ms = 0;
   for (const FrameEvidence& e : ev) {

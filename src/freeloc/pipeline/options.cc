@@ -70,11 +70,7 @@ std::string QueryResult::StatusText() const {
   return freeloc::ToString(status) + (message.empty() ? "" : ": " + message);
 }
 
-void PipelineOptions::Validate() const {
-  FREELOC_OPTION_CHECK("matcher", matcher.kind != MatcherKind::kPrecomputed || !matcher.correspondences.empty(),
-                       ": precomputed needs a name (precomputed:<SIFT|SG|LoFTR|…>)");
-  FREELOC_OPTION_CHECK("depth", depth.kind != DepthKind::kProvided || !depth.suffix.empty(),
-                       ": provided needs a suffix (provided:<suffix>, e.g. provided:sensor)");
+void SolveOptions::Validate() const {
   FREELOC_OPTION_CHECK("threshold_px", threshold_px == -1 || (std::isfinite(threshold_px) && threshold_px > 0),
                        ": " << threshold_px << " is not a positive number of pixels (or -1 for the solver's default)");
   FREELOC_OPTION_CHECK("reprojection_px", std::isfinite(reprojection_px) && reprojection_px > 0,
@@ -83,6 +79,9 @@ void PipelineOptions::Validate() const {
                        ": " << depth_shifts << " is not 0 or 1");
   FREELOC_OPTION_CHECK("always_answer", always_answer == 0 || always_answer == 1,
                        ": " << always_answer << " is not 0 or 1");
+}
+
+void PointmapMatchOptions::Validate() const {
   FREELOC_OPTION_CHECK("check_intrinsics", check_intrinsics == 0 || check_intrinsics == 1,
                        ": " << check_intrinsics << " is not 0 or 1");
   FREELOC_OPTION_CHECK(
@@ -94,41 +93,64 @@ void PipelineOptions::Validate() const {
   FREELOC_OPTION_CHECK("mast3r_border", mast3r_border >= 0, ": " << mast3r_border << " must be >= 0 pixels");
   FREELOC_OPTION_CHECK("mast3r_conf_threshold", std::isfinite(mast3r_conf_threshold),
                        ": " << mast3r_conf_threshold << " is not a finite number");
+}
+
+void InstanceOptions::Validate() const {
+  FREELOC_OPTION_CHECK("min_instance_matches", min_instance_matches >= 0,
+                       ": " << min_instance_matches << " is negative");
+  proposals.Validate();
+}
+
+void MultiFrameOptions::Validate() const {
+  FREELOC_OPTION_CHECK("frames", frames >= 1 && frames <= 9,
+                       ": " << frames << " is not in 1..9 (a window holds 9 frames)");
+}
+
+void ModelFiles::Validate(const PipelineOptions& o) const {
+  const auto dirs = ModelDirs(models_dir);
+  FREELOC_CHECK(!o.UsesDust3r() || !dust3r_model.empty(), MissingModelMessage(Network::kDust3r, o.preset, dirs));
+  FREELOC_CHECK(!o.UsesMast3r() || !mast3r_model.empty(), MissingModelMessage(Network::kMast3r, o.preset, dirs));
+  FREELOC_CHECK(!o.UsesSegGpt() || !seggpt_model.empty(), MissingModelMessage(Network::kSegGpt, o.preset, dirs));
+  FREELOC_CHECK(!o.UsesMetric3d() || !metric3d_model.empty(), MissingModelMessage(Network::kMetric3d, o.preset, dirs));
+}
+
+void PipelineOptions::Validate() const {
+  FREELOC_OPTION_CHECK("matcher", matcher.kind != MatcherKind::kPrecomputed || !matcher.correspondences.empty(),
+                       ": precomputed needs a name (precomputed:<SIFT|SG|LoFTR|…>)");
+  FREELOC_OPTION_CHECK("depth", depth.kind != DepthKind::kProvided || !depth.suffix.empty(),
+                       ": provided needs a suffix (provided:<suffix>, e.g. provided:sensor)");
   FREELOC_OPTION_CHECK("depth", depth.kind != DepthKind::kMast3r || UsesMast3r(),
                        ": mast3r comes from the MASt3R matcher's pointmaps; use matcher mast3r or mast3r+instances "
                        "(or depth metric3d / provided:<suffix>)");
-  FREELOC_OPTION_CHECK("min_instance_matches", min_instance_matches >= 0,
-                       ": " << min_instance_matches << " is negative");
   FREELOC_OPTION_CHECK(
       "solver", solver == SolverKind::kEssential || solver == SolverKind::kHybrid || depth.kind != DepthKind::kNone,
       ": " << ToString(solver) << " needs depth (depth provided:<suffix> or metric3d)");
-  FREELOC_OPTION_CHECK("frames", frames >= 1 && frames <= 9,
-                       ": " << frames << " is not in 1..9 (a window holds 9 frames)");
-  proposals.Validate();
+  solve.Validate();
+  pointmap.Validate();
+  instances.Validate();
+  multi_frame.Validate();
   runtime.Validate();
-  const auto dirs = ModelDirs(models_dir);
-  FREELOC_CHECK(!UsesDust3r() || !dust3r_model.empty(), MissingModelMessage(Network::kDust3r, preset, dirs));
-  FREELOC_CHECK(!UsesMast3r() || !mast3r_model.empty(), MissingModelMessage(Network::kMast3r, preset, dirs));
-  FREELOC_CHECK(!UsesSegGpt() || !seggpt_model.empty(), MissingModelMessage(Network::kSegGpt, preset, dirs));
-  FREELOC_CHECK(!UsesMetric3d() || !metric3d_model.empty(), MissingModelMessage(Network::kMetric3d, preset, dirs));
+  models.Validate(*this);
 }
 
 std::string PipelineOptions::Summary() const {
   std::string s = "preset " + preset + ": matcher " + matcher.ToString() + ", depth " + depth.ToString() + ", solver " +
-                  ToString(solver) + (solver == SolverKind::kEssential ? ", scale " + ToString(scale) : "") +
-                  (solver == SolverKind::kHybrid ? ", reprojection " + std::to_string(reprojection_px) + " px" +
-                                                       (depth_shifts ? ", depth shifts" : "")
+                  ToString(solver) + (solver == SolverKind::kEssential ? ", scale " + ToString(solve.scale) : "") +
+                  (solver == SolverKind::kHybrid ? ", reprojection " + std::to_string(solve.reprojection_px) + " px" +
+                                                       (solve.depth_shifts ? ", depth shifts" : "")
                                                  : "") +
-                  (threshold_px > 0 ? ", threshold " + std::to_string(threshold_px) + " px" : "");
-  if (UsesDust3r()) s += ", dust3r " + dust3r_model + " at " + std::to_string(dust3r_size);
+                  (solve.threshold_px > 0 ? ", threshold " + std::to_string(solve.threshold_px) + " px" : "");
+  if (UsesDust3r()) s += ", dust3r " + models.dust3r_model + " at " + std::to_string(pointmap.dust3r_size);
   if (UsesMast3r())
-    s += ", mast3r " + mast3r_model + " at " + std::to_string(dust3r_size) + " (subsample " +
-         std::to_string(mast3r_subsample) + ")";
-  if (UsesInstances()) s += ", instances " + ToString(instance_source) + ", instance-mode " + ToString(instance_mode);
-  if (UsesSegGpt()) s += ", seggpt " + seggpt_model;
+    s += ", mast3r " + models.mast3r_model + " at " + std::to_string(pointmap.dust3r_size) + " (subsample " +
+         std::to_string(pointmap.mast3r_subsample) + ")";
+  if (UsesInstances())
+    s += ", instances " + ToString(instances.instance_source) + ", instance-mode " + ToString(instances.instance_mode);
+  if (UsesSegGpt()) s += ", seggpt " + models.seggpt_model;
   if (track == io::Track::kMultiFrame)
-    s += ", track multi-frame (" + std::to_string(frames) + " frames, device poses " + ToString(device_poses) + ")";
-  if (UsesMetric3d()) s += ", metric3d " + metric3d_model;
+    s += ", track multi-frame (" + std::to_string(multi_frame.frames) + " frames, device poses " +
+         ToString(multi_frame.device_poses) + ")";
+  if (UsesMetric3d()) s += ", metric3d " + models.metric3d_model;
   if (UsesPointmapModel() || UsesMetric3d()) s += ", " + ToString(runtime.device) + " " + ToString(runtime.precision);
   return s;
 }

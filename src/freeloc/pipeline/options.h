@@ -62,11 +62,15 @@ struct DepthSpec {
   bool operator==(const DepthSpec& o) const { return kind == o.kind && suffix == o.suffix; }
 };
 
-struct PipelineOptions {
-  std::string preset = "sift-essential";  // the preset these options started from (reported, not interpreted)
-  MatcherSpec matcher;
-  DepthSpec depth;
-  SolverKind solver = SolverKind::kEssential;
+// The pipeline's options in parts that change for one reason each; an option's public name (`--set NAME=…`, Python
+// keyword, JSON key) is its field path without the part: solve.threshold_px is "threshold_px",
+// instances.proposals.min_area is "proposals.min_area". The route (preset, matcher, depth, solver, track) is at the
+// top.
+
+struct PipelineOptions;
+
+// How a pose is solved from the correspondences and the depths.
+struct SolveOptions {
   // essential (and hybrid's fallback): anchored — the depths anchor |t| (the vote's error grows with
   // depth ÷ baseline); robust — freeloc's scale vote; official — the benchmark's vote.
   geometry::ScaleMethod scale = geometry::ScaleMethod::kAnchored;
@@ -77,17 +81,23 @@ struct PipelineOptions {
   // below every ok answer; a query with no model at all with the prior pose (the reference camera's: identity
   // rotation, zero translation) and confidence 0; the status still says which. 0 = submit ok queries only.
   int always_answer = 1;
-  // DUSt3R/MASt3R matchers: compare intrinsics handed in with the focal the pointmaps give and warn above 5 %
-  // (a wrong calibration otherwise gives a wrong pose in silence). Costs the query's swapped decoder pass.
-  int check_intrinsics = 1;
-  // Networks. Paths left empty are looked up by their published file names in `models_dir`, then in the folders of
-  // $FREELOC_MODELS (FindModels); Validate names what is still missing.
+  void Validate() const;  // throws freeloc::Error naming the option
+};
+
+// Which weights files the network stages load. Paths left empty are looked up by their published file names in
+// `models_dir`, then in the folders of $FREELOC_MODELS (FindModels); Validate names what is still missing.
+struct ModelFiles {
   std::string models_dir;
-  std::string dust3r_model;         // official .pth or model.safetensors (+ config.json beside it)
-  std::string dust3r_config;        // optional config.json with the constructor arguments
-  std::string mast3r_model;         // MASt3R .pth (constructor string inside) or HF model.safetensors + config.json
-  std::string seggpt_model;         // seggpt_vit_large.pth or HF model.safetensors
-  std::string metric3d_model;       // metric_depth_vit_{small,large,giant2}_800k.pth or safetensors
+  std::string dust3r_model;    // official .pth or model.safetensors (+ config.json beside it)
+  std::string dust3r_config;   // optional config.json with the constructor arguments
+  std::string mast3r_model;    // MASt3R .pth (constructor string inside) or HF model.safetensors + config.json
+  std::string seggpt_model;    // seggpt_vit_large.pth or HF model.safetensors
+  std::string metric3d_model;  // metric_depth_vit_{small,large,giant2}_800k.pth or safetensors
+  void Validate(const PipelineOptions& o) const;  // every network `o` uses has its file, else says where it looked
+};
+
+// How the DUSt3R-family matchers turn a pair's pointmaps (and MASt3R's descriptors) into correspondences.
+struct PointmapMatchOptions {
   int dust3r_size = 512;            // load_images size (long side)
   double match_conf_threshold = 0;  // reciprocal matching: a pixel is valid if conf >= this
   int match_subsample = 1;          // keep every k-th query pixel
@@ -96,15 +106,41 @@ struct PipelineOptions {
   int mast3r_subsample = 8;
   int mast3r_border = 3;
   double mast3r_conf_threshold = 0;
+  // Compare intrinsics handed in with the focal the pointmaps give and warn above 5 % (a wrong calibration
+  // otherwise gives a wrong pose in silence). Costs the query's swapped decoder pass.
+  int check_intrinsics = 1;
+  void Validate() const;
+};
+
+// The paper's instance knowledge (dust3r+instances, mast3r+instances).
+struct InstanceOptions {
   matching::InstanceMode instance_mode = matching::InstanceMode::kMask;
   InstanceSource instance_source = InstanceSource::kPropagate;
-  int min_instance_matches = 16;              // instances with fewer matches keep the global ones
-  matching::ProposalOptions proposals;        // reference instances from the reference pointmap
-  nn::InstanceSegmenterOptions segmenter;     // SegGPT propagation and its filters
-  nn::RuntimeOptions runtime;                 // device, precision, threads of every network stage
-  io::Track track = io::Track::kSingleFrame;  // run/eval: which queries are answered and how
-  int frames = 9;                             // multi-frame: the last `frames` (1–9) frames of each window
+  int min_instance_matches = 16;           // instances with fewer matches keep the global ones
+  matching::ProposalOptions proposals;     // reference instances from the reference pointmap
+  nn::InstanceSegmenterOptions segmenter;  // SegGPT propagation and its filters
+  void Validate() const;
+};
+
+// The Multi Frame track's windows (multi_frame.h).
+struct MultiFrameOptions {
+  int frames = 9;  // the last `frames` (1–9) frames of each window
   DevicePoseUse device_poses = DevicePoseUse::kAuto;
+  void Validate() const;
+};
+
+struct PipelineOptions {
+  std::string preset = "sift-essential";  // the preset these options started from (reported, not interpreted)
+  MatcherSpec matcher;
+  DepthSpec depth;
+  SolverKind solver = SolverKind::kEssential;
+  io::Track track = io::Track::kSingleFrame;  // run/eval: which queries are answered and how
+  SolveOptions solve;
+  ModelFiles models;
+  PointmapMatchOptions pointmap;
+  InstanceOptions instances;
+  MultiFrameOptions multi_frame;
+  nn::RuntimeOptions runtime;  // device, precision, threads of every network stage
 
   bool UsesDust3r() const {
     return matcher.kind == MatcherKind::kDust3r || matcher.kind == MatcherKind::kDust3rInstances;
@@ -116,7 +152,7 @@ struct PipelineOptions {
   bool UsesInstances() const {
     return matcher.kind == MatcherKind::kDust3rInstances || matcher.kind == MatcherKind::kMast3rInstances;
   }
-  bool UsesSegGpt() const { return UsesInstances() && instance_source == InstanceSource::kPropagate; }
+  bool UsesSegGpt() const { return UsesInstances() && instances.instance_source == InstanceSource::kPropagate; }
   bool UsesMetric3d() const { return depth.kind == DepthKind::kMetric3d; }
   bool UsesProvidedDepth() const { return depth.kind == DepthKind::kProvided; }
   bool UsesMast3rDepth() const { return depth.kind == DepthKind::kMast3r; }

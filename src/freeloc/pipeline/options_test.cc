@@ -61,16 +61,16 @@ TEST(Options, EveryFieldSetsAndReadsBack) {
   SetOption(&o, "threads", "3");
   EXPECT_TRUE(o.UsesInstances());
   EXPECT_FALSE(o.UsesSegGpt());
-  EXPECT_EQ(o.proposals.max_instances, 7);
-  EXPECT_EQ(o.segmenter.min_score, 0.125);
+  EXPECT_EQ(o.instances.proposals.max_instances, 7);
+  EXPECT_EQ(o.instances.segmenter.min_score, 0.125);
   EXPECT_EQ(o.runtime.threads, 3);
 }
 
 TEST(Options, PresetsResolveToTypedOptions) {
   EXPECT_EQ(ResolvePreset("sift-pnp").solver, SolverKind::kPnp);
   EXPECT_EQ(ResolvePreset("precomputed:LoFTR-procrustes").matcher.ToString(), "precomputed:LoFTR");
-  EXPECT_EQ(ResolvePreset("precomputed:SG-essential").threshold_px, 2.0);
-  EXPECT_EQ(ResolvePreset("precomputed:SIFT-essential").threshold_px, 3.0);
+  EXPECT_EQ(ResolvePreset("precomputed:SG-essential").solve.threshold_px, 2.0);
+  EXPECT_EQ(ResolvePreset("precomputed:SIFT-essential").solve.threshold_px, 3.0);
   EXPECT_EQ(ResolvePreset("sift-essential").depth.ToString(), "provided:sensor");
   EXPECT_EQ(ResolvePreset("seed").matcher.kind, MatcherKind::kDust3rInstances);
   EXPECT_EQ(ResolvePreset("seed").depth.kind, DepthKind::kMetric3d);
@@ -85,11 +85,11 @@ TEST(Options, PresetsResolveToTypedOptions) {
 
 TEST(Records, OptionsAndQueryResultsRoundTrip) {
   PipelineOptions o = ResolvePreset("precomputed:LoFTR-pnp");
-  o.threshold_px = 0.1 + 0.2;  // not exactly representable in decimal: must come back bit for bit
+  o.solve.threshold_px = 0.1 + 0.2;  // not exactly representable in decimal: must come back bit for bit
   o.runtime.threads = 2;
   const PipelineOptions back = OptionsFromJson(OptionsJson(o));
   for (const OptionField& f : OptionFields()) EXPECT_EQ(GetOption(back, f.name), GetOption(o, f.name)) << f.name;
-  EXPECT_EQ(back.threshold_px, o.threshold_px);
+  EXPECT_EQ(back.solve.threshold_px, o.solve.threshold_px);
   QueryResult r;
   r.frame = "seq1/frame_00003.jpg";
   r.status = QueryStatus::kError;

@@ -59,7 +59,7 @@ PipelineOptions ResolvePrecomputed(const std::string& name) {
       "preset", TryParseEnum(rest.substr(dash + 1), &o.solver),
       ": '" << name << "': the solver '" << rest.substr(dash + 1) << "' is not one of " << EnumNames<SolverKind>());
   if (o.solver == SolverKind::kEssential || o.solver == SolverKind::kHybrid)
-    o.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
+    o.solve.threshold_px = o.matcher.correspondences == "SIFT" ? 3.0 : 2.0;
   return o;
 }
 
@@ -82,7 +82,7 @@ PipelineOptions ResolvePreset(const std::string& name) {
     o.depth.kind = p.depth;
     o.depth.suffix = p.depth == DepthKind::kProvided ? "sensor" : "";
     o.solver = p.solver;
-    o.threshold_px = p.threshold_px;
+    o.solve.threshold_px = p.threshold_px;
     return o;
   }
   throw OptionError("preset", ": '" + name + "' is unknown; available: " + AvailablePresets());

@@ -26,11 +26,12 @@ std::string ErrorMessage(const std::exception& e, const std::string& file) {
 }  // namespace
 
 void FindModels(PipelineOptions* o) {
-  const auto dirs = ModelDirs(o->models_dir);
-  if (o->UsesDust3r() && o->dust3r_model.empty()) o->dust3r_model = FindModel(Network::kDust3r, dirs);
-  if (o->UsesMast3r() && o->mast3r_model.empty()) o->mast3r_model = FindModel(Network::kMast3r, dirs);
-  if (o->UsesSegGpt() && o->seggpt_model.empty()) o->seggpt_model = FindModel(Network::kSegGpt, dirs);
-  if (o->UsesMetric3d() && o->metric3d_model.empty()) o->metric3d_model = FindModel(Network::kMetric3d, dirs);
+  const auto dirs = ModelDirs(o->models.models_dir);
+  if (o->UsesDust3r() && o->models.dust3r_model.empty()) o->models.dust3r_model = FindModel(Network::kDust3r, dirs);
+  if (o->UsesMast3r() && o->models.mast3r_model.empty()) o->models.mast3r_model = FindModel(Network::kMast3r, dirs);
+  if (o->UsesSegGpt() && o->models.seggpt_model.empty()) o->models.seggpt_model = FindModel(Network::kSegGpt, dirs);
+  if (o->UsesMetric3d() && o->models.metric3d_model.empty())
+    o->models.metric3d_model = FindModel(Network::kMetric3d, dirs);
 }
 
 void LoadModels(const PipelineOptions& o) {
@@ -125,7 +126,7 @@ FrameIntrinsics ResolveIntrinsics(const Camera& camera, const FrameInputs& in, c
     return fi;
   }
   CheckCameraFitsImage(camera, image, (std::string(frame) + " intrinsics").c_str());
-  if (o.check_intrinsics && o.UsesPointmapModel() && !IsZero(camera)) {
+  if (o.pointmap.check_intrinsics && o.UsesPointmapModel() && !IsZero(camera)) {
     fi.pointmap_focal = focal();
     const double given = std::sqrt(camera.fx * camera.fy);
     if (fi.pointmap_focal > 0 && std::abs(given / fi.pointmap_focal - 1) > 0.05)
@@ -164,7 +165,7 @@ matching::Correspondences Relocalizer::Match(const Image& image, const Camera& c
 }
 
 void AnswerUnsolved(const PipelineOptions& o, QueryResult* r) {
-  if (r->ok() || !o.always_answer) return;
+  if (r->ok() || !o.solve.always_answer) return;
   r->answered = true;
   if (r->weak()) return;          // its own pose, with its (low) confidence
   r->query_from_ref = Rigid3d();  // the prior: the reference camera's pose
@@ -268,7 +269,7 @@ QueryResult FailedQuery(const io::MapfreeScene& scene, const io::MapfreeFrame& f
 
 // The scene's device poses for the Multi Frame track: empty when off, absent or unreadable (said once per scene).
 std::map<std::string, Rigid3d> SceneDevicePoses(const io::MapfreeScene& scene, const PipelineOptions& o) {
-  if (o.device_poses == DevicePoseUse::kIgnore) return {};
+  if (o.multi_frame.device_poses == DevicePoseUse::kIgnore) return {};
   const std::string path = scene.DevicePosesPath();
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
@@ -292,7 +293,7 @@ std::vector<QueryResult> RelocalizeWindows(const io::MapfreeScene& scene, Reloca
   const PipelineOptions& o = reloc.options();
   const std::map<std::string, Rigid3d> device = SceneDevicePoses(scene, o);
   std::vector<QueryResult> out;
-  for (const io::QueryWindow& win : io::MultiFrameWindows(scene, o.frames)) {
+  for (const io::QueryWindow& win : io::MultiFrameWindows(scene, o.multi_frame.frames)) {
     const io::MapfreeFrame& q = scene.queries[win.evaluated];
     std::vector<WindowFrame> frames;
     for (size_t i : win.frames) {
@@ -350,7 +351,7 @@ std::vector<QueryResult> RelocalizeWindows(const io::MapfreeScene& scene, Reloca
 std::vector<size_t> AnsweredQueries(const io::MapfreeScene& scene, const PipelineOptions& o) {
   std::vector<size_t> out;
   if (o.track == io::Track::kMultiFrame) {
-    for (const io::QueryWindow& w : io::MultiFrameWindows(scene, o.frames)) out.push_back(w.evaluated);
+    for (const io::QueryWindow& w : io::MultiFrameWindows(scene, o.multi_frame.frames)) out.push_back(w.evaluated);
   } else {
     for (size_t i = 0; i < scene.queries.size(); ++i) out.push_back(i);
   }
@@ -369,7 +370,7 @@ std::vector<QueryResult> RelocalizeScene(const io::MapfreeScene& scene, Relocali
     if (o.UsesProvidedDepth() && ref.depth.empty())
       FREELOC_LOG(WARNING) << scene.name << ": no '" << o.depth.suffix << "' depth for the reference ("
                            << scene.DepthPath(scene.reference, o.depth.suffix) << "); no query gets a metric pose"
-                           << (o.always_answer ? " (each is submitted with the prior pose, confidence 0)" : "");
+                           << (o.solve.always_answer ? " (each is submitted with the prior pose, confidence 0)" : "");
     reloc.SetReference(scene.LoadImage(scene.reference), scene.reference.camera, std::move(ref));
     if (o.UsesPrecomputed()) pre = scene.LoadCorrespondences(o.matcher.correspondences);
   } catch (const std::exception& e) {

@@ -178,7 +178,7 @@ TEST(Relocalizer, IntrinsicsFromThePointmapAndTheirCheck) {
             std::string::npos);
 
   // check_intrinsics 0: no focal is asked for a given camera.
-  o.check_intrinsics = 0;
+  o.pointmap.check_intrinsics = 0;
   auto owned2 = std::make_unique<FocalMatcher>(scene);
   FocalMatcher* m2 = owned2.get();
   Relocalizer unchecked(o, std::move(owned2), MakeDepthEstimator(base), MakePoseSolver(base));
@@ -238,7 +238,7 @@ TEST(Relocalizer, HybridSolverFallbackAndAlwaysAnswer) {
   EXPECT_EQ(r.confidence, 0);
   EXPECT_EQ(r.query_from_ref.translation.norm(), 0);
   EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, Eigen::Quaterniond::Identity()), 1e-12);
-  o.always_answer = 0;
+  o.solve.always_answer = 0;
   Relocalizer silent(o);
   silent.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
   r = silent.Relocalize(Image(320, 240), scene.query, scene.depth_query, &noise);
@@ -263,7 +263,7 @@ TEST(Relocalizer, WeakSupportIsALowConfidenceAnswerNotThePrior) {
     for (int i = 0; i < 48; ++i) rows.emplace_back(ux(rng), uy(rng), ux(rng), uy(rng));
     PipelineOptions o = ResolvePreset("precomputed:SIFT-essential");
     o.depth = DepthSpec::FromString("provided:synthetic");
-    o.threshold_px = 2.0;
+    o.solve.threshold_px = 2.0;
     Relocalizer reloc(o);
     reloc.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
     const QueryResult r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query, &rows);
@@ -279,7 +279,7 @@ TEST(Relocalizer, WeakSupportIsALowConfidenceAnswerNotThePrior) {
     EXPECT_LT(r.confidence, kWeakSupportCeiling);
     EXPECT_GT(r.query_from_ref.translation.norm(), 0.1);  // its own metric pose, not the prior
     EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 5.0);
-    o.always_answer = 0;
+    o.solve.always_answer = 0;
     Relocalizer silent(o);
     silent.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
     const QueryResult s = silent.Relocalize(Image(320, 240), scene.query, scene.depth_query, &rows);
@@ -303,7 +303,7 @@ TEST(Relocalizer, PresetsAndOverrides) {
   // The network presets solve with the hybrid depth-aware solver (sift-essential keeps essential).
   for (const auto* p : {&seed, &ni, &pd}) EXPECT_EQ(p->solver, SolverKind::kHybrid);
   EXPECT_EQ(ResolvePreset("sift-essential").solver, SolverKind::kEssential);
-  EXPECT_EQ(ResolvePreset("sift-essential").scale, geometry::ScaleMethod::kAnchored);
+  EXPECT_EQ(ResolvePreset("sift-essential").solve.scale, geometry::ScaleMethod::kAnchored);
   PipelineOptions o = ResolvePreset("sift-pnp");
   o.depth = DepthSpec::FromString("none");
   EXPECT_THROW(o.Validate(), Error);
@@ -313,10 +313,10 @@ TEST(Relocalizer, PresetsAndOverrides) {
   // dust3r: a real matcher, but only with its weights named.
   PipelineOptions d = ResolvePreset("dust3r");
   EXPECT_THROW(d.Validate(), Error);
-  d.dust3r_model = "weights.pth";
+  d.models.dust3r_model = "weights.pth";
   EXPECT_NO_THROW(d.Validate());
   EXPECT_NE(d.Summary().find("dust3r weights.pth at 512"), std::string::npos) << d.Summary();
-  d.dust3r_size = 100;
+  d.pointmap.dust3r_size = 100;
   EXPECT_THROW(d.Validate(), Error);
 }
 
@@ -325,17 +325,17 @@ TEST(Relocalizer, PresetsAndOverrides) {
 // reference pointmap, SegGPT propagation and per-instance DUSt3R per query, the reference's encoder passes reused.
 TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
   PipelineOptions o = ResolvePreset("seed");
-  o.dust3r_model = testing::TinyModelPath("dust3r_tiny.pth");
-  o.seggpt_model = testing::TinyModelPath("seggpt/model.safetensors");
-  o.metric3d_model = testing::TinyModelPath("metric3d/model.safetensors");
-  o.dust3r_size = 224;
+  o.models.dust3r_model = testing::TinyModelPath("dust3r_tiny.pth");
+  o.models.seggpt_model = testing::TinyModelPath("seggpt/model.safetensors");
+  o.models.metric3d_model = testing::TinyModelPath("metric3d/model.safetensors");
+  o.pointmap.dust3r_size = 224;
   // Random weights paint noise: loose proposal and propagation filters so that instances exist and are used.
-  o.proposals.depth_jump = 0.5;
-  o.proposals.normal_angle_deg = 179;
-  o.segmenter.min_score = 0;
-  o.segmenter.min_area_ratio = 0;
-  o.segmenter.max_area_ratio = 1e9;
-  o.min_instance_matches = 1;
+  o.instances.proposals.depth_jump = 0.5;
+  o.instances.proposals.normal_angle_deg = 179;
+  o.instances.segmenter.min_score = 0;
+  o.instances.segmenter.min_area_ratio = 0;
+  o.instances.segmenter.max_area_ratio = 1e9;
+  o.instances.min_instance_matches = 1;
   const io::MapfreeScene s = io::MapfreeScene::Load(testing::DemoPath("val/s00001"));
   ASSERT_EQ(s.queries.size(), 5u);
   CacheStats st;
@@ -386,8 +386,8 @@ TEST(Relocalizer, SeedPresetWithTinyWeightsCachesTheReferenceWork) {
 TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
   const std::string weights = testing::TinyModelPath("mast3r_tiny.pth");
   PipelineOptions o = ResolvePreset("mast3r");
-  o.mast3r_model = weights;
-  o.dust3r_size = 224;
+  o.models.mast3r_model = weights;
+  o.pointmap.dust3r_size = 224;
   const io::MapfreeScene s = io::MapfreeScene::Load(testing::DemoPath("val/s00001"));
   const Image ref = s.LoadImage(s.reference);
   Relocalizer reloc(o);
@@ -445,8 +445,8 @@ TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
   EXPECT_GE(reloc.stats().reference_reuses, 1);
   // Deterministic; pnp needs no query depth (no swapped pass).
   PipelineOptions pnp = ResolvePreset("mast3r-pnp");
-  pnp.mast3r_model = weights;
-  pnp.dust3r_size = 224;
+  pnp.models.mast3r_model = weights;
+  pnp.pointmap.dust3r_size = 224;
   Relocalizer r2(pnp);
   r2.SetReference(ref, s.reference.camera, FrameInputs{});
   const QueryResult a = r2.Relocalize(s.LoadImage(s.queries[0]), s.queries[0].camera, FrameInputs{});
@@ -462,17 +462,17 @@ TEST(Relocalizer, Mast3rRoutesWithTinyWeights) {
 
 TEST(Relocalizer, Mast3rPresetsNeedMast3rWeights) {
   PipelineOptions o = ResolvePreset("mast3r");
-  o.models_dir = "/nonexistent";
+  o.models.models_dir = "/nonexistent";
   const std::string e = testing::ErrorOf([&] { o.Validate(); });
   EXPECT_NE(e.find("MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth"), std::string::npos) << e;
   EXPECT_NE(e.find("docs/models.md"), std::string::npos) << e;
   // depth mast3r without the MASt3R matcher is refused; a DUSt3R checkpoint is not a MASt3R model.
   PipelineOptions d = ResolvePreset("dust3r");
-  d.dust3r_model = "x.pth";
+  d.models.dust3r_model = "x.pth";
   d.depth = DepthSpec::FromString("mast3r");
   EXPECT_NE(testing::ErrorOf([&] { d.Validate(); }).find("matcher mast3r"), std::string::npos);
   if (std::filesystem::exists(testing::TinyModelPath("dust3r_tiny.pth"))) {
-    o.mast3r_model = testing::TinyModelPath("dust3r_tiny.pth");
+    o.models.mast3r_model = testing::TinyModelPath("dust3r_tiny.pth");
     const std::string e2 = testing::ErrorOf([&] { Relocalizer r(o); });
     EXPECT_NE(e2.find("no local-feature head"), std::string::npos) << e2;
   }

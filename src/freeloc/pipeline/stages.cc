@@ -153,7 +153,9 @@ geometry::DepthSamples SampleDepths(const matching::Correspondences& c, const De
 // 5-point LO-RANSAC on the correspondences, then the metric scale from both depths on its inliers.
 class EssentialSolver : public PoseSolver {
  public:
-  explicit EssentialSolver(const PipelineOptions& o) : threshold_px_(o.threshold_px) { scale_.method = o.scale; }
+  explicit EssentialSolver(const PipelineOptions& o) : threshold_px_(o.solve.threshold_px) {
+    scale_.method = o.solve.scale;
+  }
 
   void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
              const DepthMap& d_query, QueryResult* r) const override {
@@ -230,9 +232,9 @@ class EssentialSolver : public PoseSolver {
 class HybridSolver : public PoseSolver {
  public:
   explicit HybridSolver(const PipelineOptions& o) : essential_(o) {
-    if (o.threshold_px > 0) options_.threshold_px = o.threshold_px;
-    options_.reprojection_px = o.reprojection_px;
-    options_.shifts = o.depth_shifts != 0;
+    if (o.solve.threshold_px > 0) options_.threshold_px = o.solve.threshold_px;
+    options_.reprojection_px = o.solve.reprojection_px;
+    options_.shifts = o.solve.depth_shifts != 0;
   }
 
   void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
@@ -385,7 +387,7 @@ std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
 std::unique_ptr<PoseSolver> MakePoseSolver(const PipelineOptions& o) {
   if (o.solver == SolverKind::kEssential) return std::make_unique<EssentialSolver>(o);
   if (o.solver == SolverKind::kHybrid) return std::make_unique<HybridSolver>(o);
-  return std::make_unique<AbsoluteSolver>(o.solver == SolverKind::kPnp, o.threshold_px);
+  return std::make_unique<AbsoluteSolver>(o.solver == SolverKind::kPnp, o.solve.threshold_px);
 }
 
 }  // namespace freeloc::pipeline

@@ -169,9 +169,9 @@ TEST(Service, WarmAnchorsRunOnlyTheQueryWork) {
   const Tum t;
   ServiceOptions o;
   o.pipeline = pipeline::ResolvePreset("dust3r");
-  o.pipeline.dust3r_model = testing::TinyModelPath("dust3r_tiny.pth");
-  o.pipeline.dust3r_size = 224;
-  o.pipeline.check_intrinsics = 0;
+  o.pipeline.models.dust3r_model = testing::TinyModelPath("dust3r_tiny.pth");
+  o.pipeline.pointmap.dust3r_size = 224;
+  o.pipeline.pointmap.check_intrinsics = 0;
   const Running s(o);
   httplib::Client c = s.Client();
   const std::string id = AddAnchor(c, t);
