@@ -216,7 +216,7 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
     for (size_t i = 0; i < X.size(); ++i)
       if (est.SquaredError(best, i) < threshold_sq) in.push_back(static_cast<int>(i));
   };
-  if (st.stop == RansacStop::kNoModel) {
+  if (!st.found()) {
     Finish(&res, EstimatorOutcome::kNoConsensus, t0);
     return res;
   }
@@ -250,7 +250,7 @@ MetricPoseResult EstimatePnP(const std::vector<Eigen::Vector2d>& px_ref, const s
     PoseRt chance_model;
     const RansacStats sst = Ransac(shuffled, o.ransac, threshold_sq, &chance_model);
     int chance = 0;
-    if (sst.stop != RansacStop::kNoModel)
+    if (sst.found())
       for (size_t i = 0; i < m; ++i) chance += shuffled.SquaredError(chance_model, i) < threshold_sq;
     const double scaled = chance * static_cast<double>(X.size()) / static_cast<double>(m);
     res.status.shuffled_best = static_cast<int>(std::lround(scaled));
@@ -300,7 +300,7 @@ MetricPoseResult EstimateProcrustes(const std::vector<Eigen::Vector2d>& px_ref,
   PoseRt best;
   const RansacStats st = Ransac(est, o.ransac, threshold_sq, &best);
   CopyStats(st, &res);
-  if (st.stop == RansacStop::kNoModel) {
+  if (!st.found()) {
     Finish(&res, EstimatorOutcome::kNoConsensus, t0);
     return res;
   }

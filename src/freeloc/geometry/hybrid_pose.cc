@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "freeloc/core/error.h"
 #include "freeloc/geometry/essential.h"
@@ -32,6 +33,8 @@ void HybridPoseOptions::Validate() const {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// A minimal solve (5-point, or 3-point with depths) per model it gives, in Sampson errors: the sequential test's cost.
+constexpr double kSolveCost = 500;
 
 struct Model {
   DepthRelPose p;
@@ -187,12 +190,26 @@ class Problem {
       RelPoseDepthScale3pt(a, da, b, db, &sols_);
     for (const auto& p : sols_) models->push_back(Complete(p));
   }
-  void Sample5(const int* s, std::vector<Model>* models) const {
+  // With `test`: each pose faces the sequential test on its epipolar fit before its depths complete it (that pass
+  // over the data costs as much as scoring).
+  void Sample5(const int* s, SprtTest* test, std::vector<Model>* models) const {
     FivePointRelativePose(x_, y_, s, &rts_);
     for (const auto& rt : rts_) {
+      if (test && !EpipolarPlausible(Complete({rt.R, rt.t, 1, 0, 0}), test)) continue;
       Model m;
       if (CompleteFivePoint(rt, &m)) models->push_back(m);
     }
+  }
+  // The sequential test (sprt.h) on a pose's epipolar fit alone (a 5-point pose before its depths complete it) …
+  bool EpipolarPlausible(const Model& m, SprtTest* test) const {
+    size_t checked = 0;
+    return test->Accept([&](size_t i) { return Sampson(m, i) < the2_; }, &checked);
+  }
+  // … and on a complete model, where a match counts when either of its terms fits: a depth model may beat the best
+  // through its reprojections while fitting fewer matches epipolarly.
+  bool HybridPlausible(const Model& m, SprtTest* test) const {
+    size_t checked = 0;
+    return test->Accept([&](size_t i) { return Sampson(m, i) < the2_ || DepthInlier(m, i); }, &checked);
   }
 
   const std::vector<Eigen::Vector3d>& x() const { return x_; }
@@ -377,8 +394,29 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
   for (size_t i = 0; i < n; ++i) all[i] = static_cast<int>(i);
   const bool can3 = pb.both().size() >= 3;
   SplitMix64 rng(opt.ransac.seed);
+  // Dense sets: the sequential test on every hypothesis and the give-up share for both families (ransac.h).
+  // Two tests, each learning its own δ: 5-point poses on their epipolar fit, complete depth models on either fit.
+  std::optional<SprtTest> sprt, sprt_hybrid;
+  if (UsesSprt(opt.ransac, n)) {
+    sprt.emplace(n, opt.ransac.seed, opt.ransac.min_inlier_ratio, kSolveCost, 1.0);
+    sprt_hybrid.emplace(n, opt.ransac.seed + 1, opt.ransac.min_inlier_ratio, kSolveCost, 1.0);
+  }
+  // The chance that an all-inlier sample's model also passes its test.
+  const double pass5 = sprt ? sprt->SampleSuccessFactor() : 1.0,
+               pass3 = sprt ? sprt_hybrid->SampleSuccessFactor() : 1.0;
+  const auto required5 = [&](size_t inliers) {
+    return RequiredIterations(inliers, n, 5, opt.ransac.success_prob, pass5);
+  };
+  const auto required3 = [&](size_t inliers) {
+    return can3 ? RequiredIterations(inliers, pb.both().size(), 3, opt.ransac.success_prob, pass3) : kInf;
+  };
   double used5 = 0, used3 = 0;  // Σ over iterations of 1 / required(·) for each family (stop when ≥ 1)
-  double need5 = kInf, need3 = kInf;
+  // Without the test no requirement stands before a model; with it, what would have found one holding the minimum
+  // share (the give-up bound, ransac.h).
+  double need5 = sprt ? RequiredIterations(GiveUpInliers(opt.ransac, n), n, 5, opt.ransac.give_up_prob, pass5) : kInf;
+  double need3 = sprt && can3 ? RequiredIterations(GiveUpInliers(opt.ransac, pb.both().size()), pb.both().size(), 3,
+                                                   opt.ransac.give_up_prob, pass3)
+                              : kInf;
   std::vector<Model> models;
   int sample[5];
   int iter = 0;
@@ -389,9 +427,10 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
       res.stop = RansacStop::kTimeBudget;
       break;
     }
-    // Adaptive mix: the family expected to need fewer samples is drawn more often (even odds before any model).
+    // Adaptive mix: the family expected to need fewer samples is drawn more often (even odds before any model, the
+    // give-up bounds included).
     double p3 = 0.5;
-    if (std::isfinite(need3) || std::isfinite(need5)) {
+    if (std::isfinite(res.score) && (std::isfinite(need3) || std::isfinite(need5))) {
       const double a = std::isfinite(need3) ? 1.0 / std::max(need3, 1.0) : 0.0;
       const double b = std::isfinite(need5) ? 1.0 / std::max(need5, 1.0) : 0.0;
       p3 = std::clamp(a / (a + b), 0.1, 0.9);
@@ -406,11 +445,12 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
       if (std::isfinite(need3)) used3 += 1.0 / std::max(need3, 1.0);
     } else {
       DrawDistinct(&rng, all, 5, sample);
-      pb.Sample5(sample, &models);
+      pb.Sample5(sample, sprt ? &*sprt : nullptr, &models);
       ++res.samples_5pt;
       if (std::isfinite(need5)) used5 += 1.0 / std::max(need5, 1.0);
     }
     for (Model& m : models) {
+      if (three && sprt_hybrid && !pb.HybridPlausible(m, &*sprt_hybrid)) continue;
       int ns = 0, nd = 0;
       const double sc = pb.Score(m, res.score, &ns, &nd);
       if (!(sc < res.score)) continue;
@@ -429,10 +469,8 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
         res.num_sampson = ls;
         res.num_depth = ld;
       }
-      need5 = RequiredIterations(static_cast<size_t>(res.num_sampson), n, 5, opt.ransac.success_prob);
-      need3 = can3
-                  ? RequiredIterations(static_cast<size_t>(res.num_depth), pb.both().size(), 3, opt.ransac.success_prob)
-                  : kInf;
+      need5 = required5(static_cast<size_t>(res.num_sampson));
+      need3 = required3(static_cast<size_t>(res.num_depth));
       // What has been drawn so far counts against the new requirements.
       used5 = std::isfinite(need5) ? res.samples_5pt / std::max(need5, 1.0) : 0.0;
       used3 = std::isfinite(need3) ? res.samples_3pt / std::max(need3, 1.0) : 0.0;
@@ -440,7 +478,9 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
   }
   res.iterations = iter;
   if (res.stop != RansacStop::kTimeBudget)
-    res.stop = iter >= max_iterations ? RansacStop::kMaxIterations : RansacStop::kConfidence;
+    res.stop = iter >= max_iterations      ? RansacStop::kMaxIterations
+               : !std::isfinite(res.score) ? (sprt ? RansacStop::kGaveUp : RansacStop::kNoModel)
+                                           : RansacStop::kConfidence;
   return res;
 }
 

@@ -138,21 +138,52 @@ TEST(HybridPose, PointsBehindTheCamerasAreNotInliers) {
   EXPECT_EQ(r.status.num_inliers, 200);
 }
 
-TEST(HybridPose, RandomMatchesAreNoConsensus) {
-  std::mt19937 rng(5);
+// `n` unrelated matches over a 640×480 pair, each with its own random depths (1–8 m).
+DepthView RandomMatches(uint32_t seed, int n) {
+  std::mt19937 rng(seed);
   std::uniform_real_distribution<double> ux(0, 640), uy(0, 480), ud(1, 8);
-  std::vector<Eigen::Vector2d> a, b;
-  std::vector<double> da, db;
-  for (int i = 0; i < 200; ++i) {
-    a.emplace_back(ux(rng), uy(rng));
-    b.emplace_back(ux(rng), uy(rng));
-    da.push_back(ud(rng));
-    db.push_back(ud(rng));
+  DepthView v;
+  v.query = v.ref;
+  for (int i = 0; i < n; ++i) {
+    v.p1.emplace_back(ux(rng), uy(rng));
+    v.p2.emplace_back(ux(rng), uy(rng));
+    v.d1.push_back(ud(rng));
+    v.d2.push_back(ud(rng));
   }
-  const Camera k{600, 600, 320, 240, 640, 480};
-  const HybridPoseResult r = EstimateHybridPose(a, b, da, db, k, k);
+  return v;
+}
+
+TEST(HybridPose, RandomMatchesAreNoConsensus) {
+  const DepthView v = RandomMatches(5, 200);
+  const HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
   EXPECT_FALSE(r.status.success());
   EXPECT_EQ(r.status.outcome, EstimatorOutcome::kNoConsensus);
+}
+
+// A dense set of random matches with random depths: the sequential test drops every hypothesis after a few data
+// and the search gives up after the samples that would have found a model holding a fifth of them.
+TEST(HybridPose, RandomDenseSetsGiveUpQuickly) {
+  const DepthView v = RandomMatches(8, 40000);
+  const HybridPoseResult r = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query);
+  EXPECT_EQ(r.status.outcome, EstimatorOutcome::kNoConsensus);
+  EXPECT_TRUE(r.status.stop == RansacStop::kGaveUp || r.status.stop == RansacStop::kNoModel) << ToString(r.status.stop);
+  // Both families together meet the give-up requirement: well under the 10 000-sample cap the search ran to before.
+  EXPECT_LT(r.samples_3pt + r.samples_5pt, 3000);
+}
+
+TEST(HybridPose, DenseSetsGiveThePlainSearchsAnswer) {
+  const DepthView v = MakeDepthView(61, 20000, 0.5, 0.5);
+  HybridPoseOptions dense, plain;
+  plain.ransac.sprt_min_data = 0;
+  const HybridPoseResult a = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query, dense);
+  const HybridPoseResult b = EstimateHybridPose(v.p1, v.p2, v.d1, v.d2, v.ref, v.query, plain);
+  ASSERT_TRUE(a.status.success()) << ToString(a.status.outcome);
+  ASSERT_TRUE(b.status.success()) << ToString(b.status.outcome);
+  EXPECT_LT(RotErrDeg(a.model.R, v.truth), 0.05);
+  EXPECT_LT(Eigen::AngleAxisd(a.model.R.transpose() * b.model.R).angle() * 180 / M_PI, 0.01);
+  EXPECT_NEAR(a.model.t.norm(), v.truth.translation.norm(), 0.01 * v.truth.translation.norm());
+  EXPECT_NEAR(a.model.t.norm(), b.model.t.norm(), 0.002 * b.model.t.norm());
+  EXPECT_NEAR(a.status.num_inliers, b.status.num_inliers, 0.005 * b.status.num_inliers);
 }
 
 TEST(HybridPose, WithoutDepthThereIsNoMetricModel) {

@@ -105,6 +105,7 @@ class RelPoseEstimator {
  public:
   using Model = RelModel;
   static constexpr int kSampleSize = 5;
+  static constexpr double kSolveCost = 500;  // a 5-point solve per model it gives, in Sampson errors (bench/solver)
   RelPoseEstimator(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2, double th)
       : x1_(x1), x2_(x2), loss_scale_(th) {}
   size_t num_data() const { return x1_.size(); }
@@ -221,7 +222,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   res.status.iterations = st.iterations;
   res.status.local_optimizations = st.local_optimizations;
   res.status.stop = st.stop;
-  if (st.stop == RansacStop::kNoModel || st.num_inliers < 5) return finish(EstimatorOutcome::kNoConsensus);
+  if (!st.found() || st.num_inliers < 5) return finish(EstimatorOutcome::kNoConsensus);
   std::vector<int> in;
   auto collect = [&](const PoseRt& p) {
     in.clear();
@@ -356,7 +357,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
           0.1, opt.ransac.max_seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     RelModel m;
     const RansacStats ss = Ransac(shuffled, rs, threshold_sq, &m);
-    res.status.shuffled_best = ss.stop == RansacStop::kNoModel ? 0 : ss.num_inliers;
+    res.status.shuffled_best = ss.found() ? ss.num_inliers : 0;
     weak = n_in < 1.5 * res.status.shuffled_best + 4;
     trivial = n_in < 1.2 * res.status.shuffled_best + 3;
   }

@@ -177,11 +177,13 @@ TEST(RelativePoseSafety, RandomMatchesGiveNoConsensusWithinTheBudget) {
                                      << r.status.chance_inliers;
     EXPECT_EQ(r.status.outcome, EstimatorOutcome::kNoConsensus);
   }
-  // A time budget stops a hopeless search (100 000 random matches once took 23 s to give "ok").
+  // A time budget stops a hopeless search (100 000 random matches once took 23 s to give "ok"); here without the
+  // dense-set rule, which would stop it first (RandomDenseSetsGiveUpAfterTheSamplesThatWouldFindAFifth).
   const TwoView big = MakeTwoView(34, 100000, 1.0);
   RelativePoseOptions o;
   o.threshold_px = 3.0;
   o.ransac.max_seconds = 0.5;
+  o.ransac.sprt_min_data = 0;
   const RelativePoseResult r = EstimateRelativePose(big.p1, big.p2, big.ref, big.query, o);
   EXPECT_FALSE(r.status.success());
   EXPECT_EQ(r.status.stop, RansacStop::kTimeBudget);
@@ -193,6 +195,44 @@ TEST(RelativePoseSafety, RandomMatchesGiveNoConsensusWithinTheBudget) {
   const RelativePoseResult rr = EstimateRelativePose(real.p1, real.p2, real.ref, real.query, fresh);
   ASSERT_TRUE(rr.status.success()) << ToString(rr.status.outcome);
   EXPECT_LT(RotationAngleDeg(rr.query_from_ref.rotation, real.truth.rotation), 0.5);
+}
+
+// Dense sets (ransac.h): random matches stop after the samples that would have found a model holding a fifth of
+// them — counted in samples, not seconds — while a solvable dense set gives the answer the plain search gives.
+TEST(RelativePoseSafety, RandomDenseSetsGiveUpAfterTheSamplesThatWouldFindAFifth) {
+  for (uint32_t seed : {41u, 42u}) {
+    const TwoView tv = MakeTwoView(seed, 40000, 1.0);
+    RelativePoseOptions o;
+    o.ransac.seed = seed;
+    const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, o);
+    EXPECT_EQ(r.status.outcome, EstimatorOutcome::kNoConsensus) << "seed " << seed;
+    EXPECT_TRUE(r.status.stop == RansacStop::kNoModel || r.status.stop == RansacStop::kGaveUp)
+        << ToString(r.status.stop);
+    // The give-up bound for a fifth of 40 000 at 99 % is about 14 400 samples (a little more for the test's losses);
+    // the search without the rule ran to its 10 s budget.
+    const double bound = RequiredIterations(8000, 40000, 5, o.ransac.give_up_prob, 0.97);
+    EXPECT_LE(r.status.iterations, static_cast<int>(bound) + 1);
+    EXPECT_GE(r.status.iterations, static_cast<int>(RequiredIterations(8000, 40000, 5, o.ransac.give_up_prob)));
+  }
+}
+
+TEST(RelativePose, DenseSetsGiveThePlainSearchsAnswer) {
+  for (const double outliers : {0.3, 0.7}) {
+    const TwoView tv = MakeTwoView(51, 20000, outliers);
+    RelativePoseOptions dense, plain;
+    plain.ransac.sprt_min_data = 0;
+    const RelativePoseResult a = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, dense);
+    const RelativePoseResult b = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, plain);
+    ASSERT_TRUE(a.status.success()) << ToString(a.status.outcome);
+    ASSERT_TRUE(b.status.success()) << ToString(b.status.outcome);
+    EXPECT_EQ(a.status.stop, RansacStop::kConfidence);
+    // Both refine on the same inlier set: the same pose to well below the noise, nearly the same support.
+    EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, tv.truth.rotation), 0.1);
+    EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, b.query_from_ref.rotation), 0.01);
+    EXPECT_NEAR(a.status.num_inliers, b.status.num_inliers, 0.005 * b.status.num_inliers);
+    // The test drops most hypotheses early: far fewer full scorings (local optimisations run only on new bests).
+    EXPECT_LE(a.status.iterations, b.status.iterations * 1.1 + 60);
+  }
 }
 
 // A few hundred random matches (what random-weight descriptor matchers give): RANSAC's search selects a model with

@@ -79,6 +79,8 @@ void SolveOptions::Validate() const {
                        ": " << depth_shifts << " is not 0 or 1");
   FREELOC_OPTION_CHECK("always_answer", always_answer == 0 || always_answer == 1,
                        ": " << always_answer << " is not 0 or 1");
+  FREELOC_OPTION_CHECK("sprt_min_matches", sprt_min_matches >= 0,
+                       ": " << sprt_min_matches << " is negative (0: always the full search)");
 }
 
 void PointmapMatchOptions::Validate() const {

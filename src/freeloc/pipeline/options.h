@@ -81,6 +81,9 @@ struct SolveOptions {
   // below every ok answer; a query with no model at all with the prior pose (the reference camera's: identity
   // rotation, zero translation) and confidence 0; the status still says which. 0 = submit ok queries only.
   int always_answer = 1;
+  // Robust searches over at least this many matches check each hypothesis sequentially and give up on a set with no
+  // consensus (geometry/ransac.h, docs/geometry.md "Dense sets"); 0: never — the full search to its budget.
+  int sprt_min_matches = 2000;
   void Validate() const;  // throws freeloc::Error naming the option
 };
 

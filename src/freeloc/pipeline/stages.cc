@@ -153,7 +153,8 @@ geometry::DepthSamples SampleDepths(const matching::Correspondences& c, const De
 // 5-point LO-RANSAC on the correspondences, then the metric scale from both depths on its inliers.
 class EssentialSolver : public PoseSolver {
  public:
-  explicit EssentialSolver(const PipelineOptions& o) : threshold_px_(o.solve.threshold_px) {
+  explicit EssentialSolver(const PipelineOptions& o)
+      : threshold_px_(o.solve.threshold_px), sprt_min_matches_(o.solve.sprt_min_matches) {
     scale_.method = o.solve.scale;
   }
 
@@ -170,6 +171,7 @@ class EssentialSolver : public PoseSolver {
     }
     geometry::RelativePoseOptions ro;
     if (threshold_px_ > 0) ro.threshold_px = threshold_px_;
+    ro.ransac.sprt_min_data = sprt_min_matches_;
     const auto rel =
         geometry::EstimateRelativePose(c.ref, c.query, k_ref, k_query, ro, SampleDepths(c, d_ref, d_query));
     r->inliers = rel.status.num_inliers;
@@ -221,6 +223,7 @@ class EssentialSolver : public PoseSolver {
   }
 
   double threshold_px_;
+  int sprt_min_matches_;
   geometry::ScaleOptions scale_;
 };
 
@@ -235,6 +238,7 @@ class HybridSolver : public PoseSolver {
     if (o.solve.threshold_px > 0) options_.threshold_px = o.solve.threshold_px;
     options_.reprojection_px = o.solve.reprojection_px;
     options_.shifts = o.solve.depth_shifts != 0;
+    options_.ransac.sprt_min_data = o.solve.sprt_min_matches;
   }
 
   void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
@@ -295,8 +299,10 @@ class HybridSolver : public PoseSolver {
 // PnP on the reference depth (threshold_px: reprojection inlier threshold) or Procrustes on both depths.
 class AbsoluteSolver : public PoseSolver {
  public:
-  AbsoluteSolver(bool pnp, double threshold_px) : pnp_(pnp) {
+  AbsoluteSolver(bool pnp, double threshold_px, int sprt_min_matches) : pnp_(pnp) {
     if (threshold_px > 0) pnp_options_.threshold_px = threshold_px;
+    pnp_options_.ransac.sprt_min_data = sprt_min_matches;
+    procrustes_options_.ransac.sprt_min_data = sprt_min_matches;
   }
   void Solve(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
              const DepthMap& d_query, QueryResult* r) const override {
@@ -305,8 +311,9 @@ class AbsoluteSolver : public PoseSolver {
     r->route = pnp_ ? "pnp" : "procrustes";
     CheckDepthCovers(c.ref, d_ref, "reference");
     if (!pnp_) CheckDepthCovers(c.query, d_query, "query");
-    const auto m = pnp_ ? geometry::EstimatePnP(c.ref, c.query, d_ref, k_ref, k_query, pnp_options_)
-                        : geometry::EstimateProcrustes(c.ref, c.query, d_ref, d_query, k_ref, k_query);
+    const auto m =
+        pnp_ ? geometry::EstimatePnP(c.ref, c.query, d_ref, k_ref, k_query, pnp_options_)
+             : geometry::EstimateProcrustes(c.ref, c.query, d_ref, d_query, k_ref, k_query, procrustes_options_);
     r->inliers = m.status.num_inliers;
     r->inlier_mask = m.inliers;
     r->status = StatusOf(m.status.outcome);
@@ -357,6 +364,7 @@ class AbsoluteSolver : public PoseSolver {
 
   bool pnp_;
   geometry::PnPOptions pnp_options_;
+  geometry::ProcrustesOptions procrustes_options_;
 };
 
 }  // namespace
@@ -387,7 +395,7 @@ std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& o) {
 std::unique_ptr<PoseSolver> MakePoseSolver(const PipelineOptions& o) {
   if (o.solver == SolverKind::kEssential) return std::make_unique<EssentialSolver>(o);
   if (o.solver == SolverKind::kHybrid) return std::make_unique<HybridSolver>(o);
-  return std::make_unique<AbsoluteSolver>(o.solver == SolverKind::kPnp, o.solve.threshold_px);
+  return std::make_unique<AbsoluteSolver>(o.solver == SolverKind::kPnp, o.solve.threshold_px, o.solve.sprt_min_matches);
 }
 
 }  // namespace freeloc::pipeline
