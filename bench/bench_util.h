@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -88,6 +89,28 @@ inline double PeakRssMB() {
   struct rusage ru {};
   getrusage(RUSAGE_SELF, &ru);
   return ru.ru_maxrss / 1024.0;
+}
+
+// /proc/self/status's VmRSS (resident now) or VmHWM (the peak since start or since ResetPeakRss()), in MB; 0 where
+// the file is absent.
+inline double ProcStatusMB(const char* key) {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f) return 0;
+  char line[256];
+  double kb = 0;
+  const size_t n = std::strlen(key);
+  while (std::fgets(line, sizeof(line), f))
+    if (!std::strncmp(line, key, n) && line[n] == ':') kb = std::atof(line + n + 1);
+  std::fclose(f);
+  return kb / 1024.0;
+}
+// Resets VmHWM to the present RSS (Linux: "5" to /proc/self/clear_refs), so a later ProcStatusMB("VmHWM") is the
+// peak of what ran in between. False where the kernel does not allow it.
+inline bool ResetPeakRss() {
+  std::FILE* f = std::fopen("/proc/self/clear_refs", "w");
+  if (!f) return false;
+  const bool ok = std::fputs("5", f) >= 0;
+  return std::fclose(f) == 0 && ok;
 }
 
 class MarkdownTable {

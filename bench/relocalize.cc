@@ -5,14 +5,15 @@
 // encodings, instance encodings), then per query a stage table — depth, the pair's network pass, global matching,
 // SegGPT propagation, the masked pairs' network passes, instance matching + merge, solve — the total, the FLOP the
 // networks executed (counted at the LibTorch dispatcher: mm/addmm/bmm/convolution) and the achieved GFLOP/s against
-// the GEMM rate (of the run's precision) measured in this process; one untimed query first (one-time kernel costs). The
+// the GEMM rate (of the run's precision) measured in this process, the resident memory with every model loaded and
+// the peak during the timed queries (VmHWM reset before them); one untimed query first (one-time kernel costs). The
 // reference gives K rectangular instances; SegGPT propagates them (its output bias is set so that every instance is
 // painted over the whole query and its filters are off: with random weights the masks are noise, and the point is the
 // work every instance costs).
 //
 //   relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] [--metric3d
 //   vit_small|vit_large|vit_giant2]
-//              [--precision fp32|bf16]
+//              [--precision fp32|bf16] [--set NAME=VALUE …]   (an option for every preset, e.g. sprt_min_matches=0)
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -22,6 +23,7 @@
 #include "bench_torch.h"
 #include "freeloc/networks/network_stages.h"
 #include "freeloc/nn/dust3r.h"
+#include "freeloc/nn/internal/bf16_linear.h"
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
 #include "freeloc/pipeline/relocalizer.h"
@@ -91,6 +93,7 @@ struct Row {
   double ref_s = 0, total_s = 0, gflop = 0, gflops = 0;
   double depth = 0, pair = 0, match = 0, seg = 0, inst_pass = 0, inst_match = 0, solve = 0, other = 0;
   int instances = 0, pairs = 0, matches = 0;
+  double rss_mb = 0, peak_mb = 0;  // resident before the timed queries (every model loaded), and their peak
   std::string status;
 };
 
@@ -100,6 +103,7 @@ int main(int argc, char** argv) {
   int threads = 2, queries = 1, instances = 4;
   std::string presets = "seed,seed-no-instance,dust3r,mast3r,mast3r-metric3d,seed-mast3r,sift-essential";
   std::string m3d_variant = "vit_large", precision = "fp32";
+  std::vector<std::pair<std::string, std::string>> overrides;  // --set NAME=VALUE, for every preset
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
       threads = std::atoi(argv[++i]);
@@ -113,16 +117,36 @@ int main(int argc, char** argv) {
       m3d_variant = argv[++i];
     else if (!std::strcmp(argv[i], "--precision") && i + 1 < argc)
       precision = argv[++i];
-    else {
+    else if (!std::strcmp(argv[i], "--set") && i + 1 < argc && std::strchr(argv[i + 1], '=')) {
+      const std::string kv = argv[++i];
+      overrides.emplace_back(kv.substr(0, kv.find('=')), kv.substr(kv.find('=') + 1));
+    } else {
       std::fprintf(stderr,
                    "usage: relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] "
-                   "[--metric3d vit_small|vit_large|vit_giant2] [--precision fp32|bf16]\n");
+                   "[--metric3d vit_small|vit_large|vit_giant2] [--precision fp32|bf16] [--set NAME=VALUE …]\n");
       return 2;
     }
   }
   torch::set_num_threads(threads);
   const bool bf16 = precision == "bf16";
-  const double gemm = freeloc::bench::GemmRate(768, 1024, 4096, bf16 ? torch::kBFloat16 : torch::kFloat32);
+  // The machine's GEMM rate in this process: torch's matmul, and in bf16 also the prepacked oneDNN kernel the
+  // networks' Linear layers run (768×1024 by 1024×4096); the rates below are against the faster of the two.
+  const double gemm_torch = freeloc::bench::GemmRate(768, 1024, 4096, bf16 ? torch::kBFloat16 : torch::kFloat32);
+  double gemm_packed = 0;
+  if (bf16) {
+    torch::InferenceMode guard;
+    const torch::Tensor x = torch::randn({768, 1024}), w = torch::randn({4096, 1024}) * 0.03;
+    const freeloc::nn::internal::PackedLinearBf16 lin(w, torch::Tensor());
+    (void)lin(x);
+    std::vector<double> t;
+    for (int r = 0; r < 3; ++r) {
+      const double t0 = NowSeconds();
+      (void)lin(x);
+      t.push_back(NowSeconds() - t0);
+    }
+    gemm_packed = 2.0 * 768 * 1024 * 4096 / freeloc::bench::Median(t) / 1e9;
+  }
+  const double gemm = std::max(gemm_torch, gemm_packed);
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
   rt.precision = freeloc::ParseEnum<freeloc::nn::Precision>(precision, "--precision");
@@ -169,6 +193,7 @@ int main(int argc, char** argv) {
   }
   if (needs("metric3d"))
     metric3d = freeloc::nn::Metric3dModel::Create(freeloc::bench::RandomMetric3d(m3d_variant), "{}", m3d_variant, rt);
+  freeloc::nn::ReleaseFreedMemory();  // as the networks' model cache does after a load
   const double load_s = NowSeconds() - t_load;
 
   // One scene: the reference, Q queries (shifted and zoomed views), K reference instances, 2 m provided depth.
@@ -193,6 +218,7 @@ int main(int argc, char** argv) {
     o.instances.segmenter.min_score = 0;
     o.instances.segmenter.min_area_ratio = 0;
     o.instances.segmenter.max_area_ratio = 1e9;
+    for (const auto& [name, value] : overrides) pl::SetOption(&o, name, value);
     for (std::string* p :
          {&o.models.dust3r_model, &o.models.mast3r_model, &o.models.seggpt_model, &o.models.metric3d_model})
       *p = "random";
@@ -224,6 +250,8 @@ int main(int argc, char** argv) {
       query_gflop = (freeloc::bench::FlopCounter::Total() - f0) / 1e9;
     }
     std::vector<Row> per;
+    const double rss_mb = freeloc::bench::ProcStatusMB("VmRSS");
+    const bool peak_reset = freeloc::bench::ResetPeakRss();
     for (const auto& q : qs) {
       pl::FrameInputs qin;
       qin.depth = depth;
@@ -266,6 +294,8 @@ int main(int argc, char** argv) {
     row.pairs = per.back().pairs;
     row.matches = per.back().matches;
     row.status = per.back().status;
+    row.rss_mb = rss_mb;
+    row.peak_mb = peak_reset ? freeloc::bench::ProcStatusMB("VmHWM") : 0;
     rows.push_back(row);
     std::fprintf(stderr, "%s: reference %.1f s, query %.1f s\n", name.c_str(), row.ref_s, row.total_s);
   }
@@ -275,18 +305,22 @@ int main(int argc, char** argv) {
       "## bench/relocalize — per-query cost of each preset, released architectures (random weights), 540×720 "
       "images, %d threads, %s, Metric3D %s, %d reference instances, median of %d quer%s after one untimed query\n\n",
       threads, precision.c_str(), m3d_variant.c_str(), instances, queries, queries == 1 ? "y" : "ies");
-  std::printf("Models built in %.1f s. %s GEMM rate in this process (768×1024×4096, torch::matmul): %.1f GFLOP/s.\n\n",
-              load_s, precision.c_str(), gemm);
-  freeloc::bench::MarkdownTable t({"preset", "reference (once)", "query total", "network GFLOP / query",
-                                   "achieved GFLOP/s (whole query)", "% of GEMM rate", "networks alone: GFLOP/s (%)",
-                                   "status"});
+  std::printf(
+      "Models built in %.1f s. GEMM rate in this process (768×1024×4096, %s): torch::matmul %.1f GFLOP/s%s; the "
+      "rates below are against the best, %.1f GFLOP/s.\n\n",
+      load_s, precision.c_str(), gemm_torch,
+      gemm_packed > 0 ? Fmt(", prepacked oneDNN kernel %.1f GFLOP/s", gemm_packed).c_str() : "", gemm);
+  freeloc::bench::MarkdownTable t(
+      {"preset", "reference (once)", "query total", "network GFLOP / query", "achieved GFLOP/s (whole query)",
+       "% of best GEMM rate", "networks alone: GFLOP/s (%)", "RSS at rest (MB)", "peak RSS in a query (MB)", "status"});
   for (const auto& r : rows) {
     // The networks' own rate: their FLOP over the time of the stages that run them (depth, passes, SegGPT).
     const double net_s = r.depth + r.pair + r.seg + r.inst_pass;
     const double net = net_s > 0 ? r.gflop / net_s : 0;
     t.Row({r.preset, Fmt("%.2f s", r.ref_s), Fmt("%.2f s", r.total_s), Fmt("%.0f", r.gflop), Fmt("%.1f", r.gflops),
            Fmt("%.0f %%", 100 * r.gflops / gemm),
-           net > 0 ? Fmt("%.1f", net) + Fmt(" (%.0f %%)", 100 * net / gemm) : "–", r.status});
+           net > 0 ? Fmt("%.1f", net) + Fmt(" (%.0f %%)", 100 * net / gemm) : "–", Fmt("%.0f", r.rss_mb),
+           r.peak_mb > 0 ? Fmt("%.0f", r.peak_mb) : "–", r.status});
   }
   t.Print();
   std::printf(

@@ -5,6 +5,7 @@
 
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/metric3d.h"
+#include "freeloc/nn/runtime.h"
 #include "freeloc/nn/seggpt.h"
 
 namespace freeloc::networks {
@@ -17,7 +18,10 @@ std::shared_ptr<Model> Cached(const std::string& path, const std::string& config
   const std::string key = path + "|" + config + "|" + rt.Key();
   std::lock_guard<std::mutex> lock(mu);
   auto& m = cache[key];
-  if (!m) m = Model::Load(path, config, rt);
+  if (!m) {
+    m = Model::Load(path, config, rt);
+    nn::ReleaseFreedMemory();  // the checkpoint (and, in bf16, the fp32 weights) is gone now
+  }
   return m;
 }
 }  // namespace

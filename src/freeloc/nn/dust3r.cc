@@ -381,7 +381,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, io:
   std::map<std::string, torch::Tensor> tensors;
   for (const auto& [k, v] : sd) tensors[k] = ToTorch(v);
   AddSecondDecoder(&tensors);
-  WeightStore ws(std::move(tensors), model_path, impl->device);
+  WeightStore ws(std::move(tensors), model_path, impl->device, impl->prec.bf16);
   const PrecisionPolicy& p = impl->prec;
   impl->patch.Load(ws, "patch_embed.proj", {c.enc_dim, 3, c.patch_size, c.patch_size}, true, c.patch_size, 0, false, p);
   impl->enc.resize(static_cast<size_t>(c.enc_depth));

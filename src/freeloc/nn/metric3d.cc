@@ -520,7 +520,7 @@ std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string,
   impl->source = source;
   impl->device = DeviceOf(runtime);
   impl->prec.bf16 = internal::RunBf16(runtime);  // asked for, and pays here (bf16_linear.h)
-  WeightStore ws(std::move(tensors), source, impl->device);
+  WeightStore ws(std::move(tensors), source, impl->device, impl->prec.bf16);
   impl->LoadEncoder(ws);
   impl->LoadDecoder(ws);
   impl->LoadRefiner(ws);

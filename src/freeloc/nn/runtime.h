@@ -25,6 +25,11 @@ struct RuntimeOptions {
 // Whether this LibTorch build can run on CUDA here (loads LibTorch).
 bool CudaAvailable();
 
+// Hands the memory freed while a model was built (its checkpoint, fp32 weights once packed in bf16) back to the
+// system — glibc keeps freed blocks below its mmap threshold in the heap, where they stay resident. Call it after
+// loading models (the networks' model cache does).
+void ReleaseFreedMemory();
+
 }  // namespace freeloc::nn
 
 namespace freeloc {

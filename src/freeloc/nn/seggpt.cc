@@ -294,7 +294,7 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, io:
   impl->rt = runtime;
   impl->device = DeviceOf(runtime);
   impl->prec.bf16 = internal::RunBf16(runtime);  // asked for, and pays here (bf16_linear.h)
-  WeightStore ws(std::move(tensors), source, impl->device);
+  WeightStore ws(std::move(tensors), source, impl->device, impl->prec.bf16);
   const PrecisionPolicy& p = impl->prec;
   const int64_t C = c.embed_dim;
   impl->patch.Load(ws, "patch_embed.proj", {C, 3, c.patch, c.patch}, true, c.patch, 0, false, p);

@@ -30,8 +30,9 @@ dnnl::engine& Engine() {
 
 struct PackedLinearBf16::Impl {
   int64_t out = 0, in = 0;
-  torch::Tensor w;     // fp32 [out, in], kept to pack for another layout
-  torch::Tensor bias;  // fp32 [1, out] or undefined
+  torch::Tensor w;      // fp32 [out, in] until the first packing; another layout is reordered from a packed one
+  torch::Tensor shape;  // [out, in] without storage (an expanded scalar): the profiler's and FLOP counter's input
+  torch::Tensor bias;   // fp32 [1, out] or undefined
   struct Kernel {
     dnnl::matmul prim;
     dnnl::matmul::primitive_desc pd;
@@ -64,11 +65,17 @@ struct PackedLinearBf16::Impl {
     kernel->prim = dnnl::matmul(kernel->pd);
     for (const auto& m : packed)
       if (m->get_desc() == kernel->pd.weights_desc()) kernel->weights = m;
-    if (!kernel->weights) {  // reorder fp32 [out, in] (= {in, out} in layout ba) into this kernel's bf16 layout
+    if (!kernel->weights) {
+      // The first layout from fp32 [out, in] (= {in, out} in layout ba), every other one from the first packed copy
+      // (a bf16 → bf16 reorder is exact): the fp32 weights are not kept.
       dnnl::stream s(Engine());
-      dnnl::memory src_w({{in, out}, dt::f32, tag::ba}, Engine(), w.data_ptr());
       auto m = std::make_shared<dnnl::memory>(kernel->pd.weights_desc(), Engine());
-      dnnl::reorder(src_w, *m).execute(s, src_w, *m);
+      if (packed.empty()) {
+        dnnl::memory src_w({{in, out}, dt::f32, tag::ba}, Engine(), w.data_ptr());
+        dnnl::reorder(src_w, *m).execute(s, src_w, *m);
+      } else {
+        dnnl::reorder(*packed.front(), *m).execute(s, *packed.front(), *m);
+      }
       s.wait();
       packed.push_back(m);
       kernel->weights = m;
@@ -85,8 +92,10 @@ PackedLinearBf16::PackedLinearBf16(const torch::Tensor& w, const torch::Tensor& 
   impl_->w = w.to(torch::kFloat32).contiguous();
   if (b.defined()) impl_->bias = b.to(torch::kFloat32).reshape({1, impl_->out}).contiguous();
   // Pack now, at model load: the kernels for other row counts mostly share this layout, so a query never pays the
-  // reorder of a layer's weights.
+  // reorder of a layer's weights. Then the fp32 copy goes: a bf16 model holds its weights once.
   impl_->For(256, false);
+  impl_->w = torch::Tensor();
+  impl_->shape = torch::zeros({1, 1}, torch::kBFloat16).expand({impl_->out, impl_->in});
 }
 
 PackedLinearBf16::~PackedLinearBf16() = default;
@@ -98,7 +107,7 @@ torch::Tensor PackedLinearBf16::Forward(const torch::Tensor& x, bool gelu) const
   torch::Tensor y = torch::empty({rows, m.out}, gelu ? torch::kBFloat16 : torch::kFloat32);
   if (rows > 0) {
     // Visible to LibTorch's profiler and FLOP counters (bench/bench_torch.h), like the aten matmuls it replaces.
-    RECORD_FUNCTION("freeloc::bf16_linear", std::vector<c10::IValue>({xb, m.w}));
+    RECORD_FUNCTION("freeloc::bf16_linear", std::vector<c10::IValue>({xb, m.shape}));
     const auto k = m.For(rows, gelu);
     dnnl::stream s(Engine());
     dnnl::memory src({{rows, m.in}, dt::bf16, tag::ab}, Engine(), xb.data_ptr());

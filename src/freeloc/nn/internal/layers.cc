@@ -16,6 +16,7 @@ void Linear::Load(WeightStore& ws, const std::string& prefix, int64_t out, int64
       w_lp = w.to(torch::kBFloat16);
       if (b.defined()) b_lp = b.to(torch::kBFloat16);
     }
+    w = torch::Tensor();  // held once, in bf16
   }
 }
 
@@ -167,16 +168,21 @@ void Conv::Load(WeightStore& ws, const std::string& prefix, const std::vector<in
   stride = s;
   padding = pad;
   transpose = tr;
-  if (p.bf16 && w.defined()) {
+  // bf16 keeps the weights once, in bf16 — except LibTorch's CPU transposed convolution, which stays fp32 (below).
+  if (p.bf16 && w.defined() && !(tr && w.device().is_cpu())) {
     w_lp = w.to(torch::kBFloat16);
     if (b.defined()) b_lp = b.to(torch::kBFloat16);
+    w = torch::Tensor();
+    b = torch::Tensor();
   }
 }
 
 torch::Tensor Conv::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
   // LibTorch 1.13's CPU conv_transpose2d in bf16 sends the transposed weight down the plain convolution path and
-  // fails on its channel check; transposed convolutions (a small share of the FLOPs) stay fp32.
-  const bool lp = p.bf16 && (!transpose || !x.device().is_cpu());
+  // fails on its channel check; transposed convolutions (a small share of the FLOPs) stay fp32. The policy was
+  // applied at load: the weights are in bf16 exactly when it runs in bf16.
+  (void)p;
+  const bool lp = w_lp.defined();
   const torch::Tensor in = lp ? x.to(torch::kBFloat16) : x;
   const torch::Tensor& ww = lp ? w_lp : w;
   const torch::Tensor& bb = lp ? b_lp : b;

@@ -20,7 +20,8 @@ struct PrecisionPolicy {
 
 // torch.nn.Linear.
 struct Linear {
-  torch::Tensor w, b, w_lp, b_lp;            // *_lp: bf16 copies when running in bf16 on CUDA
+  // w, b: fp32 (w dropped once packed or converted: a bf16 model holds its weights once); *_lp: bf16 on CUDA.
+  torch::Tensor w, b, w_lp, b_lp;
   std::shared_ptr<PackedLinearBf16> packed;  // bf16 on the CPU: oneDNN with prepacked weights
   void Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const PrecisionPolicy& p);
   torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const;
@@ -85,7 +86,7 @@ struct CrossAttention {
 
 // torch.nn.Conv2d / ConvTranspose2d with bf16 policy.
 struct Conv {
-  torch::Tensor w, b, w_lp, b_lp;
+  torch::Tensor w, b, w_lp, b_lp;  // fp32, or bf16 (*_lp) alone when the policy runs it in bf16
   int64_t stride = 1, padding = 0;
   bool transpose = false;
   void Load(WeightStore& ws, const std::string& prefix, const std::vector<int64_t>& shape, bool bias, int64_t stride,

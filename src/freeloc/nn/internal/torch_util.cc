@@ -1,5 +1,9 @@
 #include "freeloc/nn/internal/torch_util.h"
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +14,12 @@
 namespace freeloc::nn {
 
 bool CudaAvailable() { return torch::cuda::is_available(); }
+
+void ReleaseFreedMemory() {
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
+}
 
 namespace internal {
 
@@ -116,8 +126,9 @@ torch::Device DeviceOf(const RuntimeOptions& r) {
   return r.device == Device::kCuda ? torch::Device(torch::kCUDA) : torch::kCPU;
 }
 
-WeightStore::WeightStore(std::map<std::string, torch::Tensor> tensors, std::string source, torch::Device device)
-    : tensors_(std::move(tensors)), source_(std::move(source)), device_(device) {}
+WeightStore::WeightStore(std::map<std::string, torch::Tensor> tensors, std::string source, torch::Device device,
+                         bool own_copies)
+    : tensors_(std::move(tensors)), source_(std::move(source)), device_(device), own_copies_(own_copies) {}
 
 torch::Tensor WeightStore::Take(const std::string& name, const std::vector<int64_t>& shape) {
   auto it = tensors_.find(name);
@@ -144,7 +155,10 @@ torch::Tensor WeightStore::Take(const std::string& name, const std::vector<int64
     os << name << " is " << t.scalar_type() << " (a network weight must be a floating-point tensor)";
     wrong_shape_.push_back(os.str());
   }
-  if (t.scalar_type() != torch::kFloat32 || t.device() != device_) t = t.to(device_, torch::kFloat32);
+  if (t.scalar_type() != torch::kFloat32 || t.device() != device_)
+    t = t.to(device_, torch::kFloat32);
+  else if (own_copies_)
+    t = t.clone();
   return t;
 }
 

@@ -40,7 +40,11 @@ std::string ReadModelConfig(const std::string& model_path, const std::string& co
 // missing tensor is an error that lists all the missing ones at once (Finish()).
 class WeightStore {
  public:
-  WeightStore(std::map<std::string, torch::Tensor> tensors, std::string source, torch::Device device);
+  // `own_copies`: every tensor taken is a copy of its own (bf16 models): the weights kept in fp32 (norms, biases,
+  // heads) then hold no reference to a checkpoint's shared buffer (a safetensors file), which is freed after load
+  // while the packed bf16 copies serve — the weights are held once.
+  WeightStore(std::map<std::string, torch::Tensor> tensors, std::string source, torch::Device device,
+              bool own_copies = false);
   // The tensor `name`, optionally checked against `shape` (−1 = any); moved to the device as float32.
   torch::Tensor Take(const std::string& name, const std::vector<int64_t>& shape = {});
   bool Has(const std::string& name) const { return tensors_.count(name) > 0; }
@@ -53,6 +57,7 @@ class WeightStore {
   std::map<std::string, torch::Tensor> tensors_;
   std::string source_;
   torch::Device device_;
+  bool own_copies_ = false;
   std::set<std::string> used_;
   std::vector<std::string> missing_;
   std::vector<std::string> wrong_shape_;
