@@ -13,10 +13,12 @@
 //
 //   relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] [--metric3d
 //   vit_small|vit_large|vit_giant2]
-//              [--precision fp32|bf16] [--set NAME=VALUE …]   (an option for every preset, e.g. sprt_min_matches=0)
+//              [--precision fp32|bf16|fp32,bf16] [--set NAME=VALUE …]   (an option for every preset, e.g.
+//              sprt_min_matches=0)
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -123,216 +125,246 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: relocalize [--threads N] [--queries Q] [--presets a,b,…] [--instances K] "
-                   "[--metric3d vit_small|vit_large|vit_giant2] [--precision fp32|bf16] [--set NAME=VALUE …]\n");
+                   "[--metric3d vit_small|vit_large|vit_giant2] [--precision fp32|bf16|fp32,bf16] "
+                   "[--set NAME=VALUE …]\n");
       return 2;
     }
   }
-  torch::set_num_threads(threads);
-  const bool bf16 = precision == "bf16";
-  // The machine's GEMM rate in this process: torch's matmul, and in bf16 also the prepacked oneDNN kernel the
-  // networks' Linear layers run (768×1024 by 1024×4096); the rates below are against the faster of the two.
-  const double gemm_torch = freeloc::bench::GemmRate(768, 1024, 4096, bf16 ? torch::kBFloat16 : torch::kFloat32);
-  double gemm_packed = 0;
-  if (bf16) {
-    torch::InferenceMode guard;
-    const torch::Tensor x = torch::randn({768, 1024}), w = torch::randn({4096, 1024}) * 0.03;
-    const freeloc::nn::internal::PackedLinearBf16 lin(w, torch::Tensor());
-    (void)lin(x);
-    std::vector<double> t;
-    for (int r = 0; r < 3; ++r) {
-      const double t0 = NowSeconds();
-      (void)lin(x);
-      t.push_back(NowSeconds() - t0);
-    }
-    gemm_packed = 2.0 * 768 * 1024 * 4096 / freeloc::bench::Median(t) / 1e9;
-  }
-  const double gemm = std::max(gemm_torch, gemm_packed);
-  freeloc::nn::RuntimeOptions rt;
-  rt.threads = threads;
-  rt.precision = freeloc::ParseEnum<freeloc::nn::Precision>(precision, "--precision");
-  const std::string shared = FREELOC_SHARED_DIR;
-
-  // Models, built once (only those the presets need).
-  const auto want = Split(presets);
-  auto needs = [&](const char* what) {
-    for (const auto& p : want) {
-      const auto o = pl::ResolvePreset(p);
-      if (!std::strcmp(what, "dust3r") && o.UsesDust3r()) return true;
-      if (!std::strcmp(what, "mast3r") && o.UsesMast3r()) return true;
-      if (!std::strcmp(what, "seggpt") && o.UsesSegGpt()) return true;
-      if (!std::strcmp(what, "metric3d") && o.UsesMetric3d()) return true;
-    }
-    return false;
+  // One pass per precision (--precision fp32,bf16 runs both in this process): each builds its models, prints its
+  // tables and gives back each preset's resident memory and query peak.
+  struct Memory {
+    double rest_mb = 0, peak_mb = 0;
   };
-  const double t_load = NowSeconds();
-  std::shared_ptr<freeloc::nn::Dust3rModel> dust3r, mast3r;
-  std::shared_ptr<freeloc::nn::SegGptModel> seggpt;
-  std::shared_ptr<freeloc::nn::Metric3dModel> metric3d;
-  if (needs("dust3r"))
-    dust3r = freeloc::nn::Dust3rModel::Create(
-        freeloc::bench::RandomFullModel(shared + "/fixtures/dust3r/full_model_state_dict_shapes.json"),
-        {{"enc_num_heads", "16"}, {"dec_num_heads", "12"}, {"pos_embed", "RoPE100"}}, "random", rt);
-  if (needs("mast3r"))
-    mast3r = freeloc::nn::Dust3rModel::Create(
-        freeloc::bench::RandomFullModel(shared + "/fixtures/mast3r/full_model_state_dict_shapes.json"),
-        {{"enc_num_heads", "16"},
-         {"dec_num_heads", "12"},
-         {"pos_embed", "RoPE100"},
-         {"head_type", "catmlp+dpt"},
-         {"output_mode", "pts3d+desc24"},
-         {"two_confs", "True"},
-         {"desc_conf_mode", "('exp', 0, inf)"}},
-        "random", rt);
-  if (needs("seggpt")) {
-    auto sd = freeloc::bench::RandomSegGpt();
-    // Random weights paint noise, so a propagated mask could be empty and its masked pair would be skipped: a large
-    // output bias paints every pixel white, i.e. each instance propagates to the whole query and every masked pair
-    // runs (the same network work as with trained weights; the masks' content does not change the cost).
-    sd["decoder_pred.3.bias"] = freeloc::nn::internal::ToView(torch::full({3}, 5.0));
-    seggpt = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rt);
-  }
-  if (needs("metric3d"))
-    metric3d = freeloc::nn::Metric3dModel::Create(freeloc::bench::RandomMetric3d(m3d_variant), "{}", m3d_variant, rt);
-  freeloc::nn::ReleaseFreedMemory();  // as the networks' model cache does after a load
-  const double load_s = NowSeconds() - t_load;
-
-  // One scene: the reference, Q queries (shifted and zoomed views), K reference instances, 2 m provided depth.
-  freeloc::Camera cam;
-  cam.fx = cam.fy = 590;
-  cam.cx = kW / 2.0;
-  cam.cy = kH / 2.0;
-  cam.width = kW;
-  cam.height = kH;
-  const freeloc::Image ref = Photo(0, 1.0);
-  std::vector<freeloc::Image> qs;
-  for (int q = 0; q < queries; ++q) qs.push_back(Photo(14.0 + 6 * q, 1.04 + 0.02 * q));
-  const std::vector<uint16_t> labels = Instances(instances);
-  freeloc::DepthMap depth(kW, kH);
-  std::fill(depth.data.begin(), depth.data.end(), 2.0f);
-
-  std::vector<Row> rows;
-  for (const auto& name : want) {
-    pl::PipelineOptions o = pl::ResolvePreset(name);
-    o.runtime = rt;
-    o.pointmap.dust3r_size = 512;
-    o.instances.segmenter.min_score = 0;
-    o.instances.segmenter.min_area_ratio = 0;
-    o.instances.segmenter.max_area_ratio = 1e9;
-    for (const auto& [name, value] : overrides) pl::SetOption(&o, name, value);
-    for (std::string* p :
-         {&o.models.dust3r_model, &o.models.mast3r_model, &o.models.seggpt_model, &o.models.metric3d_model})
-      *p = "random";
-    std::unique_ptr<pl::Matcher> matcher =
-        o.UsesPointmapModel() ? freeloc::networks::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt)
-                              : pl::MakeMatcher(o);
-    std::unique_ptr<pl::DepthEstimator> dest =
-        o.UsesMetric3d() ? freeloc::networks::MakeNetworkDepthEstimator(metric3d) : pl::MakeDepthEstimator(o);
-    pl::Relocalizer reloc(o, std::move(matcher), std::move(dest), pl::MakePoseSolver(o));
-    Row row;
-    row.preset = name;
-    pl::FrameInputs rin;
-    rin.depth = depth;
-    if (o.UsesInstances()) rin.instance_labels = &labels;
-    double t0 = NowSeconds();
-    reloc.SetReference(ref, cam, rin);
-    row.ref_s = NowSeconds() - t0;
-    // One untimed query first: the first call of each kernel shape pays one-time costs (oneDNN JIT code for bf16,
-    // thread pools) that a scene's hundreds of queries do not.
-    // It also counts the query's network FLOP (the same for every query of the scene): the counter's callback costs
-    // time on networks with many small ops (Metric3D's refinement loop), so the timed queries run without it.
-    double query_gflop = 0;
-    {
-      const freeloc::bench::FlopCounter counter;
-      const double f0 = freeloc::bench::FlopCounter::Total();
-      pl::FrameInputs qin;
-      qin.depth = depth;
-      reloc.Relocalize(qs.front(), cam, qin);
-      query_gflop = (freeloc::bench::FlopCounter::Total() - f0) / 1e9;
+  const auto run = [&](const std::string& precision) {
+    std::map<std::string, Memory> memory;
+    torch::set_num_threads(threads);
+    const bool bf16 = precision == "bf16";
+    // The machine's GEMM rate in this process: torch's matmul, and in bf16 also the prepacked oneDNN kernel the
+    // networks' Linear layers run (768×1024 by 1024×4096); the rates below are against the faster of the two.
+    const double gemm_torch = freeloc::bench::GemmRate(768, 1024, 4096, bf16 ? torch::kBFloat16 : torch::kFloat32);
+    double gemm_packed = 0;
+    if (bf16) {
+      torch::InferenceMode guard;
+      const torch::Tensor x = torch::randn({768, 1024}), w = torch::randn({4096, 1024}) * 0.03;
+      const freeloc::nn::internal::PackedLinearBf16 lin(w, torch::Tensor());
+      (void)lin(x);
+      std::vector<double> t;
+      for (int r = 0; r < 3; ++r) {
+        const double t0 = NowSeconds();
+        (void)lin(x);
+        t.push_back(NowSeconds() - t0);
+      }
+      gemm_packed = 2.0 * 768 * 1024 * 4096 / freeloc::bench::Median(t) / 1e9;
     }
-    std::vector<Row> per;
-    const double rss_mb = freeloc::bench::ProcStatusMB("VmRSS");
-    const bool peak_reset = freeloc::bench::ResetPeakRss();
-    for (const auto& q : qs) {
-      pl::FrameInputs qin;
-      qin.depth = depth;
-      t0 = NowSeconds();
-      const pl::QueryResult r = reloc.Relocalize(q, cam, qin);
-      Row x;
-      x.total_s = NowSeconds() - t0;
-      x.gflop = query_gflop;
-      x.depth = r.timings.depth_ms / 1e3;
-      x.pair = r.timings.pair_ms / 1e3;
-      x.match = (r.timings.match_ms - r.timings.pair_ms) / 1e3;
-      x.seg = r.timings.segment_ms / 1e3;
-      x.inst_pass = r.timings.instance_pass_ms / 1e3;
-      x.inst_match = std::max(0.0, r.timings.instance_ms - r.timings.segment_ms - r.timings.instance_pass_ms) / 1e3;
-      x.solve = r.timings.solve_ms / 1e3;
-      x.other = std::max(0.0, x.total_s - x.depth - x.pair - x.match - x.seg - x.inst_pass - x.inst_match - x.solve);
-      x.instances = r.instances;
-      x.pairs = r.timings.instance_pairs;
-      x.matches = r.matches;
-      x.status = r.StatusText().substr(0, 24);
-      per.push_back(x);
-    }
-    auto med = [&](double Row::*f) {
-      std::vector<double> v;
-      for (const auto& x : per) v.push_back(x.*f);
-      return freeloc::bench::Median(v);
+    const double gemm = std::max(gemm_torch, gemm_packed);
+    freeloc::nn::RuntimeOptions rt;
+    rt.threads = threads;
+    rt.precision = freeloc::ParseEnum<freeloc::nn::Precision>(precision, "--precision");
+    const std::string shared = FREELOC_SHARED_DIR;
+
+    // Models, built once (only those the presets need).
+    const auto want = Split(presets);
+    auto needs = [&](const char* what) {
+      for (const auto& p : want) {
+        const auto o = pl::ResolvePreset(p);
+        if (!std::strcmp(what, "dust3r") && o.UsesDust3r()) return true;
+        if (!std::strcmp(what, "mast3r") && o.UsesMast3r()) return true;
+        if (!std::strcmp(what, "seggpt") && o.UsesSegGpt()) return true;
+        if (!std::strcmp(what, "metric3d") && o.UsesMetric3d()) return true;
+      }
+      return false;
     };
-    row.total_s = med(&Row::total_s);
-    row.gflop = med(&Row::gflop);
-    row.gflops = row.gflop / row.total_s;
-    row.depth = med(&Row::depth);
-    row.pair = med(&Row::pair);
-    row.match = med(&Row::match);
-    row.seg = med(&Row::seg);
-    row.inst_pass = med(&Row::inst_pass);
-    row.inst_match = med(&Row::inst_match);
-    row.solve = med(&Row::solve);
-    row.other = med(&Row::other);
-    row.instances = per.back().instances;
-    row.pairs = per.back().pairs;
-    row.matches = per.back().matches;
-    row.status = per.back().status;
-    row.rss_mb = rss_mb;
-    row.peak_mb = peak_reset ? freeloc::bench::ProcStatusMB("VmHWM") : 0;
-    rows.push_back(row);
-    std::fprintf(stderr, "%s: reference %.1f s, query %.1f s\n", name.c_str(), row.ref_s, row.total_s);
-  }
+    const double t_load = NowSeconds();
+    std::shared_ptr<freeloc::nn::Dust3rModel> dust3r, mast3r;
+    std::shared_ptr<freeloc::nn::SegGptModel> seggpt;
+    std::shared_ptr<freeloc::nn::Metric3dModel> metric3d;
+    if (needs("dust3r"))
+      dust3r = freeloc::nn::Dust3rModel::Create(
+          freeloc::bench::RandomFullModel(shared + "/fixtures/dust3r/full_model_state_dict_shapes.json"),
+          {{"enc_num_heads", "16"}, {"dec_num_heads", "12"}, {"pos_embed", "RoPE100"}}, "random", rt);
+    if (needs("mast3r"))
+      mast3r = freeloc::nn::Dust3rModel::Create(
+          freeloc::bench::RandomFullModel(shared + "/fixtures/mast3r/full_model_state_dict_shapes.json"),
+          {{"enc_num_heads", "16"},
+           {"dec_num_heads", "12"},
+           {"pos_embed", "RoPE100"},
+           {"head_type", "catmlp+dpt"},
+           {"output_mode", "pts3d+desc24"},
+           {"two_confs", "True"},
+           {"desc_conf_mode", "('exp', 0, inf)"}},
+          "random", rt);
+    if (needs("seggpt")) {
+      auto sd = freeloc::bench::RandomSegGpt();
+      // Random weights paint noise, so a propagated mask could be empty and its masked pair would be skipped: a large
+      // output bias paints every pixel white, i.e. each instance propagates to the whole query and every masked pair
+      // runs (the same network work as with trained weights; the masks' content does not change the cost).
+      sd["decoder_pred.3.bias"] = freeloc::nn::internal::ToView(torch::full({3}, 5.0));
+      seggpt = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rt);
+    }
+    if (needs("metric3d"))
+      metric3d = freeloc::nn::Metric3dModel::Create(freeloc::bench::RandomMetric3d(m3d_variant), "{}", m3d_variant, rt);
+    freeloc::nn::ReleaseFreedMemory();  // as the networks' model cache does after a load
+    const double load_s = NowSeconds() - t_load;
 
-  std::printf("%s\n\n", freeloc::bench::MachineLine().c_str());
-  std::printf(
-      "## bench/relocalize — per-query cost of each preset, released architectures (random weights), 540×720 "
-      "images, %d threads, %s, Metric3D %s, %d reference instances, median of %d quer%s after one untimed query\n\n",
-      threads, precision.c_str(), m3d_variant.c_str(), instances, queries, queries == 1 ? "y" : "ies");
-  std::printf(
-      "Models built in %.1f s. GEMM rate in this process (768×1024×4096, %s): torch::matmul %.1f GFLOP/s%s; the "
-      "rates below are against the best, %.1f GFLOP/s.\n\n",
-      load_s, precision.c_str(), gemm_torch,
-      gemm_packed > 0 ? Fmt(", prepacked oneDNN kernel %.1f GFLOP/s", gemm_packed).c_str() : "", gemm);
-  freeloc::bench::MarkdownTable t(
-      {"preset", "reference (once)", "query total", "network GFLOP / query", "achieved GFLOP/s (whole query)",
-       "% of best GEMM rate", "networks alone: GFLOP/s (%)", "RSS at rest (MB)", "peak RSS in a query (MB)", "status"});
-  for (const auto& r : rows) {
-    // The networks' own rate: their FLOP over the time of the stages that run them (depth, passes, SegGPT).
-    const double net_s = r.depth + r.pair + r.seg + r.inst_pass;
-    const double net = net_s > 0 ? r.gflop / net_s : 0;
-    t.Row({r.preset, Fmt("%.2f s", r.ref_s), Fmt("%.2f s", r.total_s), Fmt("%.0f", r.gflop), Fmt("%.1f", r.gflops),
-           Fmt("%.0f %%", 100 * r.gflops / gemm),
-           net > 0 ? Fmt("%.1f", net) + Fmt(" (%.0f %%)", 100 * net / gemm) : "–", Fmt("%.0f", r.rss_mb),
-           r.peak_mb > 0 ? Fmt("%.0f", r.peak_mb) : "–", r.status});
+    // One scene: the reference, Q queries (shifted and zoomed views), K reference instances, 2 m provided depth.
+    freeloc::Camera cam;
+    cam.fx = cam.fy = 590;
+    cam.cx = kW / 2.0;
+    cam.cy = kH / 2.0;
+    cam.width = kW;
+    cam.height = kH;
+    const freeloc::Image ref = Photo(0, 1.0);
+    std::vector<freeloc::Image> qs;
+    for (int q = 0; q < queries; ++q) qs.push_back(Photo(14.0 + 6 * q, 1.04 + 0.02 * q));
+    const std::vector<uint16_t> labels = Instances(instances);
+    freeloc::DepthMap depth(kW, kH);
+    std::fill(depth.data.begin(), depth.data.end(), 2.0f);
+
+    std::vector<Row> rows;
+    for (const auto& name : want) {
+      pl::PipelineOptions o = pl::ResolvePreset(name);
+      o.runtime = rt;
+      o.pointmap.dust3r_size = 512;
+      o.instances.segmenter.min_score = 0;
+      o.instances.segmenter.min_area_ratio = 0;
+      o.instances.segmenter.max_area_ratio = 1e9;
+      for (const auto& [name, value] : overrides) pl::SetOption(&o, name, value);
+      for (std::string* p :
+           {&o.models.dust3r_model, &o.models.mast3r_model, &o.models.seggpt_model, &o.models.metric3d_model})
+        *p = "random";
+      std::unique_ptr<pl::Matcher> matcher =
+          o.UsesPointmapModel() ? freeloc::networks::MakeNetworkMatcher(o, o.UsesMast3r() ? mast3r : dust3r, seggpt)
+                                : pl::MakeMatcher(o);
+      std::unique_ptr<pl::DepthEstimator> dest =
+          o.UsesMetric3d() ? freeloc::networks::MakeNetworkDepthEstimator(metric3d) : pl::MakeDepthEstimator(o);
+      pl::Relocalizer reloc(o, std::move(matcher), std::move(dest), pl::MakePoseSolver(o));
+      Row row;
+      row.preset = name;
+      pl::FrameInputs rin;
+      rin.depth = depth;
+      if (o.UsesInstances()) rin.instance_labels = &labels;
+      double t0 = NowSeconds();
+      reloc.SetReference(ref, cam, rin);
+      row.ref_s = NowSeconds() - t0;
+      // One untimed query first: the first call of each kernel shape pays one-time costs (oneDNN JIT code for bf16,
+      // thread pools) that a scene's hundreds of queries do not.
+      // It also counts the query's network FLOP (the same for every query of the scene): the counter's callback costs
+      // time on networks with many small ops (Metric3D's refinement loop), so the timed queries run without it.
+      double query_gflop = 0;
+      {
+        const freeloc::bench::FlopCounter counter;
+        const double f0 = freeloc::bench::FlopCounter::Total();
+        pl::FrameInputs qin;
+        qin.depth = depth;
+        reloc.Relocalize(qs.front(), cam, qin);
+        query_gflop = (freeloc::bench::FlopCounter::Total() - f0) / 1e9;
+      }
+      std::vector<Row> per;
+      const double rss_mb = freeloc::bench::ProcStatusMB("VmRSS");
+      const bool peak_reset = freeloc::bench::ResetPeakRss();
+      for (const auto& q : qs) {
+        pl::FrameInputs qin;
+        qin.depth = depth;
+        t0 = NowSeconds();
+        const pl::QueryResult r = reloc.Relocalize(q, cam, qin);
+        Row x;
+        x.total_s = NowSeconds() - t0;
+        x.gflop = query_gflop;
+        x.depth = r.timings.depth_ms / 1e3;
+        x.pair = r.timings.pair_ms / 1e3;
+        x.match = (r.timings.match_ms - r.timings.pair_ms) / 1e3;
+        x.seg = r.timings.segment_ms / 1e3;
+        x.inst_pass = r.timings.instance_pass_ms / 1e3;
+        x.inst_match = std::max(0.0, r.timings.instance_ms - r.timings.segment_ms - r.timings.instance_pass_ms) / 1e3;
+        x.solve = r.timings.solve_ms / 1e3;
+        x.other = std::max(0.0, x.total_s - x.depth - x.pair - x.match - x.seg - x.inst_pass - x.inst_match - x.solve);
+        x.instances = r.instances;
+        x.pairs = r.timings.instance_pairs;
+        x.matches = r.matches;
+        x.status = r.StatusText().substr(0, 24);
+        per.push_back(x);
+      }
+      auto med = [&](double Row::*f) {
+        std::vector<double> v;
+        for (const auto& x : per) v.push_back(x.*f);
+        return freeloc::bench::Median(v);
+      };
+      row.total_s = med(&Row::total_s);
+      row.gflop = med(&Row::gflop);
+      row.gflops = row.gflop / row.total_s;
+      row.depth = med(&Row::depth);
+      row.pair = med(&Row::pair);
+      row.match = med(&Row::match);
+      row.seg = med(&Row::seg);
+      row.inst_pass = med(&Row::inst_pass);
+      row.inst_match = med(&Row::inst_match);
+      row.solve = med(&Row::solve);
+      row.other = med(&Row::other);
+      row.instances = per.back().instances;
+      row.pairs = per.back().pairs;
+      row.matches = per.back().matches;
+      row.status = per.back().status;
+      row.rss_mb = rss_mb;
+      row.peak_mb = peak_reset ? freeloc::bench::ProcStatusMB("VmHWM") : 0;
+      rows.push_back(row);
+      std::fprintf(stderr, "%s: reference %.1f s, query %.1f s\n", name.c_str(), row.ref_s, row.total_s);
+    }
+
+    std::printf("%s\n\n", freeloc::bench::MachineLine().c_str());
+    std::printf(
+        "## bench/relocalize — per-query cost of each preset, released architectures (random weights), 540×720 "
+        "images, %d threads, %s, Metric3D %s, %d reference instances, median of %d quer%s after one untimed query\n\n",
+        threads, precision.c_str(), m3d_variant.c_str(), instances, queries, queries == 1 ? "y" : "ies");
+    std::printf(
+        "Models built in %.1f s. GEMM rate in this process (768×1024×4096, %s): torch::matmul %.1f GFLOP/s%s; the "
+        "rates below are against the best, %.1f GFLOP/s.\n\n",
+        load_s, precision.c_str(), gemm_torch,
+        gemm_packed > 0 ? Fmt(", prepacked oneDNN kernel %.1f GFLOP/s", gemm_packed).c_str() : "", gemm);
+    freeloc::bench::MarkdownTable t({"preset", "reference (once)", "query total", "network GFLOP / query",
+                                     "achieved GFLOP/s (whole query)", "% of best GEMM rate",
+                                     "networks alone: GFLOP/s (%)", "RSS at rest (MB)", "peak RSS in a query (MB)",
+                                     "status"});
+    for (const auto& r : rows) {
+      // The networks' own rate: their FLOP over the time of the stages that run them (depth, passes, SegGPT).
+      const double net_s = r.depth + r.pair + r.seg + r.inst_pass;
+      const double net = net_s > 0 ? r.gflop / net_s : 0;
+      t.Row({r.preset, Fmt("%.2f s", r.ref_s), Fmt("%.2f s", r.total_s), Fmt("%.0f", r.gflop), Fmt("%.1f", r.gflops),
+             Fmt("%.0f %%", 100 * r.gflops / gemm),
+             net > 0 ? Fmt("%.1f", net) + Fmt(" (%.0f %%)", 100 * net / gemm) : "–", Fmt("%.0f", r.rss_mb),
+             r.peak_mb > 0 ? Fmt("%.0f", r.peak_mb) : "–", r.status});
+    }
+    t.Print();
+    std::printf(
+        "\nWhere a query's time goes (seconds; SegGPT and the masked pairs: K instances propagated / pairs run):\n\n");
+    freeloc::bench::MarkdownTable s({"preset", "depth", "pair network pass", "global matching", "SegGPT",
+                                     "masked pairs' passes", "instance matching + merge", "solve (matches)", "other"});
+    for (const auto& r : rows)
+      s.Row({r.preset, Fmt("%.2f", r.depth), Fmt("%.2f", r.pair), Fmt("%.2f", r.match),
+             r.instances ? Fmt("%.2f", r.seg) + " (" + std::to_string(r.instances) + ")" : "–",
+             r.instances ? Fmt("%.2f", r.inst_pass) + " (" + std::to_string(r.pairs) + ")" : "–",
+             r.instances ? Fmt("%.2f", r.inst_match) : "–",
+             Fmt("%.3f", r.solve) + " (" + std::to_string(r.matches) + ")", Fmt("%.2f", r.other)});
+    s.Print();
+    for (const auto& r : rows) memory[r.preset] = {r.rss_mb, r.peak_mb};
+    return memory;
+  };
+  const auto precisions = Split(precision);
+  std::vector<std::map<std::string, Memory>> memory;
+  for (const auto& p : precisions) memory.push_back(run(p));
+  if (precisions.size() == 2) {
+    // The memory a precision needs against the other's, for each preset (bf16 ÷ fp32 when run in that order).
+    std::printf("\nMemory, %s against %s (MB; each with only its own models loaded):\n\n", precisions[1].c_str(),
+                precisions[0].c_str());
+    freeloc::bench::MarkdownTable m({"preset", "at rest " + precisions[0], "at rest " + precisions[1], "ratio",
+                                     "query peak " + precisions[0], "query peak " + precisions[1], "ratio"});
+    for (const auto& [preset, a] : memory[0]) {
+      const auto it = memory[1].find(preset);
+      if (it == memory[1].end()) continue;
+      const Memory& b = it->second;
+      m.Row({preset, Fmt("%.0f", a.rest_mb), Fmt("%.0f", b.rest_mb), Fmt("%.2f", b.rest_mb / a.rest_mb),
+             Fmt("%.0f", a.peak_mb), Fmt("%.0f", b.peak_mb), a.peak_mb > 0 ? Fmt("%.2f", b.peak_mb / a.peak_mb) : "–"});
+    }
+    m.Print();
   }
-  t.Print();
-  std::printf(
-      "\nWhere a query's time goes (seconds; SegGPT and the masked pairs: K instances propagated / pairs run):\n\n");
-  freeloc::bench::MarkdownTable s({"preset", "depth", "pair network pass", "global matching", "SegGPT",
-                                   "masked pairs' passes", "instance matching + merge", "solve (matches)", "other"});
-  for (const auto& r : rows)
-    s.Row({r.preset, Fmt("%.2f", r.depth), Fmt("%.2f", r.pair), Fmt("%.2f", r.match),
-           r.instances ? Fmt("%.2f", r.seg) + " (" + std::to_string(r.instances) + ")" : "–",
-           r.instances ? Fmt("%.2f", r.inst_pass) + " (" + std::to_string(r.pairs) + ")" : "–",
-           r.instances ? Fmt("%.2f", r.inst_match) : "–", Fmt("%.3f", r.solve) + " (" + std::to_string(r.matches) + ")",
-           Fmt("%.2f", r.other)});
-  s.Print();
   return 0;
 }
