@@ -69,7 +69,8 @@ struct NetworksApi {
                                       const std::vector<Image>& prompt_masks, const Image& target,
                                       const std::string& type);
 };
-constexpr int kNetworksAbi = 2;
+// Raised whenever the table or a type it passes changes layout (3: PipelineOptions in parts, sprt_min_matches).
+constexpr int kNetworksAbi = 3;
 constexpr const char* kNetworksLibrary = "libfreeloc_networks.so";
 constexpr const char* kNetworksEntry = "freeloc_networks_v1";
 
