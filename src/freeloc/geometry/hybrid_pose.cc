@@ -202,14 +202,12 @@ class Problem {
   }
   // The sequential test (sprt.h) on a pose's epipolar fit alone (a 5-point pose before its depths complete it) …
   bool EpipolarPlausible(const Model& m, SprtTest* test) const {
-    size_t checked = 0;
-    return test->Accept([&](size_t i) { return Sampson(m, i) < the2_; }, &checked);
+    return test->Accept([&](size_t i) { return Sampson(m, i) < the2_; });
   }
   // … and on a complete model, where a match counts when either of its terms fits: a depth model may beat the best
   // through its reprojections while fitting fewer matches epipolarly.
   bool HybridPlausible(const Model& m, SprtTest* test) const {
-    size_t checked = 0;
-    return test->Accept([&](size_t i) { return Sampson(m, i) < the2_ || DepthInlier(m, i); }, &checked);
+    return test->Accept([&](size_t i) { return Sampson(m, i) < the2_ || DepthInlier(m, i); });
   }
 
   const std::vector<Eigen::Vector3d>& x() const { return x_; }
@@ -398,8 +396,8 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
   // Two tests, each learning its own δ: 5-point poses on their epipolar fit, complete depth models on either fit.
   std::optional<SprtTest> sprt, sprt_hybrid;
   if (UsesSprt(opt.ransac, n)) {
-    sprt.emplace(n, opt.ransac.seed, opt.ransac.min_inlier_ratio, kSolveCost, 1.0);
-    sprt_hybrid.emplace(n, opt.ransac.seed + 1, opt.ransac.min_inlier_ratio, kSolveCost, 1.0);
+    sprt.emplace(n, opt.ransac.seed, opt.ransac.min_inlier_ratio, kSolveCost);
+    sprt_hybrid.emplace(n, opt.ransac.seed + 1, opt.ransac.min_inlier_ratio, kSolveCost);
   }
   // The chance that an all-inlier sample's model also passes its test.
   const double pass5 = sprt ? sprt->SampleSuccessFactor() : 1.0,
@@ -413,10 +411,8 @@ SearchResult Search(const Problem& pb, const HybridPoseOptions& opt, int max_ite
   double used5 = 0, used3 = 0;  // Σ over iterations of 1 / required(·) for each family (stop when ≥ 1)
   // Without the test no requirement stands before a model; with it, what would have found one holding the minimum
   // share (the give-up bound, ransac.h).
-  double need5 = sprt ? RequiredIterations(GiveUpInliers(opt.ransac, n), n, 5, opt.ransac.give_up_prob, pass5) : kInf;
-  double need3 = sprt && can3 ? RequiredIterations(GiveUpInliers(opt.ransac, pb.both().size()), pb.both().size(), 3,
-                                                   opt.ransac.give_up_prob, pass3)
-                              : kInf;
+  double need5 = sprt ? GiveUpIterations(opt.ransac, n, 5, pass5) : kInf;
+  double need3 = sprt && can3 ? GiveUpIterations(opt.ransac, pb.both().size(), 3, pass3) : kInf;
   std::vector<Model> models;
   int sample[5];
   int iter = 0;

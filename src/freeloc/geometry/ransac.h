@@ -132,6 +132,11 @@ inline size_t GiveUpInliers(const RansacOptions& opt, size_t n) {
 inline bool UsesSprt(const RansacOptions& opt, size_t n) {
   return opt.sprt_min_data > 0 && n >= static_cast<size_t>(opt.sprt_min_data);
 }
+// The give-up bound: samples of size k from n data that find a model holding GiveUpInliers with give_up_prob, when
+// such a sample's model passes the test with `survives`.
+inline double GiveUpIterations(const RansacOptions& opt, size_t n, int k, double survives) {
+  return RequiredIterations(GiveUpInliers(opt, n), n, k, opt.give_up_prob, survives);
+}
 
 // `threshold_sq`: the squared inlier threshold in the estimator's error unit.
 template <class Estimator>
@@ -148,18 +153,15 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double thresh
   SplitMix64 rng(opt.seed);
   std::vector<Model> models;
   int sample[k];
-  const bool sprt_on = UsesSprt(opt, n);
   std::optional<SprtTest> sprt;
-  if (sprt_on) sprt.emplace(n, opt.seed, opt.min_inlier_ratio, SolveCostOf<Estimator>::value, 1.0);
+  if (UsesSprt(opt, n)) sprt.emplace(n, opt.seed, opt.min_inlier_ratio, SolveCostOf<Estimator>::value);
   // The chance that an all-inlier sample's model also passes the test.
   const auto required = [&](size_t inliers) {
     return RequiredIterations(inliers, n, k, opt.success_prob, sprt ? sprt->SampleSuccessFactor() : 1.0);
   };
   // Before any model: the budget, or with the test what would have found a model holding the minimum share.
-  double needed =
-      sprt_on ? std::min(static_cast<double>(opt.max_iterations),
-                         RequiredIterations(GiveUpInliers(opt, n), n, k, opt.give_up_prob, sprt->SampleSuccessFactor()))
-              : static_cast<double>(opt.max_iterations);
+  double needed = static_cast<double>(opt.max_iterations);
+  if (sprt) needed = std::min(needed, GiveUpIterations(opt, n, k, sprt->SampleSuccessFactor()));
   bool have = false;
   bool out_of_time = false;
   int iter = 0;
@@ -183,8 +185,7 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double thresh
     models.clear();
     est.MinimalSolve(sample, &models);
     for (Model& m : models) {
-      size_t checked = 0;
-      if (sprt && !sprt->Accept([&](size_t i) { return est.SquaredError(m, i) < threshold_sq; }, &checked)) continue;
+      if (sprt && !sprt->Accept([&](size_t i) { return est.SquaredError(m, i) < threshold_sq; })) continue;
       int n_in = 0;
       const double score = MsacScore(est, m, threshold_sq, st.score, &n_in);
       if (!(score < st.score)) continue;
@@ -209,7 +210,7 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double thresh
   }
   st.iterations = iter;
   if (!have) {
-    st.stop = sprt_on && !out_of_time && iter < opt.max_iterations ? RansacStop::kGaveUp : RansacStop::kNoModel;
+    st.stop = sprt && !out_of_time && iter < opt.max_iterations ? RansacStop::kGaveUp : RansacStop::kNoModel;
   } else {
     st.stop = out_of_time                                                  ? RansacStop::kTimeBudget
               : iter >= opt.max_iterations && needed >= opt.max_iterations ? RansacStop::kMaxIterations

@@ -12,11 +12,10 @@ constexpr double kDeltaPriorWeight = 200;
 
 }  // namespace
 
-SprtTest::SprtTest(size_t n, uint64_t seed, double min_inlier_ratio, double solve_cost, double models_per_sample)
+SprtTest::SprtTest(size_t n, uint64_t seed, double min_inlier_ratio, double solve_cost)
     : order_(n),
       rng_(seed ^ 0x5350525454455354ull),
       solve_cost_(std::max(solve_cost, 1.0)),
-      models_per_sample_(std::max(models_per_sample, 1.0)),
       eps_(std::clamp(min_inlier_ratio, 0.01, 0.95)),
       delta_(kDeltaPrior),
       seen_in_(kDeltaPrior * kDeltaPriorWeight),
@@ -39,9 +38,10 @@ void SprtTest::Update() {
   log_in_ = std::log(delta_ / eps_);
   log_out_ = std::log((1.0 - delta_) / (1.0 - eps_));
   // Chum & Matas's optimal threshold: A = K + ln A with K = t_M·C / m_S + 1, where C is the expected evidence a
-  // wrong model gives per datum (its Kullback–Leibler divergence) — solved by fixed-point iteration from A = K.
+  // wrong model gives per datum (its Kullback–Leibler divergence) and t_M / m_S the solve's cost per model —
+  // solved by fixed-point iteration from A = K.
   const double c = (1.0 - delta_) * log_out_ + delta_ * std::log(delta_ / eps_);
-  const double k = solve_cost_ * c / models_per_sample_ + 1.0;
+  const double k = solve_cost_ * c + 1.0;
   double a = std::max(k, 2.0);
   for (int i = 0; i < 20; ++i) {
     const double next = k + std::log(a);

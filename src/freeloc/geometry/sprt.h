@@ -23,15 +23,15 @@ namespace freeloc::geometry {
 
 class SprtTest {
  public:
-  // `n` data; `min_inlier_ratio` is ε; `solve_cost` a minimal solve's cost in datum evaluations;
-  // `models_per_sample` how many models a minimal solve gives on average.
-  SprtTest(size_t n, uint64_t seed, double min_inlier_ratio, double solve_cost, double models_per_sample);
+  // `n` data; `min_inlier_ratio` is ε; `solve_cost` what a minimal solve costs per model it gives, in datum
+  // evaluations.
+  SprtTest(size_t n, uint64_t seed, double min_inlier_ratio, double solve_cost);
 
   // The test on one hypothesis: `consistent(i)` says whether datum i fits it. Returns true when the hypothesis
-  // survives every datum (then it is worth scoring); `*evaluated` counts the data looked at. Each call starts at a
-  // random place of one fixed random order of the data.
+  // survives every datum (then it is worth scoring); `evaluated`, when given, counts the data looked at. Each call
+  // starts at a random place of one fixed random order of the data.
   template <class Consistent>
-  bool Accept(Consistent&& consistent, size_t* evaluated) {
+  bool Accept(Consistent&& consistent, size_t* evaluated = nullptr) {
     const size_t n = order_.size();
     const size_t start = rng_.Below(static_cast<uint32_t>(n));
     double log_lambda = 0;
@@ -45,13 +45,13 @@ class SprtTest {
       } else {
         log_lambda += log_out_;
         if (log_lambda > log_a_) {
-          *evaluated = j + 1;
+          if (evaluated) *evaluated = j + 1;
           Rejected(in, j + 1);
           return false;
         }
       }
     }
-    *evaluated = n;
+    if (evaluated) *evaluated = n;
     return true;
   }
 
@@ -67,7 +67,7 @@ class SprtTest {
 
   std::vector<uint32_t> order_;
   SplitMix64 rng_;
-  double solve_cost_, models_per_sample_;
+  double solve_cost_;
   double eps_, delta_;
   double seen_in_ = 0, seen_ = 0;  // consistent / evaluated data of the dropped hypotheses (δ's estimate)
   double log_in_ = 0, log_out_ = 0, log_a_ = 0;

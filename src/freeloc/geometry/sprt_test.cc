@@ -31,7 +31,7 @@ Outcome RunHypotheses(SprtTest* test, size_t n, double share, int trials, uint32
 
 TEST(Sprt, WrongModelsAreDroppedAfterAFewDozenData) {
   const size_t n = 40000;
-  SprtTest test(n, 1, 0.25, 500, 1);
+  SprtTest test(n, 1, 0.25, 500);
   const Outcome o = RunHypotheses(&test, n, 0.02, 300, 2);
   EXPECT_EQ(o.accepted, 0);
   EXPECT_LT(o.mean_checked, 100) << "a wrong model should cost a few dozen evaluations, not " << n;
@@ -43,7 +43,7 @@ TEST(Sprt, WrongModelsAreDroppedAfterAFewDozenData) {
 TEST(Sprt, GoodModelsSurviveAsOftenAsTheThresholdPromises) {
   const size_t n = 5000;
   for (const double eps : {0.15, 0.25, 0.5}) {
-    SprtTest test(n, 3, eps, 500, 1);
+    SprtTest test(n, 3, eps, 500);
     RunHypotheses(&test, n, 0.02, 200, 4);  // learn δ
     const int trials = 400;
     const Outcome good = RunHypotheses(&test, n, eps, trials, 5);
@@ -59,11 +59,11 @@ TEST(Sprt, GoodModelsSurviveAsOftenAsTheThresholdPromises) {
 }
 
 TEST(Sprt, ThresholdSolvesChumAndMatasEquation) {
-  SprtTest test(1000, 9, 0.3, 800, 2);
+  SprtTest test(1000, 9, 0.3, 400);
   RunHypotheses(&test, 1000, 0.05, 100, 10);
   const double eps = test.epsilon(), delta = test.delta(), a = test.threshold();
   const double c = (1 - delta) * std::log((1 - delta) / (1 - eps)) + delta * std::log(delta / eps);
-  EXPECT_NEAR(a, 800 * c / 2 + 1 + std::log(a), 1e-6 * a);
+  EXPECT_NEAR(a, 400 * c + 1 + std::log(a), 1e-6 * a);
   EXPECT_GT(a, 1);
   EXPECT_DOUBLE_EQ(eps, 0.3);  // ε is the minimum share asked for
 }
