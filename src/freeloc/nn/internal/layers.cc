@@ -135,8 +135,14 @@ torch::Tensor SelfAttention::operator()(const torch::Tensor& x, const std::pair<
                                         const PrecisionPolicy& p) const {
   const int64_t B = x.size(0), N = x.size(1), C = x.size(2), dh = C / heads;
   const torch::Tensor t = qkv(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});  // 3,B,H,N,dh
+  const double scale = std::pow(static_cast<double>(dh), -0.5);
+  if (UseFusedAttention(x.device())) {  // views into the qkv projection, RoPE inside the fused pass
+    AttentionExtras e;
+    e.rope_q = e.rope_k = &rope;
+    return proj(FusedAttention(t[0], t[1], t[2], scale, e, p.bf16).view({B, N, C}), p);
+  }
   const torch::Tensor q = Rope2D::Apply(t[0], rope), k = Rope2D::Apply(t[1], rope);
-  const torch::Tensor o = ScaledDotProduct(q, k, t[2], std::pow(static_cast<double>(dh), -0.5), p);
+  const torch::Tensor o = ScaledDotProduct(q, k, t[2], scale, p);
   return proj(o.transpose(1, 2).reshape({B, N, C}), p);
 }
 
@@ -154,10 +160,17 @@ torch::Tensor CrossAttention::operator()(const torch::Tensor& x, const torch::Te
                                          const std::pair<torch::Tensor, torch::Tensor>& rope_y,
                                          const PrecisionPolicy& p) const {
   const int64_t B = x.size(0), Nq = x.size(1), C = x.size(2), Nk = y.size(1), dh = C / heads;
-  const torch::Tensor qq = Rope2D::Apply(q(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2), rope_x);
-  const torch::Tensor kk = Rope2D::Apply(k(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2), rope_y);
+  const torch::Tensor qq = q(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2);
+  const torch::Tensor kk = k(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
   const torch::Tensor vv = v(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
-  const torch::Tensor o = ScaledDotProduct(qq, kk, vv, std::pow(static_cast<double>(dh), -0.5), p);
+  const double scale = std::pow(static_cast<double>(dh), -0.5);
+  if (UseFusedAttention(x.device())) {
+    AttentionExtras e;
+    e.rope_q = &rope_x;
+    e.rope_k = &rope_y;
+    return proj(FusedAttention(qq, kk, vv, scale, e, p.bf16).view({B, Nq, C}), p);
+  }
+  const torch::Tensor o = ScaledDotProduct(Rope2D::Apply(qq, rope_x), Rope2D::Apply(kk, rope_y), vv, scale, p);
   return proj(o.transpose(1, 2).reshape({B, Nq, C}), p);
 }
 

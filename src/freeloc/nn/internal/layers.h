@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "freeloc/nn/internal/bf16_linear.h"
+#include "freeloc/nn/internal/fused_attention.h"
 #include "freeloc/nn/internal/torch_util.h"
 
 namespace freeloc::nn::internal {
@@ -58,14 +59,15 @@ class Rope2D {
   mutable std::map<std::tuple<int64_t, int64_t, int64_t, int>, std::pair<torch::Tensor, torch::Tensor>> cache_;
 };
 
-// softmax(q·kᵀ·scale)·v for [B, heads, N, dh] tensors (croco Attention / CrossAttention core).
+// softmax(q·kᵀ·scale)·v for [B, heads, N, dh] tensors in LibTorch ops: the attention off the CPU (on the CPU every
+// ViT runs FusedAttention) and the row-blocked comparison in bench/attention.
 torch::Tensor ScaledDotProduct(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
                                const PrecisionPolicy& p, int64_t block_rows = 128);
 // softmax(q·kᵀ·scale)·v in three whole-tensor ops (the upstream formulation): the reference for bench/attention.
 torch::Tensor ScaledDotProductReference(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v,
                                         double scale);
 
-// croco/models/blocks.py Attention (self-attention with RoPE).
+// croco/models/blocks.py Attention (self-attention with RoPE; FusedAttention on the CPU).
 struct SelfAttention {
   Linear qkv, proj;
   int64_t heads = 1;

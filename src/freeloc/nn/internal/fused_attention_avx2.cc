@@ -1,0 +1,8 @@
+// The fused attention kernel (fused_attention_kernel.inc) built for the avx2 entry; nn/CMakeLists.txt gives this file
+// its instruction-set flags. Chosen at run time by fused_attention.cc.
+#define FA_ENTRY kAvx2
+#define FA_NAME "avx2"
+#define FA_BF16 0
+#define FA_ROWS 2
+#define FA_VL 8
+#include "freeloc/nn/internal/fused_attention_kernel.inc"
