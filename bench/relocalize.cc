@@ -107,8 +107,15 @@ int main(int argc, char** argv) {
   std::string presets = "seed,seed-no-instance,dust3r,mast3r,mast3r-metric3d,seed-mast3r,sift-essential";
   std::string m3d_variant = "vit_large", precision = "fp32";
   std::vector<std::pair<std::string, std::string>> overrides;  // --set NAME=VALUE, for every preset
+  bool memory_lines = false;            // a child of a two-precision run: also print "MEMORY preset rest peak" lines
+  std::vector<std::string> child_args;  // the arguments without --precision, for the children
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--precision") != 0 && std::strcmp(argv[i - 1], "--precision") != 0)
+      child_args.push_back(argv[i]);
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
+    if (!std::strcmp(argv[i], "--memory-lines"))
+      memory_lines = true;
+    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
       threads = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--queries") && i + 1 < argc)
       queries = std::max(1, std::atoi(argv[++i]));
@@ -131,8 +138,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  // One pass per precision (--precision fp32,bf16 runs both in this process): each builds its models, prints its
-  // tables and gives back each preset's resident memory and query peak.
+  // One pass per precision (--precision fp32,bf16 runs each in a child process, below): each builds its models,
+  // prints its tables and gives back each preset's resident memory and query peak.
   struct Memory {
     double rest_mb = 0, peak_mb = 0;
   };
@@ -365,11 +372,48 @@ int main(int argc, char** argv) {
   };
   const auto precisions = Split(precision);
   std::vector<std::map<std::string, Memory>> memory;
-  for (const auto& p : precisions) memory.push_back(run(p));
+  if (precisions.size() == 2) {
+    // Each precision in a child process of its own: run one after the other in one process, the second inherits the
+    // first's heap (freed blocks glibc keeps), which once made bf16 look 0.83× fp32 when it is 0.71×.
+    for (const auto& p : precisions) {
+      std::string cmd = "'" + std::string(argv[0]) + "' --memory-lines --precision " + p;
+      for (const auto& a : child_args) {
+        std::string q;
+        for (char c : a) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+        cmd += " '" + q + "'";
+      }
+      FILE* child = popen(cmd.c_str(), "r");
+      if (!child) {
+        std::fprintf(stderr, "relocalize: cannot start %s\n", cmd.c_str());
+        return 1;
+      }
+      std::map<std::string, Memory> mem;
+      char line[4096];
+      while (std::fgets(line, sizeof(line), child)) {
+        char name[256];
+        Memory m;
+        if (std::sscanf(line, "MEMORY %255s %lf %lf", name, &m.rest_mb, &m.peak_mb) == 3)
+          mem[name] = m;
+        else
+          std::fputs(line, stdout);
+      }
+      std::fflush(stdout);
+      if (pclose(child) != 0) {
+        std::fprintf(stderr, "relocalize: the %s pass failed\n", p.c_str());
+        return 1;
+      }
+      memory.push_back(mem);
+    }
+  } else {
+    for (const auto& p : precisions) memory.push_back(run(p));
+    if (memory_lines)
+      for (const auto& [preset, m] : memory.back())
+        std::printf("MEMORY %s %f %f\n", preset.c_str(), m.rest_mb, m.peak_mb);
+  }
   if (precisions.size() == 2) {
     // The memory a precision needs against the other's, for each preset (bf16 ÷ fp32 when run in that order).
-    std::printf("\nMemory, %s against %s (MB; each with only its own models loaded):\n\n", precisions[1].c_str(),
-                precisions[0].c_str());
+    std::printf("\nMemory, %s against %s (MB; each in a process of its own with only its own models loaded):\n\n",
+                precisions[1].c_str(), precisions[0].c_str());
     freeloc::bench::MarkdownTable m({"preset", "at rest " + precisions[0], "at rest " + precisions[1], "ratio",
                                      "query peak " + precisions[0], "query peak " + precisions[1], "ratio"});
     for (const auto& [preset, a] : memory[0]) {

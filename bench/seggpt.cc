@@ -3,7 +3,7 @@
 // GFLOP/s (1.59 TFLOP per prompt, spec/seggpt.md §5) next to the fp32 GEMM rate measured in this process, peak
 // RSS. bf16 is reported per block on CPUs without AVX512-BF16 (emulated bf16 GEMM); `--bf16` runs a full bf16 pass.
 //
-//   seggpt [--threads N] [--reps R] [--bf16]
+//   seggpt [--threads N] [--reps R] [--bf16 | --bf16-only]   (--bf16-only: the bf16 model alone, warm, median of R)
 #include "freeloc/nn/seggpt.h"
 
 #include <torch/torch.h>
@@ -20,7 +20,7 @@ namespace {}  // namespace
 
 int main(int argc, char** argv) {
   int threads = 2, reps = 3;
-  bool bf16 = false;
+  bool bf16 = false, bf16_only = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
       threads = std::atoi(argv[++i]);
@@ -28,8 +28,10 @@ int main(int argc, char** argv) {
       reps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--bf16"))
       bf16 = true;
+    else if (!std::strcmp(argv[i], "--bf16-only"))
+      bf16_only = true;
     else {
-      std::fprintf(stderr, "usage: seggpt [--threads N] [--reps R] [--bf16]\n");
+      std::fprintf(stderr, "usage: seggpt [--threads N] [--reps R] [--bf16 | --bf16-only]\n");
       return 2;
     }
   }
@@ -45,6 +47,29 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < item; ++i) {
     imgs[i] = static_cast<float>((i * 7919 % 255) / 127.5 - 1.0);
     tgts[i] = static_cast<float>((i * 104729 % 2) * 4.0 - 2.0);
+  }
+  if (bf16_only) {  // the bf16 model alone, warm, median of R (for profiling the bf16 path)
+    freeloc::nn::RuntimeOptions rb = rt;
+    rb.precision = freeloc::nn::Precision::kBf16;
+    const auto mb = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rb);
+    mb->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
+    std::vector<double> tb;
+    for (int r = 0; r < reps; ++r) {
+      const double t0 = NowSeconds();
+      mb->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
+      tb.push_back(NowSeconds() - t0);
+    }
+    const double s = freeloc::bench::Median(tb);
+    std::printf(
+        "## bench/seggpt — seggpt_vit_large bf16 (random weights), 896×448, one prompt, %d threads, median of "
+        "%d\n\n%s\n\n",
+        threads, reps, freeloc::bench::MachineLine().c_str());
+    freeloc::bench::MarkdownTable tab({"measurement", "value", "note"});
+    tab.Row({"bf16, one prompt", Fmt("%.2f s", s), Fmt("%.1f GFLOP/s (1.59 TFLOP)", 1590.0 / s)});
+    tab.Row({"bf16 GEMM rate, same process", Fmt("%.1f GFLOP/s", gemm16),
+             Fmt("reaches %.0f %% of it", 100.0 * 1590.0 / s / gemm16)});
+    tab.Print();
+    return 0;
   }
   model->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);  // warm-up
   std::vector<double> t;

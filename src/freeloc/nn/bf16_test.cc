@@ -47,6 +47,24 @@ TEST(Bf16, RuleRunsBf16OnlyWhereItPays) {
   EXPECT_TRUE(ChooseBf16(false, 1.0, 2.0, true));    // forced
 }
 
+// A bf16 model holds its weights once: whatever row counts a layer is called with (the token counts of DUSt3R,
+// SegGPT, Metric3D, single rows), its kernels share one packed copy of the weights (or, where oneDNN asks for another
+// layout, as few as it needs), never one per row count.
+TEST(Bf16, PackedLayerKeepsItsWeightsOnce) {
+  if (!internal::CpuBf16Decision().native) GTEST_SKIP() << "no native bf16 on this CPU";
+  torch::manual_seed(4);
+  const int64_t in = 1024, out = 4096;
+  const internal::PackedLinearBf16 lin(torch::randn({out, in}) * 0.03, torch::randn({out}));
+  for (int64_t rows : {768, 1568, 3136, 3349, 1, 7, 64, 129, 2000}) {
+    (void)lin(torch::randn({rows, in}));
+    (void)lin.Forward(torch::randn({rows, in}), /*gelu=*/true);
+  }
+  std::printf("packed copies: %d, %.1f MB (bf16 weights %.1f MB)\n", lin.PackedCopies(), lin.PackedBytes() / 1e6,
+              in * out * 2 / 1e6);
+  EXPECT_EQ(lin.PackedCopies(), 1);
+  EXPECT_LE(lin.PackedBytes(), static_cast<size_t>(in * out * 2 * 1.05));
+}
+
 TEST(Bf16, PackedLayerMatchesFp32WithinBf16Rounding) {
   torch::manual_seed(3);
   struct Case {

@@ -126,6 +126,18 @@ torch::Tensor PackedLinearBf16::Forward(const torch::Tensor& x, bool gelu) const
 
 std::string PackedLinearBf16::Kernel(int64_t rows) const { return impl_->For(rows, false)->pd.impl_info_str(); }
 
+int PackedLinearBf16::PackedCopies() const {
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  return static_cast<int>(impl_->packed.size());
+}
+
+size_t PackedLinearBf16::PackedBytes() const {
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  size_t n = 0;
+  for (const auto& m : impl_->packed) n += m->get_desc().get_size();
+  return n;
+}
+
 bool RunBf16(const RuntimeOptions& rt) {
   if (rt.precision != Precision::kBf16) return false;
   return rt.device == Device::kCuda || CpuBf16Decision().use;

@@ -27,6 +27,9 @@ class PackedLinearBf16 {
   torch::Tensor Forward(const torch::Tensor& x, bool gelu) const;
   // The oneDNN kernel chosen for `rows` rows (e.g. "brg:avx512_core_bf16").
   std::string Kernel(int64_t rows) const;
+  // Packed copies of the weights held (one per distinct layout the kernels asked for) and their bytes.
+  int PackedCopies() const;
+  size_t PackedBytes() const;
 
  private:
   struct Impl;
