@@ -96,6 +96,26 @@ int main(int argc, char** argv) {
       t.Row({s.name, std::string("fused, ") + freeloc::nn::internal::AttentionIsaName(isa), Fmt("%.1f", ms),
              Fmt("%.1f", gflop / ms * 1e3), Fmt("%.1e", diff)});
     }
+    // RoPE in the pass (DUSt3R's grid 24×32) against applying it first with LibTorch ops (Rope2D::Apply).
+    if (s.tokens == 768) {
+      const freeloc::nn::internal::Rope2D rope(100.0);
+      const auto tables = rope.Tables(24, 32, s.dim, torch::kCPU);
+      freeloc::nn::internal::AttentionExtras x;
+      x.rope_q = x.rope_k = &tables;
+      const bool bf16 = freeloc::nn::internal::AttentionIsaAvailable(freeloc::nn::internal::AttentionIsa::kAvx512Bf16);
+      const auto in_pass = [&] { return freeloc::nn::internal::FusedAttention(q, k, v, scale, x, bf16); };
+      const auto before = [&] {
+        return freeloc::nn::internal::FusedAttention(freeloc::nn::internal::Rope2D::Apply(q, tables),
+                                                     freeloc::nn::internal::Rope2D::Apply(k, tables), v, scale, {},
+                                                     bf16);
+      };
+      const double diff = (in_pass() - before()).abs().max().item<double>();
+      const double ms_in = time(in_pass), ms_before = time(before);
+      t.Row({s.name, std::string("fused + RoPE in the pass, ") + (bf16 ? "bf16" : "fp32"), Fmt("%.1f", ms_in),
+             Fmt("%.1f", gflop / ms_in * 1e3), Fmt("%.1e", diff) + " (vs RoPE first)"});
+      t.Row({s.name, std::string("RoPE (LibTorch ops), then fused, ") + (bf16 ? "bf16" : "fp32"),
+             Fmt("%.1f", ms_before), Fmt("%.1f", gflop / ms_before * 1e3), "–"});
+    }
   }
   std::printf("## bench/attention — %d threads, median of %d\n\n", threads, reps);
   std::printf("%s\n\n", freeloc::bench::MachineLine().c_str());

@@ -41,25 +41,28 @@ int main(int argc, char** argv) {
   const auto sd = freeloc::bench::RandomSegGpt();
   freeloc::nn::RuntimeOptions rt;
   rt.threads = threads;
-  const auto model = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rt);
   const size_t item = 3 * 896 * 448;
   std::vector<float> imgs(item), tgts(item);
   for (size_t i = 0; i < item; ++i) {
     imgs[i] = static_cast<float>((i * 7919 % 255) / 127.5 - 1.0);
     tgts[i] = static_cast<float>((i * 104729 % 2) * 4.0 - 2.0);
   }
-  if (bf16_only) {  // the bf16 model alone, warm, median of R (for profiling the bf16 path)
-    freeloc::nn::RuntimeOptions rb = rt;
-    rb.precision = freeloc::nn::Precision::kBf16;
-    const auto mb = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rb);
-    mb->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
-    std::vector<double> tb;
+  // One prompt after a warm-up, median of R.
+  const auto warm_median = [&](const freeloc::nn::SegGptModel& m) {
+    m.Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
+    std::vector<double> t;
     for (int r = 0; r < reps; ++r) {
       const double t0 = NowSeconds();
-      mb->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
-      tb.push_back(NowSeconds() - t0);
+      m.Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
+      t.push_back(NowSeconds() - t0);
     }
-    const double s = freeloc::bench::Median(tb);
+    return freeloc::bench::Median(t);
+  };
+  if (bf16_only) {  // the bf16 model alone (for profiling the bf16 path)
+    freeloc::nn::RuntimeOptions rb = rt;
+    rb.precision = freeloc::nn::Precision::kBf16;
+    const double s = warm_median(
+        *freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rb));
     std::printf(
         "## bench/seggpt — seggpt_vit_large bf16 (random weights), 896×448, one prompt, %d threads, median of "
         "%d\n\n%s\n\n",
@@ -71,14 +74,8 @@ int main(int argc, char** argv) {
     tab.Print();
     return 0;
   }
-  model->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);  // warm-up
-  std::vector<double> t;
-  for (int r = 0; r < reps; ++r) {
-    const double t0 = NowSeconds();
-    model->Forward(imgs, tgts, 1, freeloc::nn::SegType::kInstance, false);
-    t.push_back(NowSeconds() - t0);
-  }
-  const double s = freeloc::bench::Median(t);
+  const auto model = freeloc::nn::SegGptModel::Create(sd, R"({"img_size": [896, 448], "num_heads": 16})", "random", rt);
+  const double s = warm_median(*model);
   std::printf("## bench/seggpt — seggpt_vit_large (random weights), 896×448, one prompt, %d threads, median of %d\n\n",
               threads, reps);
   freeloc::bench::MarkdownTable tab({"measurement", "value", "note"});
