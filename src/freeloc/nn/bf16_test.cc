@@ -57,7 +57,7 @@ TEST(Bf16, PackedLayerKeepsItsWeightsOnce) {
   const internal::PackedLinearBf16 lin(torch::randn({out, in}) * 0.03, torch::randn({out}));
   for (int64_t rows : {768, 1568, 3136, 3349, 1, 7, 64, 129, 2000}) {
     (void)lin(torch::randn({rows, in}));
-    (void)lin.Forward(torch::randn({rows, in}), /*gelu=*/true);
+    (void)lin.Forward(torch::randn({rows, in}), /*gelu=*/true, /*bf16_out=*/true);
   }
   std::printf("packed copies: %d, %.1f MB (bf16 weights %.1f MB)\n", lin.PackedCopies(), lin.PackedBytes() / 1e6,
               in * out * 2 / 1e6);
@@ -84,8 +84,12 @@ TEST(Bf16, PackedLayerMatchesFp32WithinBf16Rounding) {
     // Batched input keeps its leading shape; the fused GELU variant equals GELU of the plain output (bf16 out).
     const torch::Tensor x3 = x.reshape({1, c.rows, c.in});
     EXPECT_EQ(lin(x3).sizes(), (std::vector<int64_t>{1, c.rows, c.out}));
-    const torch::Tensor g = lin.Forward(x, /*gelu=*/true);
+    const torch::Tensor g = lin.Forward(x, /*gelu=*/true, /*bf16_out=*/true);
     EXPECT_EQ(g.scalar_type(), torch::kBFloat16);
+    // bf16 output alone: the plain output rounded to bf16.
+    const torch::Tensor o16 = lin.Forward(x, /*gelu=*/false, /*bf16_out=*/true);
+    EXPECT_EQ(o16.scalar_type(), torch::kBFloat16);
+    EXPECT_TRUE(torch::equal(o16, got.to(torch::kBFloat16)));
     const torch::Tensor gr = torch::gelu(ref);
     EXPECT_LT(((g.to(torch::kFloat32) - gr).norm() / gr.norm()).item<double>(), 1.2e-2);
   }

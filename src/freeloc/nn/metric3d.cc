@@ -45,11 +45,12 @@ struct VitBlock {
   int64_t heads = 1;
   torch::Tensor operator()(torch::Tensor x, const PrecisionPolicy& p) const {
     const int64_t B = x.size(0), T = x.size(1), C = x.size(2), hd = C / heads;
-    const torch::Tensor t = qkv(n1(x), p).reshape({B, T, 3, heads, hd}).permute({2, 0, 3, 1, 4});
+    const bool fused = UseFusedAttention(x.device());
+    const torch::Tensor t =
+        (fused ? qkv.ForProducts(n1(x), p) : qkv(n1(x), p)).reshape({B, T, 3, heads, hd}).permute({2, 0, 3, 1, 4});
     const double scale = std::pow(static_cast<double>(hd), -0.5);
-    const torch::Tensor a = UseFusedAttention(x.device())
-                                ? FusedAttention(t[0], t[1], t[2], scale, {}, p.bf16).view({B, T, C})
-                                : ScaledDotProduct(t[0], t[1], t[2], scale, p).transpose(1, 2).reshape({B, T, C});
+    const torch::Tensor a = fused ? FusedAttention(t[0], t[1], t[2], scale, {}, p.bf16).view({B, T, C})
+                                  : ScaledDotProduct(t[0], t[1], t[2], scale, p).transpose(1, 2).reshape({B, T, C});
     x = x + ls1 * proj(a, p);
     torch::Tensor h = fc1(n2(x), p);
     if (swiglu) {

@@ -60,21 +60,21 @@ struct Block {
   // UNSCALED q, global over all tokens.
   torch::Tensor Attend(const torch::Tensor& x, const PrecisionPolicy& p) const {
     const int64_t B = x.size(0), H = x.size(1), W = x.size(2), C = x.size(3), hd = C / heads, N = H * W;
-    const torch::Tensor t =
-        qkv(x, p).reshape({B, N, 3, heads, hd}).permute({2, 0, 3, 1, 4}).reshape({3, B * heads, N, hd});
-    const torch::Tensor q = t[0], k = t[1], v = t[2];
     const torch::Tensor Rh = GetRelPos(H, H, rel_h), Rw = GetRelPos(W, W, rel_w);
     const double scale = std::pow(static_cast<double>(hd), -0.5);
-    if (UseFusedAttention(
-            x.device())) {  // the rel terms (of the unscaled q, N × (H + W) per head) added inside the fused pass
-      const torch::Tensor rq = q.reshape({B * heads, H, W, hd});
+    if (UseFusedAttention(x.device())) {
+      // q/k/v as views into the projection (bf16 when it runs bf16); the rel terms (of the unscaled q, N × (H + W) per
+      // head) added inside the fused pass.
+      const torch::Tensor t = qkv.ForProducts(x, p).reshape({B, N, 3, heads, hd}).permute({2, 0, 3, 1, 4});
+      const torch::Tensor rq = t[0].to(torch::kFloat32).reshape({B * heads, H, W, hd});
       AttentionExtras e;
       e.rel_h = torch::einsum("bhwc,hkc->bhwk", {rq, Rh}).reshape({B * heads, N, H});
       e.rel_w = torch::einsum("bhwc,wkc->bhwk", {rq, Rw}).reshape({B * heads, N, W});
-      const torch::Tensor o = FusedAttention(q.reshape({B, heads, N, hd}), k.reshape({B, heads, N, hd}),
-                                             v.reshape({B, heads, N, hd}), scale, e, p.bf16);
-      return proj(o.view({B, H, W, C}), p);
+      return proj(FusedAttention(t[0], t[1], t[2], scale, e, p.bf16).view({B, H, W, C}), p);
     }
+    const torch::Tensor t =
+        qkv(x, p).reshape({B, N, 3, heads, hd}).permute({2, 0, 3, 1, 4}).reshape({3, B * heads, N, hd});
+    const torch::Tensor q = t[0], k = t[1], v = t[2];
     // Heads in chunks whose N×N logits stay under ~16 MB: large blocks are then reused from the heap instead of
     // being mapped and faulted in for every block (the full 16-head map is 157 MB at 1568 tokens).
     const int64_t per = std::max<int64_t>(1, (int64_t{16} << 20) / (N * N * 4));

@@ -39,16 +39,17 @@ struct PackedLinearBf16::Impl {
     std::shared_ptr<dnnl::memory> weights;  // packed bf16 in pd.weights_desc()
   };
   mutable std::mutex mu;
-  mutable std::map<std::pair<int64_t, bool>, std::shared_ptr<const Kernel>> kernels;  // by (rows, gelu)
-  mutable std::vector<std::shared_ptr<dnnl::memory>> packed;                          // distinct packed layouts
+  // By (rows, GELU + 2·bf16 output).
+  mutable std::map<std::pair<int64_t, int>, std::shared_ptr<const Kernel>> kernels;
+  mutable std::vector<std::shared_ptr<dnnl::memory>> packed;  // distinct packed layouts
 
-  std::shared_ptr<const Kernel> For(int64_t rows, bool gelu) const {
+  std::shared_ptr<const Kernel> For(int64_t rows, bool gelu, bool bf16_out) const {
     std::lock_guard<std::mutex> lock(mu);
-    auto& k = kernels[{rows, gelu}];
+    auto& k = kernels[{rows, (gelu ? 1 : 0) + (bf16_out ? 2 : 0)}];
     if (k) return k;
     const dnnl::memory::desc src({rows, in}, dt::bf16, tag::ab);
     const dnnl::memory::desc wei({in, out}, dt::bf16, tag::any);
-    const dnnl::memory::desc dst({rows, out}, gelu ? dt::bf16 : dt::f32, tag::ab);
+    const dnnl::memory::desc dst({rows, out}, bf16_out ? dt::bf16 : dt::f32, tag::ab);
     dnnl::primitive_attr attr;
     if (gelu) {
       dnnl::post_ops ops;
@@ -93,25 +94,25 @@ PackedLinearBf16::PackedLinearBf16(const torch::Tensor& w, const torch::Tensor& 
   if (b.defined()) impl_->bias = b.to(torch::kFloat32).reshape({1, impl_->out}).contiguous();
   // Pack now, at model load: the kernels for other row counts mostly share this layout, so a query never pays the
   // reorder of a layer's weights. Then the fp32 copy goes: a bf16 model holds its weights once.
-  impl_->For(256, false);
+  impl_->For(256, false, false);
   impl_->w = torch::Tensor();
   impl_->shape = torch::zeros({1, 1}, torch::kBFloat16).expand({impl_->out, impl_->in});
 }
 
 PackedLinearBf16::~PackedLinearBf16() = default;
 
-torch::Tensor PackedLinearBf16::Forward(const torch::Tensor& x, bool gelu) const {
+torch::Tensor PackedLinearBf16::Forward(const torch::Tensor& x, bool gelu, bool bf16_out) const {
   const Impl& m = *impl_;
   const int64_t rows = x.numel() / m.in;
   const torch::Tensor xb = x.to(torch::kBFloat16).reshape({rows, m.in}).contiguous();
-  torch::Tensor y = torch::empty({rows, m.out}, gelu ? torch::kBFloat16 : torch::kFloat32);
+  torch::Tensor y = torch::empty({rows, m.out}, bf16_out ? torch::kBFloat16 : torch::kFloat32);
   if (rows > 0) {
     // Visible to LibTorch's profiler and FLOP counters (bench/bench_torch.h), like the aten matmuls it replaces.
     RECORD_FUNCTION("freeloc::bf16_linear", std::vector<c10::IValue>({xb, m.shape}));
-    const auto k = m.For(rows, gelu);
+    const auto k = m.For(rows, gelu, bf16_out);
     dnnl::stream s(Engine());
     dnnl::memory src({{rows, m.in}, dt::bf16, tag::ab}, Engine(), xb.data_ptr());
-    dnnl::memory dst({{rows, m.out}, gelu ? dt::bf16 : dt::f32, tag::ab}, Engine(), y.data_ptr());
+    dnnl::memory dst({{rows, m.out}, bf16_out ? dt::bf16 : dt::f32, tag::ab}, Engine(), y.data_ptr());
     std::unordered_map<int, dnnl::memory> args = {
         {DNNL_ARG_SRC, src}, {DNNL_ARG_WEIGHTS, *k->weights}, {DNNL_ARG_DST, dst}};
     if (m.bias.defined())
@@ -124,7 +125,7 @@ torch::Tensor PackedLinearBf16::Forward(const torch::Tensor& x, bool gelu) const
   return y.reshape(shape);
 }
 
-std::string PackedLinearBf16::Kernel(int64_t rows) const { return impl_->For(rows, false)->pd.impl_info_str(); }
+std::string PackedLinearBf16::Kernel(int64_t rows) const { return impl_->For(rows, false, false)->pd.impl_info_str(); }
 
 int PackedLinearBf16::PackedCopies() const {
   std::lock_guard<std::mutex> lock(impl_->mu);

@@ -21,10 +21,11 @@ class PackedLinearBf16 {
   PackedLinearBf16(const torch::Tensor& w, const torch::Tensor& b);
   ~PackedLinearBf16();
   // x [..., in] fp32 or bf16 → [..., out] fp32.
-  torch::Tensor operator()(const torch::Tensor& x) const { return Forward(x, false); }
-  // With `gelu`: GELU (erf) applied inside the kernel and the output in bf16 — the MLP's hidden layer, whose output
-  // only feeds the next bf16 matmul (the same rounding as converting it there, one memory pass less).
-  torch::Tensor Forward(const torch::Tensor& x, bool gelu) const;
+  torch::Tensor operator()(const torch::Tensor& x) const { return Forward(x, false, false); }
+  // With `gelu`: GELU (erf) applied inside the kernel. With `bf16_out`: the output in bf16 — for outputs that only
+  // feed bf16 products (the MLP's hidden layer, attention's q/k/v): the same rounding as converting them there, one
+  // memory pass less and half the bytes.
+  torch::Tensor Forward(const torch::Tensor& x, bool gelu, bool bf16_out) const;
   // The oneDNN kernel chosen for `rows` rows (e.g. "brg:avx512_core_bf16").
   std::string Kernel(int64_t rows) const;
   // Packed copies of the weights held (one per distinct layout the kernels asked for) and their bytes.

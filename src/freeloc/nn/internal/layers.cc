@@ -26,6 +26,11 @@ torch::Tensor Linear::operator()(const torch::Tensor& x, const PrecisionPolicy& 
   return torch::linear(x, w, b);
 }
 
+torch::Tensor Linear::ForProducts(const torch::Tensor& x, const PrecisionPolicy& p) const {
+  if (p.bf16 && packed) return packed->Forward(x, /*gelu=*/false, /*bf16_out=*/true);
+  return (*this)(x, p);
+}
+
 void LayerNorm::Load(WeightStore& ws, const std::string& prefix, int64_t dim, double e) {
   w = ws.Take(prefix + ".weight", {dim});
   b = ws.Take(prefix + ".bias", {dim});
@@ -42,7 +47,8 @@ void Mlp::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t 
 }
 
 torch::Tensor Mlp::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
-  if (p.bf16 && fc1.packed && fc2.packed) return (*fc2.packed)(fc1.packed->Forward(x, /*gelu=*/true));
+  if (p.bf16 && fc1.packed && fc2.packed)
+    return (*fc2.packed)(fc1.packed->Forward(x, /*gelu=*/true, /*bf16_out=*/true));
   return fc2(torch::gelu(fc1(x, p)), p);
 }
 
@@ -134,13 +140,14 @@ void SelfAttention::Load(WeightStore& ws, const std::string& prefix, int64_t dim
 torch::Tensor SelfAttention::operator()(const torch::Tensor& x, const std::pair<torch::Tensor, torch::Tensor>& rope,
                                         const PrecisionPolicy& p) const {
   const int64_t B = x.size(0), N = x.size(1), C = x.size(2), dh = C / heads;
-  const torch::Tensor t = qkv(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});  // 3,B,H,N,dh
   const double scale = std::pow(static_cast<double>(dh), -0.5);
-  if (UseFusedAttention(x.device())) {  // views into the qkv projection, RoPE inside the fused pass
+  if (UseFusedAttention(x.device())) {  // views into the qkv projection (bf16 when it runs bf16), RoPE in the pass
+    const torch::Tensor t = qkv.ForProducts(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});
     AttentionExtras e;
     e.rope_q = e.rope_k = &rope;
     return proj(FusedAttention(t[0], t[1], t[2], scale, e, p.bf16).view({B, N, C}), p);
   }
+  const torch::Tensor t = qkv(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});  // 3,B,H,N,dh
   const torch::Tensor q = Rope2D::Apply(t[0], rope), k = Rope2D::Apply(t[1], rope);
   const torch::Tensor o = ScaledDotProduct(q, k, t[2], scale, p);
   return proj(o.transpose(1, 2).reshape({B, N, C}), p);
@@ -160,16 +167,19 @@ torch::Tensor CrossAttention::operator()(const torch::Tensor& x, const torch::Te
                                          const std::pair<torch::Tensor, torch::Tensor>& rope_y,
                                          const PrecisionPolicy& p) const {
   const int64_t B = x.size(0), Nq = x.size(1), C = x.size(2), Nk = y.size(1), dh = C / heads;
-  const torch::Tensor qq = q(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2);
-  const torch::Tensor kk = k(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
-  const torch::Tensor vv = v(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
   const double scale = std::pow(static_cast<double>(dh), -0.5);
   if (UseFusedAttention(x.device())) {
+    const torch::Tensor qq = q.ForProducts(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2);
+    const torch::Tensor kk = k.ForProducts(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
+    const torch::Tensor vv = v.ForProducts(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
     AttentionExtras e;
     e.rope_q = &rope_x;
     e.rope_k = &rope_y;
     return proj(FusedAttention(qq, kk, vv, scale, e, p.bf16).view({B, Nq, C}), p);
   }
+  const torch::Tensor qq = q(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2);
+  const torch::Tensor kk = k(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
+  const torch::Tensor vv = v(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);
   const torch::Tensor o = ScaledDotProduct(Rope2D::Apply(qq, rope_x), Rope2D::Apply(kk, rope_y), vv, scale, p);
   return proj(o.transpose(1, 2).reshape({B, Nq, C}), p);
 }

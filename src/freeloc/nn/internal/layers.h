@@ -26,6 +26,9 @@ struct Linear {
   std::shared_ptr<PackedLinearBf16> packed;  // bf16 on the CPU: oneDNN with prepacked weights
   void Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const PrecisionPolicy& p);
   torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const;
+  // For an output that only feeds bf16 products (attention's q/k/v): in bf16 when the layer runs prepacked bf16 (half
+  // the bytes, the rounding those products apply anyway), else as operator().
+  torch::Tensor ForProducts(const torch::Tensor& x, const PrecisionPolicy& p) const;
 };
 
 // torch.nn.LayerNorm over the last dimension (biased variance).
