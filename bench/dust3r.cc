@@ -122,6 +122,18 @@ int main(int argc, char** argv) {
     const double t0 = NowSeconds();
     const auto p16 = mb->Run(v1, v2);
     const double tb = NowSeconds() - t0;
+    double enc_gflop = 0, dec_gflop = 0;
+    {
+      const freeloc::bench::FlopCounter counter;
+      double f0 = freeloc::bench::FlopCounter::Total();
+      const auto e1 = mb->Encode(v1);
+      const auto e2 = mb->Encode(v2);
+      enc_gflop = (freeloc::bench::FlopCounter::Total() - f0) / 1e9;
+      f0 = freeloc::bench::FlopCounter::Total();
+      mb->Decode(*e1, *e2);
+      dec_gflop = (freeloc::bench::FlopCounter::Total() - f0) / 1e9;
+    }
+    std::printf("bf16 network GFLOP: encoder (both views) %.0f, decoder and heads %.0f\n", enc_gflop, dec_gflop);
     const float* a = p32.pts3d_2.as<float>();
     const float* b = p16.pts3d_2.as<float>();
     double num = 0, den = 0;
@@ -129,8 +141,11 @@ int main(int argc, char** argv) {
       num += (a[i] - b[i]) * (a[i] - b[i]);
       den += a[i] * a[i];
     }
-    std::printf("bf16 full pair: %.1f s (%.2f× fp32); pts3d_2 relative RMS deviation from fp32: %.2e\n", tb, tb / pair,
-                std::sqrt(num / std::max(den, 1e-30)));
+    std::printf(
+        "bf16 full pair: %.1f s (%.2f× fp32; encoder %.2f s, decoder %.2f s, heads %.2f s); pts3d_2 relative RMS "
+        "deviation from fp32: %.2e\n",
+        tb, tb / pair, p16.encode_ms / 1e3, p16.decode_ms / 1e3, p16.heads_ms / 1e3,
+        std::sqrt(num / std::max(den, 1e-30)));
   }
   return 0;
 }

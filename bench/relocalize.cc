@@ -2,7 +2,8 @@
 // DUSt3R / MASt3R ViT-L + base decoder at 512, SegGPT ViT-L, Metric3D v2 vit_large unless --metric3d says otherwise)
 // on map-free-sized 540×720 portrait images, through the same Relocalizer `freeloc run` uses (the network stages
 // are the networks module's, built on the in-memory models). For each preset: the reference side once (its depth,
-// encodings, instance encodings), then per query a stage table — depth, the pair's network pass, global matching,
+// encodings, instance encodings), then per query a stage table — depth, the pair's network pass, the query's
+// own-pointmap pass (the pair swapped: the focal check, MASt3R's query depth), global matching,
 // SegGPT propagation, the masked pairs' network passes, instance matching + merge, solve — the total, the FLOP the
 // networks executed (counted at the LibTorch dispatcher: mm/addmm/bmm/convolution) and the achieved GFLOP/s against
 // the GEMM rate (of the run's precision) measured in this process, the resident memory with every model loaded and
@@ -94,7 +95,7 @@ std::vector<std::string> Split(const std::string& s) {
 struct Row {
   std::string preset;
   double ref_s = 0, total_s = 0, gflop = 0, gflops = 0;
-  double depth = 0, pair = 0, match = 0, seg = 0, inst_pass = 0, inst_match = 0, solve = 0, other = 0;
+  double depth = 0, pair = 0, own = 0, match = 0, seg = 0, inst_pass = 0, inst_match = 0, solve = 0, other = 0;
   int instances = 0, pairs = 0, matches = 0;
   double rss_mb = 0, peak_mb = 0;  // resident before the timed queries (every model loaded), and their peak
   std::string status;
@@ -225,6 +226,7 @@ int main(int argc, char** argv) {
       metric3d = freeloc::nn::Metric3dModel::Create(freeloc::bench::RandomMetric3d(m3d_variant), "{}", m3d_variant, rt);
     freeloc::nn::ReleaseFreedMemory();  // as the networks' model cache does after a load
     const double load_s = NowSeconds() - t_load;
+    const double loaded_mb = freeloc::bench::ProcStatusMB("VmRSS");
 
     // One scene: the reference, Q queries (shifted and zoomed views), K reference instances, 2 m provided depth.
     freeloc::Camera cam;
@@ -292,12 +294,14 @@ int main(int argc, char** argv) {
         x.gflop = query_gflop;
         x.depth = r.timings.depth_ms / 1e3;
         x.pair = r.timings.pair_ms / 1e3;
-        x.match = (r.timings.match_ms - r.timings.pair_ms) / 1e3;
+        x.own = r.timings.own_pass_ms / 1e3;
+        x.match = std::max(0.0, r.timings.match_ms - r.timings.pair_ms - r.timings.own_pass_ms) / 1e3;
         x.seg = r.timings.segment_ms / 1e3;
         x.inst_pass = r.timings.instance_pass_ms / 1e3;
         x.inst_match = std::max(0.0, r.timings.instance_ms - r.timings.segment_ms - r.timings.instance_pass_ms) / 1e3;
         x.solve = r.timings.solve_ms / 1e3;
-        x.other = std::max(0.0, x.total_s - x.depth - x.pair - x.match - x.seg - x.inst_pass - x.inst_match - x.solve);
+        x.other = std::max(
+            0.0, x.total_s - x.depth - x.pair - x.own - x.match - x.seg - x.inst_pass - x.inst_match - x.solve);
         x.instances = r.instances;
         x.pairs = r.timings.instance_pairs;
         x.matches = r.matches;
@@ -314,6 +318,7 @@ int main(int argc, char** argv) {
       row.gflops = row.gflop / row.total_s;
       row.depth = med(&Row::depth);
       row.pair = med(&Row::pair);
+      row.own = med(&Row::own);
       row.match = med(&Row::match);
       row.seg = med(&Row::seg);
       row.inst_pass = med(&Row::inst_pass);
@@ -338,17 +343,19 @@ int main(int argc, char** argv) {
         "images, %d threads, %s, Metric3D %s, %d reference instances, median of %d quer%s after one untimed query\n\n",
         threads, precision.c_str(), m3d_variant.c_str(), instances, queries, queries == 1 ? "y" : "ies");
     std::printf(
-        "Models built in %.1f s. GEMM rate in this process (768×1024×4096, %s, best of 7 runs before and 7 after the "
+        "Models built in %.1f s (resident then: %.0f MB). GEMM rate in this process (768×1024×4096, %s, best of 7 runs "
+        "before and 7 after the "
         "presets): torch::matmul %.1f GFLOP/s%s; the rates below are against the best, %.1f GFLOP/s.\n\n",
-        load_s, precision.c_str(), gemm_torch,
+        load_s, loaded_mb, precision.c_str(), gemm_torch,
         gemm_packed > 0 ? Fmt(", prepacked oneDNN kernel %.1f GFLOP/s", gemm_packed).c_str() : "", gemm);
     freeloc::bench::MarkdownTable t({"preset", "reference (once)", "query total", "network GFLOP / query",
                                      "achieved GFLOP/s (whole query)", "% of best GEMM rate",
                                      "networks alone: GFLOP/s (%)", "RSS at rest (MB)", "peak RSS in a query (MB)",
                                      "status"});
     for (const auto& r : rows) {
-      // The networks' own rate: their FLOP over the time of the stages that run them (depth, passes, SegGPT).
-      const double net_s = r.depth + r.pair + r.seg + r.inst_pass;
+      // The networks' own rate: their FLOP over the time of the stages that run them (depth, the pair's pass and
+      // its swapped pass, SegGPT, the masked pairs' passes) — the FLOP counter counts every one of them.
+      const double net_s = r.depth + r.pair + r.own + r.seg + r.inst_pass;
       const double net = net_s > 0 ? r.gflop / net_s : 0;
       t.Row({r.preset, Fmt("%.2f s", r.ref_s), Fmt("%.2f s", r.total_s), Fmt("%.0f", r.gflop), Fmt("%.1f", r.gflops),
              Fmt("%.0f %%", 100 * r.gflops / gemm),
@@ -358,11 +365,12 @@ int main(int argc, char** argv) {
     t.Print();
     std::printf(
         "\nWhere a query's time goes (seconds; SegGPT and the masked pairs: K instances propagated / pairs run):\n\n");
-    freeloc::bench::MarkdownTable s({"preset", "depth", "pair network pass", "global matching", "SegGPT",
-                                     "masked pairs' passes", "instance matching + merge", "solve (matches)", "other"});
+    freeloc::bench::MarkdownTable s({"preset", "depth", "pair network pass", "own-pointmap pass", "global matching",
+                                     "SegGPT", "masked pairs' passes", "instance matching + merge", "solve (matches)",
+                                     "other"});
     for (const auto& r : rows)
-      s.Row({r.preset, Fmt("%.2f", r.depth), Fmt("%.2f", r.pair), Fmt("%.2f", r.match),
-             r.instances ? Fmt("%.2f", r.seg) + " (" + std::to_string(r.instances) + ")" : "–",
+      s.Row({r.preset, Fmt("%.2f", r.depth), Fmt("%.2f", r.pair), r.own > 0 ? Fmt("%.2f", r.own) : "–",
+             Fmt("%.2f", r.match), r.instances ? Fmt("%.2f", r.seg) + " (" + std::to_string(r.instances) + ")" : "–",
              r.instances ? Fmt("%.2f", r.inst_pass) + " (" + std::to_string(r.pairs) + ")" : "–",
              r.instances ? Fmt("%.2f", r.inst_match) : "–",
              Fmt("%.3f", r.solve) + " (" + std::to_string(r.matches) + ")", Fmt("%.2f", r.other)});

@@ -86,6 +86,7 @@ class Dust3rMatcher : public Matcher {
     r->timings.pair_ms = MsSince(tp);
     have_last_ = true;
     have_swapped_ = false;
+    swapped_ms_ = 0;
     std::vector<matching::Correspondence> merged = matching::GlobalCorrespondences(last_, ref_in_, q_in, instance_);
     r->global_matches = static_cast<int>(merged.size());
     r->timings.match_ms = MsSince(t0);
@@ -123,6 +124,8 @@ class Dust3rMatcher : public Matcher {
     return ref_focal_;
   }
 
+  double own_pass_ms() const override { return swapped_ms_; }
+
   double QueryFocal() override {
     if (!have_last_) return 0;
     const matching::PairPointmaps& sw = Swapped();
@@ -139,7 +142,9 @@ class Dust3rMatcher : public Matcher {
   // The last pair swapped (the query as view 1: its points in its own frame), run once per Match.
   const matching::PairPointmaps& Swapped() {
     if (!have_swapped_) {
+      const auto t0 = std::chrono::steady_clock::now();
       swapped_ = fn_.RunSwappedLast();
+      swapped_ms_ = MsSince(t0);
       have_swapped_ = true;
     }
     return swapped_;
@@ -242,6 +247,7 @@ class Dust3rMatcher : public Matcher {
   bool have_last_ = false;
   matching::PairPointmaps swapped_;  // … and its swapped pass, when asked for (the query's own pointmap)
   bool have_swapped_ = false;
+  double swapped_ms_ = 0;  // the swapped pass's time since the last Match
   double ref_focal_ = -1;  // the reference's pointmap focal (-1: not estimated yet)
   std::vector<std::pair<int, std::vector<uint8_t>>> ref_masks_;  // 0/1 at the reference's resolution
 };

@@ -2,6 +2,7 @@
 // cost of `--precision bf16` on the parity fixtures (bf16 forced with FREELOC_BF16=force so every CPU measures it).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 
@@ -114,6 +115,25 @@ TEST(Bf16, AccuracyCostOnTheParityFixtures) {
     std::printf("bf16 DUSt3R %s: pts3d_1 %.2e, pts3d_2 %.2e relative RMS from the fp32 reference\n", name, e1, e2);
     EXPECT_LT(std::max(e1, e2), 3e-2) << name;
     EXPECT_GT(std::max(e1, e2), 1e-6) << name;  // bf16 did run
+  }
+  // MASt3R: its heads (DPT convolutions and the local-feature MLP) run bf16 too; pointmaps and descriptors.
+  const auto mast3r = Dust3rModel::Load(SharedPath("fixtures/mast3r/weights.safetensors"),
+                                        SharedPath("fixtures/mast3r/config.json"), rt);
+  for (const char* name : {"land_s128", "mixed_s80", "odd_s112"}) {
+    const io::SafetensorsFile f =
+        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/mast3r/cases/") + name + ".safetensors"));
+    const auto view = [&](const char* k) {
+      const io::TensorView& t = f.Get(k);
+      return Dust3rView{t.as<float>(), static_cast<int>(t.shape[2]), static_cast<int>(t.shape[3])};
+    };
+    const Dust3rPrediction p = mast3r->Run(view("view1.img"), view("view2.img"));
+    const double e =
+        std::max({RelRms(p.pts3d_1, f.Get("pred1.pts3d")), RelRms(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")),
+                  RelRms(p.desc_1, f.Get("pred1.desc")), RelRms(p.desc_2, f.Get("pred2.desc"))});
+    std::printf("bf16 MASt3R %s: pointmaps and descriptors, worst %.2e relative RMS from the fp32 reference\n", name,
+                e);
+    EXPECT_LT(e, 3e-2) << name;
+    EXPECT_GT(e, 1e-6) << name;
   }
   const auto seggpt = SegGptModel::Load(SharedPath("fixtures/seggpt/weights.safetensors"),
                                         SharedPath("fixtures/seggpt/config.json"), rt);

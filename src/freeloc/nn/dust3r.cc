@@ -53,26 +53,27 @@ struct DecBlock {
 
 // dust3r/heads/dpt_head.py DPTOutputAdapter_fix + croco/models/dpt_block.py (FeatureFusionBlock_custom,
 // ResidualConvUnit_custom).
+// The convolutions are Conv::Chain links: in bf16 they run on bf16 channels-last activations, while the residual
+// stream (the skip connections, the fusion sums) stays fp32 — rounding it to bf16 too doubled the heads' share of
+// the bf16 error on the parity fixtures (Bf16.AccuracyCostOnTheParityFixtures).
 struct Rcu {
   Conv c1, c2;
-  torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
+  torch::Tensor operator()(const torch::Tensor& x) const {
     // The first ReLU must not touch x (the skip connection uses it); the second may work in place.
-    torch::Tensor h = c1(torch::relu(x), p);
+    torch::Tensor h = c1.Chain(torch::relu(x));
     h.relu_();
-    torch::Tensor o = c2(h, p);
-    o.add_(x);
-    return o;
+    return c2.Chain(h).to(torch::kFloat32).add_(x);
   }
 };
 struct Fusion {
   Rcu rcu1, rcu2;
   Conv out;
   bool has_rcu1 = true;
-  torch::Tensor operator()(const torch::Tensor& x0, const torch::Tensor* x1, const PrecisionPolicy& p) const {
+  torch::Tensor operator()(const torch::Tensor& x0, const torch::Tensor* x1) const {
     torch::Tensor o = x0;
-    if (x1) o = o + rcu1(*x1, p);
-    o = rcu2(o, p);
-    return out(Upsample2xAlignCorners(o), p);
+    if (x1) o = o + rcu1(*x1);
+    o = rcu2(o);
+    return out.Chain(Upsample2xAlignCorners(o)).to(torch::kFloat32);
   }
 };
 
@@ -124,7 +125,7 @@ void LoadDptHead(WeightStore& ws, const Dust3rConfig& c, int h, const PrecisionP
   }
   hd.head0.Load(ws, pre + "head.0", {c.dpt_head0_dim, F, 3, 3}, true, 1, 1, false, hp);
   hd.head2.Load(ws, pre + "head.2", {c.dpt_last_dim, c.dpt_head0_dim, 3, 3}, true, 1, 1, false, hp);
-  hd.head4.Load(ws, pre + "head.4", {c.dpt_channels, c.dpt_last_dim, 1, 1}, true, 1, 0, false, hp);
+  hd.head4.Load(ws, pre + "head.4", {c.dpt_channels, c.dpt_last_dim, 1, 1}, true, 1, 0, false, PrecisionPolicy{});
 }
 
 // load_model(): dec_blocks copied into dec_blocks2 when the checkpoint has none.
@@ -152,7 +153,10 @@ struct Dust3rModel::Impl {
   RuntimeOptions rt;
   torch::Device device = torch::kCPU;
   PrecisionPolicy prec;
-  PrecisionPolicy head_prec;  // the heads run in fp32, as upstream (autocast disabled in the head wrapper)
+  // Upstream runs the heads in fp32 (autocast disabled in the head wrapper). freeloc's bf16 runs their convolutions
+  // (channels-last) and MLPs in bf16 as well — 2.5× the fp32 rate on the heads' third of a pair's FLOPs — except
+  // head.4, whose raw output the exp() reads; the cost is in Bf16.AccuracyCostOnTheParityFixtures.
+  PrecisionPolicy head_prec;
   Rope2D rope;
   Conv patch;
   std::vector<EncBlock> enc;
@@ -198,32 +202,31 @@ struct Dust3rModel::Impl {
   // dust3r/heads/dpt_head.py: hooks → act_postprocess → layer_rn → refinenet4..1 (path4 cropped) → head.
   torch::Tensor RunHead(int which, const std::vector<torch::Tensor>& list, int64_t h, int64_t w, int view) const {
     const DptHead& hd = head[which];
-    const PrecisionPolicy& p = head_prec;
     const std::string tp = "head" + std::to_string(view) + ".";
     torch::Tensor layers[4];
     for (int i = 0; i < 4; ++i) {
       const torch::Tensor& tok = list[static_cast<size_t>(cfg.hooks[i])];
       torch::Tensor g = tok.reshape({tok.size(0), h, w, tok.size(2)}).permute({0, 3, 1, 2});
-      g = hd.act_proj[i](g, p);
-      if (i != 2) g = hd.act_resize[i](g, p);
+      g = hd.act_proj[i].Chain(g);
+      if (i != 2) g = hd.act_resize[i].Chain(g);
       Tap(tp + "act" + std::to_string(i), g);
-      layers[i] = hd.layer_rn[i](g, p);
+      layers[i] = hd.layer_rn[i].Chain(g).to(torch::kFloat32);
       Tap(tp + "rn" + std::to_string(i), layers[i]);
     }
-    torch::Tensor path4 = hd.refine[3](layers[3], nullptr, p);
+    torch::Tensor path4 = hd.refine[3](layers[3], nullptr);
     Tap(tp + "refinenet4", path4);
     path4 = path4.slice(2, 0, layers[2].size(2)).slice(3, 0, layers[2].size(3));
-    const torch::Tensor path3 = hd.refine[2](path4, &layers[2], p);
+    const torch::Tensor path3 = hd.refine[2](path4, &layers[2]);
     Tap(tp + "refinenet3", path3);
-    const torch::Tensor path2 = hd.refine[1](path3, &layers[1], p);
+    const torch::Tensor path2 = hd.refine[1](path3, &layers[1]);
     Tap(tp + "refinenet2", path2);
-    const torch::Tensor path1 = hd.refine[0](path2, &layers[0], p);
+    const torch::Tensor path1 = hd.refine[0](path2, &layers[0]);
     Tap(tp + "refinenet1", path1);
-    torch::Tensor o = hd.head0(path1, p);
+    torch::Tensor o = hd.head0.Chain(path1);
     o = Upsample2xAlignCorners(o);
-    o = hd.head2(o, p);
+    o = hd.head2.Chain(o);
     o.relu_();
-    o = hd.head4(o, p);
+    o = ChainOut(hd.head4.Chain(o));  // head.4 holds fp32 weights: the raw output the exp() reads is fp32
     Tap(tp + "raw", o);
     return o;
   }
@@ -254,7 +257,10 @@ struct Dust3rModel::Impl {
     const int64_t P = cfg.patch_size, D = cfg.local_feat_dim;
     const torch::Tensor in = torch::cat({enc, dec}, -1);  // [1, N, Ce + Cd]
     Tap(tp + "mlp_in", in);
-    const torch::Tensor hidden = torch::gelu(local[which].fc1(in, head_prec));
+    const Linear& fc1 = local[which].fc1;
+    const torch::Tensor hidden = head_prec.bf16 && fc1.packed
+                                     ? fc1.packed->Forward(in, /*gelu=*/true, /*bf16_out=*/true)
+                                     : torch::gelu(fc1(in, head_prec));
     Tap(tp + "mlp_hidden", hidden);
     const torch::Tensor out = local[which].fc2(hidden, head_prec);  // [1, N, (D + T)·P²]
     Tap(tp + "mlp_out", out);
@@ -376,6 +382,7 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, io:
   impl->rt = runtime;
   impl->device = DeviceOf(runtime);
   impl->prec.bf16 = internal::RunBf16(runtime);  // asked for, and pays here (bf16_linear.h)
+  impl->head_prec = impl->prec;
   impl->rope = Rope2D(impl->cfg.rope_base);
   const Dust3rConfig& c = impl->cfg;
   std::map<std::string, torch::Tensor> tensors;

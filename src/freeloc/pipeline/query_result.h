@@ -64,9 +64,10 @@ struct WindowSummary {
 // What a query's stages cost, milliseconds (the log, the records, the report and bench/relocalize).
 struct QueryTimings {
   double depth_ms = 0, match_ms = 0, instance_ms = 0, solve_ms = 0;
-  // Inside match_ms / instance_ms (network matchers): the global pair's network pass, SegGPT's propagation, the
-  // masked pairs' network passes and how many masked pairs ran.
-  double pair_ms = 0, segment_ms = 0, instance_pass_ms = 0;
+  // Inside match_ms / instance_ms (network matchers): the global pair's network pass, the query's own-pointmap pass
+  // (the pair swapped, run for the focal check or MASt3R's query depth; 0 when nothing asked for it), SegGPT's
+  // propagation, the masked pairs' network passes and how many masked pairs ran.
+  double pair_ms = 0, own_pass_ms = 0, segment_ms = 0, instance_pass_ms = 0;
   int instance_pairs = 0;
 };
 

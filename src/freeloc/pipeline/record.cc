@@ -122,6 +122,7 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["instance_ms"] = r.timings.instance_ms;
   j["solve_ms"] = r.timings.solve_ms;
   j["pair_ms"] = r.timings.pair_ms;
+  j["own_pass_ms"] = r.timings.own_pass_ms;
   j["segment_ms"] = r.timings.segment_ms;
   j["instance_pass_ms"] = r.timings.instance_pass_ms;
   j["instance_pairs"] = r.timings.instance_pairs;
@@ -177,6 +178,7 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
       r.query_intrinsics = IntrinsicsFromJson(j.at("intrinsics").at("query"));
     }
     r.timings.pair_ms = j.value("pair_ms", 0.0);
+    r.timings.own_pass_ms = j.value("own_pass_ms", 0.0);
     r.timings.segment_ms = j.value("segment_ms", 0.0);
     r.timings.instance_pass_ms = j.value("instance_pass_ms", 0.0);
     r.timings.instance_pairs = j.value("instance_pairs", 0);

@@ -199,6 +199,7 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   r.query_intrinsics = ResolveIntrinsics(
       camera, in, image, m.o, [&] { return m.matcher->QueryFocal(); }, "query");
   r.timings.match_ms += MsSince(tf);
+  const double own_before_depth = m.matcher->own_pass_ms();
   const Camera& k_query = r.query_intrinsics.camera;
   const auto t0 = std::chrono::steady_clock::now();
   m.d_query = m.depth->Depth(image, k_query, std::move(provided));
@@ -210,6 +211,12 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
                   "depth mast3r: the matcher " << m.o.matcher.ToString() << " gives no depth");
     r.timings.depth_ms = MsSince(t1);
   }
+  // The query's own-pointmap pass is reported inside match_ms, like the pair's, wherever it ran (the focal check
+  // runs it before the depth stage; without the check MASt3R's query depth runs it inside that stage).
+  r.timings.own_pass_ms = m.matcher->own_pass_ms();
+  const double own_in_depth = r.timings.own_pass_ms - own_before_depth;
+  r.timings.depth_ms = std::max(0.0, r.timings.depth_ms - own_in_depth);
+  r.timings.match_ms += own_in_depth;
   m.solver->Solve(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
   if (matches) *matches = c;
   m.UpdateStats();

@@ -59,6 +59,9 @@ class Matcher {
   // they give no focal.
   virtual double ReferenceFocal() { return 0; }
   virtual double QueryFocal() { return 0; }
+  // The network time of the query's own-pointmap pass since the last Match (run on demand by QueryFocal or
+  // PairDepth; 0 until then).
+  virtual double own_pass_ms() const { return 0; }
 };
 
 // metric3d (Metric3D v2 on the image) | provided (the depth handed in) | none (always empty). Depth `mast3r` comes

@@ -214,6 +214,15 @@ torch::Tensor Conv::operator()(const torch::Tensor& x, const PrecisionPolicy& p)
   return lp ? y.to(torch::kFloat32) : y;
 }
 
+torch::Tensor Conv::Chain(const torch::Tensor& x) const {
+  if (!w_lp.defined()) return (*this)(x.scalar_type() == torch::kFloat32 ? x : x.to(torch::kFloat32), {});
+  const torch::Tensor in =
+      x.to(torch::kBFloat16, /*non_blocking=*/false, /*copy=*/false, torch::MemoryFormat::ChannelsLast);
+  return torch::conv2d(in, w_lp, b_lp, stride, padding);
+}
+
+torch::Tensor ChainOut(const torch::Tensor& x) { return x.to(torch::kFloat32).contiguous(); }
+
 torch::Tensor Upsample2xAlignCorners(const torch::Tensor& x) {
   return torch::upsample_bilinear2d(x, {2 * x.size(2), 2 * x.size(3)}, /*align_corners=*/true);
 }

@@ -97,7 +97,15 @@ struct Conv {
   void Load(WeightStore& ws, const std::string& prefix, const std::vector<int64_t>& shape, bool bias, int64_t stride,
             int64_t padding, bool transpose, const PrecisionPolicy& p);
   torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const;
+  // One link of a chain of convolutions that stays in bf16: with bf16 weights the input is taken to bf16
+  // channels-last (a no-op when the previous link made it) and the output stays so — oneDNN's bf16 kernels run at
+  // 2.5× the fp32 rate on channels-last activations, and the chain converts once in and once out. With fp32 weights
+  // (fp32 policy, transposed convolutions) it is operator() on an fp32 input.
+  torch::Tensor Chain(const torch::Tensor& x) const;
 };
+
+// A chain's activation back in fp32, contiguous (NCHW): the one conversion out.
+torch::Tensor ChainOut(const torch::Tensor& x);
 
 // F.interpolate(x, scale_factor=2, mode='bilinear', align_corners=True).
 torch::Tensor Upsample2xAlignCorners(const torch::Tensor& x);
