@@ -166,14 +166,26 @@ struct SegGptModel::Impl {
       if (std::find(cfg.out_indices.begin(), cfg.out_indices.end(), static_cast<int>(idx)) != cfg.out_indices.end())
         feats.push_back(norm(x));
     }
-    torch::Tensor d = torch::cat(feats, -1);
-    Tap("decoder_input", d);
-    // forward_decoder: decoder_embed, pixel shuffle nhwpqc → nchpwq, conv3×3 → LayerNorm2D → GELU → conv1×1.
-    const int64_t p = cfg.patch, D = cfg.decoder_dim;
-    d = dec_embed(d, prec).reshape({K, Hg, Wg, p, p, D});
-    d = torch::einsum("nhwpqc->nchpwq", {d}).reshape({K, D, Hg * p, Wg * p});
-    Tap("decoder_pixel_shuffled", d);
-    d = dec_conv(d, prec);
+    const torch::Tensor feat = torch::cat(feats, -1);
+    Tap("decoder_input", feat);
+    // forward_decoder one item at a time: its full-resolution activations (decoder_dim × 896 × 448, 100 MB each in
+    // fp32) made a batch of 4 the query's memory peak, and batching them bought no speed on the CPU.
+    std::vector<torch::Tensor> out;
+    std::vector<torch::Tensor> shuffled;
+    for (int64_t k = 0; k < K; ++k) out.push_back(Decode(feat.slice(0, k, k + 1), taps ? &shuffled : nullptr));
+    if (taps) Tap("decoder_pixel_shuffled", torch::cat(shuffled, 0));
+    return torch::cat(out, 0);
+  }
+
+  // forward_decoder: decoder_embed, pixel shuffle nhwpqc → nchpwq, conv3×3 → LayerNorm2D → GELU → conv1×1. The 3×3
+  // convolution is a Conv::Chain link (bf16 channels-last in bf16), whose output the LayerNorm reads as NHWC without
+  // a copy.
+  torch::Tensor Decode(const torch::Tensor& feat, std::vector<torch::Tensor>* shuffled) const {
+    const int64_t Hg = cfg.grid_h, Wg = cfg.grid_w, p = cfg.patch, D = cfg.decoder_dim;
+    torch::Tensor d = dec_embed(feat, prec).reshape({1, Hg, Wg, p, p, D});
+    d = torch::einsum("nhwpqc->nchpwq", {d}).reshape({1, D, Hg * p, Wg * p});
+    if (shuffled) shuffled->push_back(d);
+    d = dec_conv.Chain(d).to(torch::kFloat32);
     d = torch::layer_norm(d.permute({0, 2, 3, 1}), {D}, dec_ln_w, dec_ln_b, cfg.ln_eps).permute({0, 3, 1, 2});
     d = torch::gelu(d);
     return dec_head(d, prec);
