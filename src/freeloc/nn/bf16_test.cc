@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <string>
+#include <vector>
 
 #include "freeloc/io/safetensors.h"
 #include "freeloc/nn/dust3r.h"
@@ -100,41 +102,29 @@ TEST(Bf16, PackedLayerMatchesFp32WithinBf16Rounding) {
 TEST(Bf16, AccuracyCostOnTheParityFixtures) {
   FREELOC_REQUIRE_SHARED("fixtures/dust3r/cases/png_s80.safetensors");
   const RuntimeOptions rt = Bf16();
-  const auto dust3r = Dust3rModel::Load(SharedPath("fixtures/dust3r/weights.safetensors"),
-                                        SharedPath("fixtures/dust3r/config.json"), rt);
-  for (const char* name : {"land_64x48", "png_s80", "png_s128"}) {
-    const io::SafetensorsFile f =
-        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/dust3r/cases/") + name + ".safetensors"));
-    const auto view = [&](const char* k) {
-      const io::TensorView& t = f.Get(k);
-      return Dust3rView{t.as<float>(), static_cast<int>(t.shape[2]), static_cast<int>(t.shape[3])};
-    };
-    const Dust3rPrediction p = dust3r->Run(view("view1.img"), view("view2.img"));
-    const double e1 = RelRms(p.pts3d_1, f.Get("pred1.pts3d")),
-                 e2 = RelRms(p.pts3d_2, f.Get("pred2.pts3d_in_other_view"));
-    std::printf("bf16 DUSt3R %s: pts3d_1 %.2e, pts3d_2 %.2e relative RMS from the fp32 reference\n", name, e1, e2);
-    EXPECT_LT(std::max(e1, e2), 3e-2) << name;
-    EXPECT_GT(std::max(e1, e2), 1e-6) << name;  // bf16 did run
-  }
-  // MASt3R: its heads (DPT convolutions and the local-feature MLP) run bf16 too; pointmaps and descriptors.
-  const auto mast3r = Dust3rModel::Load(SharedPath("fixtures/mast3r/weights.safetensors"),
-                                        SharedPath("fixtures/mast3r/config.json"), rt);
-  for (const char* name : {"land_s128", "mixed_s80", "odd_s112"}) {
-    const io::SafetensorsFile f =
-        io::SafetensorsFile::Open(SharedPath(std::string("fixtures/mast3r/cases/") + name + ".safetensors"));
-    const auto view = [&](const char* k) {
-      const io::TensorView& t = f.Get(k);
-      return Dust3rView{t.as<float>(), static_cast<int>(t.shape[2]), static_cast<int>(t.shape[3])};
-    };
-    const Dust3rPrediction p = mast3r->Run(view("view1.img"), view("view2.img"));
-    const double e =
-        std::max({RelRms(p.pts3d_1, f.Get("pred1.pts3d")), RelRms(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")),
-                  RelRms(p.desc_1, f.Get("pred1.desc")), RelRms(p.desc_2, f.Get("pred2.desc"))});
-    std::printf("bf16 MASt3R %s: pointmaps and descriptors, worst %.2e relative RMS from the fp32 reference\n", name,
-                e);
-    EXPECT_LT(e, 3e-2) << name;
-    EXPECT_GT(e, 1e-6) << name;
-  }
+  // DUSt3R and MASt3R (whose DPT heads and local-feature MLP run bf16 too): pointmaps, and MASt3R's descriptors.
+  const auto pair_cases = [&](const std::string& net, const std::vector<std::string>& cases) {
+    const auto model = Dust3rModel::Load(SharedPath("fixtures/" + net + "/weights.safetensors"),
+                                         SharedPath("fixtures/" + net + "/config.json"), rt);
+    for (const std::string& name : cases) {
+      const io::SafetensorsFile f =
+          io::SafetensorsFile::Open(SharedPath("fixtures/" + net + "/cases/" + name + ".safetensors"));
+      const auto view = [&](const char* k) {
+        const io::TensorView& t = f.Get(k);
+        return Dust3rView{t.as<float>(), static_cast<int>(t.shape[2]), static_cast<int>(t.shape[3])};
+      };
+      const Dust3rPrediction p = model->Run(view("view1.img"), view("view2.img"));
+      double e =
+          std::max(RelRms(p.pts3d_1, f.Get("pred1.pts3d")), RelRms(p.pts3d_2, f.Get("pred2.pts3d_in_other_view")));
+      if (net == "mast3r")
+        e = std::max({e, RelRms(p.desc_1, f.Get("pred1.desc")), RelRms(p.desc_2, f.Get("pred2.desc"))});
+      std::printf("bf16 %s %s: worst output %.2e relative RMS from the fp32 reference\n", net.c_str(), name.c_str(), e);
+      EXPECT_LT(e, 3e-2) << net << " " << name;
+      EXPECT_GT(e, 1e-6) << net << " " << name;  // bf16 did run
+    }
+  };
+  pair_cases("dust3r", {"land_64x48", "png_s80", "png_s128"});
+  pair_cases("mast3r", {"land_s128", "mixed_s80", "odd_s112"});
   const auto seggpt = SegGptModel::Load(SharedPath("fixtures/seggpt/weights.safetensors"),
                                         SharedPath("fixtures/seggpt/config.json"), rt);
   const io::SafetensorsFile s = io::SafetensorsFile::Open(SharedPath("fixtures/seggpt/cases/a_instance.safetensors"));
