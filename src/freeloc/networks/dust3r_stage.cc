@@ -4,6 +4,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/nn/dust3r.h"
+#include "freeloc/nn/runtime.h"
 
 namespace freeloc::networks {
 
@@ -83,6 +84,7 @@ matching::PairPointmaps CachingDust3r::RunSwappedLast() {
   pm.conf1.assign(p.conf_1.as<float>(), p.conf_1.as<float>() + p.conf_1.numel());
   pm.h1 = last_h_;
   pm.w1 = last_w_;
+  nn::ReleaseFreedMemory();  // as after Run
   return pm;
 }
 
@@ -122,7 +124,11 @@ matching::PairPointmaps CachingDust3r::Run(const vision::Dust3rInput& a, const v
   last_query_ = query;
   last_h_ = b.height();
   last_w_ = b.width();
-  return ToHost(model_->Decode(*hit->encoding, *query, Outputs(descriptors_)), a, b);
+  matching::PairPointmaps pm = ToHost(model_->Decode(*hit->encoding, *query, Outputs(descriptors_)), a, b);
+  // The pass's freed activations back to the system (nn::ReleaseFreedMemory): glibc would keep them as fragmented
+  // free space in its heap, resident between queries.
+  nn::ReleaseFreedMemory();
+  return pm;
 }
 
 matching::PointmapFn CachingDust3r::Fn() {

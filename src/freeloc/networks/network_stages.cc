@@ -205,6 +205,7 @@ class Dust3rMatcher : public Matcher {
       return pairs;
     }
     const auto props = nn::InstanceSegmenter(seggpt_, o_.instances.segmenter).Propagate(ref_, ref_masks_, query);
+    nn::ReleaseFreedMemory();  // as after each pair pass (CachingDust3r::Run)
     for (size_t i = 0; i < props.size(); ++i)
       if (props[i].kept) pairs.push_back({props[i].id, ref_masks_[i].second, props[i].query_mask});
     return pairs;
@@ -256,7 +257,9 @@ class Metric3dDepth : public DepthEstimator {
   explicit Metric3dDepth(std::shared_ptr<nn::Metric3dModel> m) : model_(std::move(m)) {}
   DepthMap Depth(const Image& image, const Camera& camera, DepthMap) override {
     ++passes_;
-    return model_->Estimate(image, camera).depth;
+    DepthMap d = model_->Estimate(image, camera).depth;
+    nn::ReleaseFreedMemory();  // as after each pair pass (CachingDust3r::Run)
+    return d;
   }
   void AddStats(CacheStats* s) const override { s->depth_estimates = passes_; }
 

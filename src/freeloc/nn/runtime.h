@@ -27,7 +27,9 @@ bool CudaAvailable();
 
 // Hands the memory freed while a model was built (its checkpoint, fp32 weights once packed in bf16) back to the
 // system — glibc keeps freed blocks below its mmap threshold in the heap, where they stay resident. Call it after
-// loading models (the networks' model cache does).
+// loading models (the networks' model cache does) and after each network pass of a query (the network stages do:
+// a bf16 seed query's peak went 4.7 -> 4.3 GB, and 2.9 instead of 4.4 GB stays resident between queries, at no
+// measurable cost in time).
 void ReleaseFreedMemory();
 
 }  // namespace freeloc::nn
