@@ -77,14 +77,16 @@ matching::PairPointmaps CachingDust3r::RunSwappedLast() {
   nn::DecodeOutputs only1;
   only1.view2 = false;
   only1.descriptors = false;
-  const nn::Dust3rPrediction p = model_->Decode(*std::static_pointer_cast<const Enc>(last_query_),
-                                                *std::static_pointer_cast<const Enc>(last_ref_), only1);
   matching::PairPointmaps pm;
-  pm.pts1.assign(p.pts3d_1.as<float>(), p.pts3d_1.as<float>() + p.pts3d_1.numel());
-  pm.conf1.assign(p.conf_1.as<float>(), p.conf_1.as<float>() + p.conf_1.numel());
+  {
+    const nn::Dust3rPrediction p = model_->Decode(*std::static_pointer_cast<const Enc>(last_query_),
+                                                  *std::static_pointer_cast<const Enc>(last_ref_), only1);
+    pm.pts1.assign(p.pts3d_1.as<float>(), p.pts3d_1.as<float>() + p.pts3d_1.numel());
+    pm.conf1.assign(p.conf_1.as<float>(), p.conf_1.as<float>() + p.conf_1.numel());
+  }
   pm.h1 = last_h_;
   pm.w1 = last_w_;
-  nn::ReleaseFreedMemory();  // as after Run
+  nn::ReleaseFreedMemory();  // as after Run, once the prediction's tensors are gone
   return pm;
 }
 

@@ -152,11 +152,11 @@ struct Dust3rModel::Impl {
   Dust3rConfig cfg;
   RuntimeOptions rt;
   torch::Device device = torch::kCPU;
+  // The whole model, heads included: upstream runs the heads in fp32 (autocast disabled in the head wrapper);
+  // freeloc's bf16 runs their convolutions (channels-last) and MLPs in bf16 as well — 2.5× the fp32 rate on the
+  // heads' third of a pair's FLOPs — except head.4, whose raw output the exp() reads; the cost is in
+  // Bf16.AccuracyCostOnTheParityFixtures.
   PrecisionPolicy prec;
-  // Upstream runs the heads in fp32 (autocast disabled in the head wrapper). freeloc's bf16 runs their convolutions
-  // (channels-last) and MLPs in bf16 as well — 2.5× the fp32 rate on the heads' third of a pair's FLOPs — except
-  // head.4, whose raw output the exp() reads; the cost is in Bf16.AccuracyCostOnTheParityFixtures.
-  PrecisionPolicy head_prec;
   Rope2D rope;
   Conv patch;
   std::vector<EncBlock> enc;
@@ -257,12 +257,9 @@ struct Dust3rModel::Impl {
     const int64_t P = cfg.patch_size, D = cfg.local_feat_dim;
     const torch::Tensor in = torch::cat({enc, dec}, -1);  // [1, N, Ce + Cd]
     Tap(tp + "mlp_in", in);
-    const Linear& fc1 = local[which].fc1;
-    const torch::Tensor hidden = head_prec.bf16 && fc1.packed
-                                     ? fc1.packed->Forward(in, /*gelu=*/true, /*bf16_out=*/true)
-                                     : torch::gelu(fc1(in, head_prec));
+    const torch::Tensor hidden = local[which].fc1.Gelu(in, prec);
     Tap(tp + "mlp_hidden", hidden);
-    const torch::Tensor out = local[which].fc2(hidden, head_prec);  // [1, N, (D + T)·P²]
+    const torch::Tensor out = local[which].fc2(hidden, prec);  // [1, N, (D + T)·P²]
     Tap(tp + "mlp_out", out);
     const torch::Tensor grid = out.transpose(1, 2).reshape({1, out.size(2), h, w});
     const torch::Tensor fmap = torch::pixel_shuffle(grid, P);  // [1, D + T, H, W]
@@ -382,7 +379,6 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, io:
   impl->rt = runtime;
   impl->device = DeviceOf(runtime);
   impl->prec.bf16 = internal::RunBf16(runtime);  // asked for, and pays here (bf16_linear.h)
-  impl->head_prec = impl->prec;
   impl->rope = Rope2D(impl->cfg.rope_base);
   const Dust3rConfig& c = impl->cfg;
   std::map<std::string, torch::Tensor> tensors;
@@ -418,13 +414,13 @@ std::shared_ptr<Dust3rModel> Dust3rModel::Create(const std::map<std::string, io:
     }
   }
   impl->dec_norm.Load(ws, "dec_norm", c.dec_dim, c.ln_eps);
-  for (int h = 0; h < 2; ++h) LoadDptHead(ws, c, h, impl->head_prec, &impl->head[h]);
+  for (int h = 0; h < 2; ++h) LoadDptHead(ws, c, h, impl->prec, &impl->head[h]);
   if (c.is_mast3r()) {
     const int64_t rows = static_cast<int64_t>(c.local_feat_dim + (c.two_confs ? 1 : 0)) * c.patch_size * c.patch_size;
     for (int h = 0; h < 2; ++h) {
       const std::string pre = "downstream_head" + std::to_string(h + 1) + ".head_local_features.";
-      impl->local[h].fc1.Load(ws, pre + "fc1", c.local_mlp_hidden, c.enc_dim + c.dec_dim, true, impl->head_prec);
-      impl->local[h].fc2.Load(ws, pre + "fc2", rows, c.local_mlp_hidden, true, impl->head_prec);
+      impl->local[h].fc1.Load(ws, pre + "fc1", c.local_mlp_hidden, c.enc_dim + c.dec_dim, true, impl->prec);
+      impl->local[h].fc2.Load(ws, pre + "fc2", rows, c.local_mlp_hidden, true, impl->prec);
     }
   }
   ws.Ignore("mask_token");

@@ -46,11 +46,12 @@ void Mlp::Load(WeightStore& ws, const std::string& prefix, int64_t dim, int64_t 
   fc2.Load(ws, prefix + ".fc2", dim, hidden, true, p);
 }
 
-torch::Tensor Mlp::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
-  if (p.bf16 && fc1.packed && fc2.packed)
-    return (*fc2.packed)(fc1.packed->Forward(x, /*gelu=*/true, /*bf16_out=*/true));
-  return fc2(torch::gelu(fc1(x, p)), p);
+torch::Tensor Linear::Gelu(const torch::Tensor& x, const PrecisionPolicy& p) const {
+  if (p.bf16 && packed) return packed->Forward(x, /*gelu=*/true, /*bf16_out=*/true);
+  return torch::gelu((*this)(x, p));
 }
+
+torch::Tensor Mlp::operator()(const torch::Tensor& x, const PrecisionPolicy& p) const { return fc2(fc1.Gelu(x, p), p); }
 
 std::pair<torch::Tensor, torch::Tensor> Rope2D::Tables(int64_t h, int64_t w, int64_t dh, torch::Device device) const {
   const auto key = std::make_tuple(h, w, dh, static_cast<int>(device.type()));

@@ -29,6 +29,9 @@ struct Linear {
   // For an output that only feeds bf16 products (attention's q/k/v): in bf16 when the layer runs prepacked bf16 (half
   // the bytes, the rounding those products apply anyway), else as operator().
   torch::Tensor ForProducts(const torch::Tensor& x, const PrecisionPolicy& p) const;
+  // GELU_erf(this(x)): in bf16 from the prepacked layer's fused epilogue (bf16 output, which a following bf16 layer
+  // reads as is), else GELU of operator().
+  torch::Tensor Gelu(const torch::Tensor& x, const PrecisionPolicy& p) const;
 };
 
 // torch.nn.LayerNorm over the last dimension (biased variance).
