@@ -29,9 +29,9 @@ constexpr Exp kCubicExp[20] = {{3, 0, 0}, {0, 3, 0}, {2, 1, 0}, {1, 2, 0}, {2, 0
                                {0, 1, 1}, {0, 1, 0}, {0, 0, 3}, {0, 0, 2}, {0, 0, 1}, {0, 0, 0}};
 
 struct Tables {
-  int lin_lin[4][4];    // → quad index
-  int quad_lin[10][4];  // → cubic index
-  Tables() {
+  int lin_lin[4][4] = {};    // → quad index
+  int quad_lin[10][4] = {};  // → cubic index
+  constexpr Tables() {
     auto find_q = [](int a, int b, int c) {
       for (int i = 0; i < 10; ++i)
         if (kQuadExp[i].a == a && kQuadExp[i].b == b && kQuadExp[i].c == c) return i;
@@ -51,23 +51,19 @@ struct Tables {
             find_c(kQuadExp[i].a + kLinExp[j].a, kQuadExp[i].b + kLinExp[j].b, kQuadExp[i].c + kLinExp[j].c);
   }
 };
-const Tables& T() {
-  static const Tables t;
-  return t;
-}
+// Built at compile time: the products below then index with constants the compiler can unroll.
+constexpr Tables kTables{};
 
 void MulAdd(const Lin& a, const Lin& b, double s, Quad* out) {
-  const Tables& t = T();
+  constexpr const Tables& t = kTables;
   for (int i = 0; i < 4; ++i)
     for (int j = 0; j < 4; ++j) (*out)[t.lin_lin[i][j]] += s * a[i] * b[j];
 }
 
 void MulAdd(const Quad& a, const Lin& b, double s, Cubic* out) {
-  const Tables& t = T();
-  for (int i = 0; i < 10; ++i) {
-    if (a[i] == 0) continue;
+  constexpr const Tables& t = kTables;
+  for (int i = 0; i < 10; ++i)
     for (int j = 0; j < 4; ++j) (*out)[t.quad_lin[i][j]] += s * a[i] * b[j];
-  }
 }
 
 // The null space of the epipolar constraints x2ᵀ·E·x1 = 0 (rows over vec(E), row-major): the last 4 columns of the
@@ -134,24 +130,52 @@ bool Eliminate(Eigen::Matrix<double, 10, 20>* A) {
   return true;
 }
 
+// Polynomials in z of degree ≤ 10 on the stack: the solver runs once per RANSAC sample and allocates nothing.
+struct ZPoly {
+  double c[11] = {};
+  int n = 0;  // number of coefficients
+  double Eval(double z) const {
+    double r = 0;
+    for (int i = n; i-- > 0;) r = r * z + c[i];
+    return r;
+  }
+};
+ZPoly Mul(const ZPoly& a, const ZPoly& b) {
+  ZPoly r;
+  r.n = a.n + b.n - 1;
+  for (int i = 0; i < a.n; ++i)
+    for (int j = 0; j < b.n; ++j) r.c[i + j] += a.c[i] * b.c[j];
+  return r;
+}
+ZPoly Add(const ZPoly& a, const ZPoly& b, double sb = 1.0) {
+  ZPoly r;
+  r.n = std::max(a.n, b.n);
+  for (int i = 0; i < a.n; ++i) r.c[i] += a.c[i];
+  for (int i = 0; i < b.n; ++i) r.c[i] += sb * b.c[i];
+  return r;
+}
+ZPoly Sub(const ZPoly& a, const ZPoly& b) { return Add(a, b, -1.0); }
+
 // The hidden-variable 3×3 matrix in z (rows k, l, m; columns: coefficient of x, of y, constant) from the eliminated
 // rows: row i = leading monomial i + Σ b_ij·rest_j, rest = [xz², xz, x, yz², yz, y, z³, z², z, 1].
-void HiddenVariableMatrix(const Eigen::Matrix<double, 10, 20>& A, Poly M[3][3]) {
-  auto row_polys = [&](int r, Poly* px, Poly* py, Poly* pc) {
-    const auto b = [&](int j) { return A(r, 10 + j); };
-    *px = {b(2), b(1), b(0)};
-    *py = {b(5), b(4), b(3)};
-    *pc = {b(9), b(8), b(7), b(6)};
+void HiddenVariableMatrix(const Eigen::Matrix<double, 10, 20>& A, ZPoly M[3][3]) {
+  // Column `col` of row pair (r, s): row r's polynomial minus z times row s's, from `k` coefficients each
+  // (b(first), b(first - 1), …: lowest degree first).
+  const auto column = [&](int r, int s, int first, int k) {
+    ZPoly out;
+    out.n = k + 1;
+    for (int d = 0; d < k; ++d) {
+      out.c[d] += A(r, 10 + first - d);
+      out.c[d + 1] -= A(s, 10 + first - d);
+    }
+    return out;
   };
   const int pairs[3][2] = {{4, 5}, {6, 7}, {8, 9}};
   for (int i = 0; i < 3; ++i) {
-    Poly ax, ay, ac, bx, by, bc;
-    row_polys(pairs[i][0], &ax, &ay, &ac);
-    row_polys(pairs[i][1], &bx, &by, &bc);
-    const Poly z = {0.0, 1.0};
-    M[i][0] = PolySub(ax, PolyMul(z, bx));
-    M[i][1] = PolySub(ay, PolyMul(z, by));
-    M[i][2] = PolySub(ac, PolyMul(z, bc));
+    const int r = pairs[i][0], s = pairs[i][1];
+    M[i][0] = column(r, s, 2, 3);
+    M[i][1] = column(r, s, 5, 3);
+    M[i][2] = column(r, s, 9, 4);
   }
 }
 
@@ -171,8 +195,15 @@ void PolishRoot(const Eigen::Matrix<double, 10, 20>& A0, double* x, double* y, d
       dm(j, 1) = e.b ? e.b * px[e.a] * py[e.b - 1] * pz[e.c] : 0.0;
       dm(j, 2) = e.c ? e.c * px[e.a] * py[e.b] * pz[e.c - 1] : 0.0;
     }
-    const Eigen::Matrix<double, 10, 1> r = A0 * m;
-    const Eigen::Matrix<double, 10, 3> J = A0 * dm;
+    // r = A0·m and J = A0·dm in one pass over A0's columns.
+    Eigen::Matrix<double, 10, 1> r = Eigen::Matrix<double, 10, 1>::Zero();
+    Eigen::Matrix<double, 10, 3> J = Eigen::Matrix<double, 10, 3>::Zero();
+    for (int j = 0; j < 20; ++j) {
+      r.noalias() += A0.col(j) * m(j);
+      J.col(0).noalias() += A0.col(j) * dm(j, 0);
+      J.col(1).noalias() += A0.col(j) * dm(j, 1);
+      J.col(2).noalias() += A0.col(j) * dm(j, 2);
+    }
     const Eigen::Vector3d step = (J.transpose() * J).ldlt().solve(-J.transpose() * r);
     if (!step.allFinite()) break;
     *x += step(0);
@@ -192,15 +223,15 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
   Eigen::Matrix<double, 10, 20> A = CubicConstraints(N);
   const Eigen::Matrix<double, 10, 20> A0 = A;  // the constraints before elimination, for polishing roots
   if (!Eliminate(&A)) return 0;                // degenerate sample
-  Poly M[3][3];
+  ZPoly M[3][3];
   HiddenVariableMatrix(A, M);
-  const Poly det = PolyAdd(PolySub(PolyMul(M[0][0], PolySub(PolyMul(M[1][1], M[2][2]), PolyMul(M[1][2], M[2][1]))),
-                                   PolyMul(M[0][1], PolySub(PolyMul(M[1][0], M[2][2]), PolyMul(M[1][2], M[2][0])))),
-                           PolyMul(M[0][2], PolySub(PolyMul(M[1][0], M[2][1]), PolyMul(M[1][1], M[2][0]))));
+  const ZPoly det = Add(Sub(Mul(M[0][0], Sub(Mul(M[1][1], M[2][2]), Mul(M[1][2], M[2][1]))),
+                            Mul(M[0][1], Sub(Mul(M[1][0], M[2][2]), Mul(M[1][2], M[2][0])))),
+                        Mul(M[0][2], Sub(Mul(M[1][0], M[2][1]), Mul(M[1][1], M[2][0]))));
   int found = 0;
-  for (double z : RealRoots(det)) {
+  for (double z : RealRoots(Poly(det.c, det.c + det.n))) {
     Eigen::Vector3d rows[3];
-    for (int i = 0; i < 3; ++i) rows[i] = {PolyEval(M[i][0], z), PolyEval(M[i][1], z), PolyEval(M[i][2], z)};
+    for (int i = 0; i < 3; ++i) rows[i] = {M[i][0].Eval(z), M[i][1].Eval(z), M[i][2].Eval(z)};
     // (x, y, 1) is the null vector of the 3×3 matrix: the best-conditioned cross product of two rows.
     Eigen::Vector3d best = rows[0].cross(rows[1]);
     for (const auto& v : {rows[0].cross(rows[2]), rows[1].cross(rows[2])})

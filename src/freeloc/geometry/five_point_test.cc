@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <random>
 
 #include "freeloc/geometry/polynomial.h"
@@ -53,6 +54,60 @@ TEST(Polynomial, RealRootsOfKnownPolynomials) {
   ASSERT_EQ(r.size(), 10u);
   for (int k = 0; k < 10; ++k) EXPECT_NEAR(r[k], 0.1 * k + 0.05, 1e-8);
   EXPECT_TRUE(RealRoots({1, 0, 1}).empty());
+}
+
+// Every root the Sturm bisection and safeguarded Newton report is a root (residual at the rounding level of the
+// polynomial's terms), none twice; seeded random degree-10 polynomials with coefficients over many magnitudes, as
+// the 5-point solver's determinant produces.
+TEST(Polynomial, RandomDegreeTenRootsAreRootsAndDistinct) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0, 1);
+  int roots = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    Poly p(11);
+    for (double& c : p) c = g(rng) * std::pow(10.0, g(rng));
+    const std::vector<double> r = RealRoots(p);
+    roots += static_cast<int>(r.size());
+    for (size_t k = 0; k < r.size(); ++k) {
+      double terms = 0;
+      for (size_t i = 0; i < p.size(); ++i) terms += std::abs(p[i]) * std::pow(std::abs(r[k]), static_cast<double>(i));
+      ASSERT_LE(std::abs(PolyEval(p, r[k])), 1e-9 * terms) << "trial " << trial << " root " << r[k];
+      if (k > 0) {
+        ASSERT_GT(r[k] - r[k - 1], 1e-9 * std::max(1.0, std::abs(r[k]))) << "trial " << trial;
+      }
+    }
+  }
+  EXPECT_GT(roots, 20000);  // some real roots on average, so the checks above ran
+}
+
+// The SVD-free factorisation (Horn) gives the true pose among its four candidates, each a rotation whose [t]×R
+// reproduces E up to sign; an E that is not essential (the fallback) still gives rotations.
+TEST(Essential, DecompositionContainsTheTruePoseAndOnlyRotations) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 500; ++trial) {
+    PoseRt truth;
+    truth.R = Eigen::AngleAxisd(3 * u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
+    truth.t = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+    Eigen::Matrix3d E = EssentialFromPose(truth);
+    E *= (trial % 2 ? -1.0 : 1.0) * (0.1 + 10 * std::abs(u(rng)));  // any scale and sign
+    PoseRt cand[4];
+    DecomposeEssential(E, cand);
+    double best = 1e9;
+    for (const PoseRt& c : cand) {
+      ASSERT_LT((c.R * c.R.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+      ASSERT_NEAR(c.R.determinant(), 1.0, 1e-12);
+      const Eigen::Matrix3d Ec = EssentialFromPose(c);
+      const double s = Ec.norm() / E.norm();
+      ASSERT_LT(std::min((Ec - s * E).norm(), (Ec + s * E).norm()), 1e-10 * Ec.norm());
+      best = std::min(best, PoseDistance(c, truth));
+    }
+    EXPECT_LT(best, 1e-10) << "trial " << trial;
+    // Not essential (singular values 1, 0.5, 0.1): rotations still, from the SVD projection.
+    const Eigen::Matrix3d N = E + 0.3 * E.norm() * Eigen::Matrix3d::Identity();
+    DecomposeEssential(N, cand);
+    for (const PoseRt& c : cand) ASSERT_LT((c.R * c.R.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  }
 }
 
 TEST(FivePoint, RecoversTruePoseOnRandomProblems) {

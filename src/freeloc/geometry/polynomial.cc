@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace freeloc::geometry {
 
@@ -36,30 +37,52 @@ double PolyEval(const Poly& p, double x) {
 
 namespace {
 
-void Trim(Poly* p, double eps) {
+// Fixed-capacity polynomials for the root finder: RANSAC calls it once per minimal sample, so it allocates nothing.
+constexpr int kMaxCoeffs = 21;  // degree ≤ 20
+struct FixedPoly {
+  double c[kMaxCoeffs];
+  int n = 0;  // number of coefficients
+  double Eval(double x) const {
+    double r = 0;
+    for (int i = n; i-- > 0;) r = r * x + c[i];
+    return r;
+  }
+  // p(x) and p'(x) in one Horner pass.
+  void EvalWithDerivative(double x, double* p, double* dp) const {
+    double r = 0, d = 0;
+    for (int i = n; i-- > 0;) {
+      d = d * x + r;
+      r = r * x + c[i];
+    }
+    *p = r;
+    *dp = d;
+  }
+};
+
+void Trim(FixedPoly* p, double eps) {
   double m = 0;
-  for (double v : *p) m = std::max(m, std::abs(v));
-  while (p->size() > 1 && std::abs(p->back()) <= eps * m) p->pop_back();
+  for (int i = 0; i < p->n; ++i) m = std::max(m, std::abs(p->c[i]));
+  while (p->n > 1 && std::abs(p->c[p->n - 1]) <= eps * m) --p->n;
 }
 
 // Remainder of a / b (b's leading coefficient non-zero).
-Poly PolyRem(Poly a, const Poly& b) {
-  const size_t nb = b.size();
-  while (a.size() >= nb) {
-    const double f = a.back() / b.back();
-    const size_t shift = a.size() - nb;
-    for (size_t i = 0; i < nb; ++i) a[shift + i] -= f * b[i];
-    a.pop_back();
+FixedPoly PolyRem(FixedPoly a, const FixedPoly& b) {
+  const int nb = b.n;
+  while (a.n >= nb) {
+    const double f = a.c[a.n - 1] / b.c[nb - 1];
+    const int shift = a.n - nb;
+    for (int i = 0; i < nb; ++i) a.c[shift + i] -= f * b.c[i];
+    --a.n;
   }
-  if (a.empty()) a.push_back(0.0);
+  if (a.n == 0) a.c[a.n++] = 0.0;
   return a;
 }
 
-int SignChanges(const std::vector<Poly>& seq, double x) {
+int SignChanges(const FixedPoly* seq, int len, double x) {
   int changes = 0;
   double prev = 0;
-  for (const Poly& p : seq) {
-    const double v = PolyEval(p, x);
+  for (int k = 0; k < len; ++k) {
+    const double v = seq[k].Eval(x);
     if (v == 0) continue;
     if (prev != 0 && ((v > 0) != (prev > 0))) ++changes;
     prev = v;
@@ -67,28 +90,43 @@ int SignChanges(const std::vector<Poly>& seq, double x) {
   return changes;
 }
 
-double Refine(const Poly& p, const Poly& dp, double lo, double hi) {
-  // Bisection to the resolution of doubles, then Newton polishing steps kept only while they reduce |p|.
-  double flo = PolyEval(p, lo);
+// The one root of p in [lo, hi] (p(lo), p(hi) of opposite signs): Newton steps safeguarded by the bracket
+// (bisection whenever a step would leave it or fails to halve the step before last, as in Numerical Recipes'
+// rtsafe) until a step is below the resolution of doubles; then Newton polishing steps kept only while they
+// reduce |p|.
+double Refine(const FixedPoly& p, double lo, double hi) {
+  const bool rising = p.Eval(lo) < 0;  // p < 0 on the `lo` side
+  double x = 0.5 * (lo + hi), dx_old = hi - lo, dx = dx_old;
+  double f, df;
+  p.EvalWithDerivative(x, &f, &df);
   for (int it = 0; it < 200; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    if (mid <= lo || mid >= hi) break;
-    const double fm = PolyEval(p, mid);
-    if (fm == 0) return mid;
-    if ((fm > 0) == (flo > 0)) {
-      lo = mid;
-      flo = fm;
+    if (f == 0) return x;
+    if (((x - hi) * df - f) * ((x - lo) * df - f) > 0 || std::abs(2 * f) > std::abs(dx_old * df)) {
+      dx_old = dx;
+      dx = 0.5 * (hi - lo);
+      x = lo + dx;
+      if (x == lo) break;
     } else {
-      hi = mid;
+      dx_old = dx;
+      dx = f / df;
+      const double prev = x;
+      x -= dx;
+      if (x == prev) break;
     }
+    if (std::abs(dx) <= 2 * std::numeric_limits<double>::epsilon() * std::abs(x)) break;
+    p.EvalWithDerivative(x, &f, &df);
+    if ((f < 0) == rising)
+      lo = x;
+    else
+      hi = x;
   }
-  double x = 0.5 * (lo + hi);
-  double fx = std::abs(PolyEval(p, x));
+  double fx = std::abs(p.Eval(x));
   for (int k = 0; k < 3; ++k) {
-    const double d = PolyEval(dp, x);
+    double v, d;
+    p.EvalWithDerivative(x, &v, &d);
     if (d == 0) break;
-    const double nx = x - PolyEval(p, x) / d;
-    const double fn = std::abs(PolyEval(p, nx));
+    const double nx = x - v / d;
+    const double fn = std::abs(p.Eval(nx));
     if (!(fn < fx)) break;
     x = nx;
     fx = fn;
@@ -98,55 +136,68 @@ double Refine(const Poly& p, const Poly& dp, double lo, double hi) {
 
 }  // namespace
 
-std::vector<double> RealRoots(Poly p) {
-  Trim(&p, 1e-14);
+std::vector<double> RealRoots(Poly in) {
   std::vector<double> roots;
-  if (p.size() <= 1) return roots;
-  if (p.size() == 2) return {-p[0] / p[1]};
+  if (in.size() > static_cast<size_t>(kMaxCoeffs)) {
+    // Beyond the solvers' degrees: drop coefficients that are numerically zero, else no roots are claimed.
+    while (in.size() > static_cast<size_t>(kMaxCoeffs) && in.back() == 0) in.pop_back();
+    if (in.size() > static_cast<size_t>(kMaxCoeffs)) return roots;
+  }
+  FixedPoly p;
+  p.n = static_cast<int>(in.size());
+  std::copy(in.begin(), in.end(), p.c);
+  Trim(&p, 1e-14);
+  if (p.n <= 1) return roots;
+  if (p.n == 2) return {-p.c[0] / p.c[1]};
   // Normalise to a monic polynomial.
-  const double lead = p.back();
-  for (double& v : p) v /= lead;
+  const double lead = p.c[p.n - 1];
+  for (int i = 0; i < p.n; ++i) p.c[i] /= lead;
   // Cauchy bound.
   double bound = 0;
-  for (size_t i = 0; i + 1 < p.size(); ++i) bound = std::max(bound, std::abs(p[i]));
+  for (int i = 0; i + 1 < p.n; ++i) bound = std::max(bound, std::abs(p.c[i]));
   bound += 1.0;
   // Sturm sequence.
-  Poly dp(p.size() - 1);
-  for (size_t i = 1; i < p.size(); ++i) dp[i - 1] = p[i] * static_cast<double>(i);
-  std::vector<Poly> seq = {p, dp};
-  while (seq.back().size() > 1) {
-    Poly r = PolyRem(seq[seq.size() - 2], seq.back());
+  FixedPoly seq[kMaxCoeffs];
+  int len = 0;
+  seq[len++] = p;
+  FixedPoly& dp = seq[len++];
+  dp.n = p.n - 1;
+  for (int i = 1; i < p.n; ++i) dp.c[i - 1] = p.c[i] * static_cast<double>(i);
+  while (seq[len - 1].n > 1 && len < kMaxCoeffs) {
+    FixedPoly r = PolyRem(seq[len - 2], seq[len - 1]);
     Trim(&r, 1e-13);
-    for (double& v : r) v = -v;
-    if (r.size() == 1 && std::abs(r[0]) < 1e-300) break;
-    seq.push_back(r);
+    for (int i = 0; i < r.n; ++i) r.c[i] = -r.c[i];
+    if (r.n == 1 && std::abs(r.c[0]) < 1e-300) break;
+    seq[len++] = r;
   }
   // Isolate roots by recursive bisection on the number of sign changes.
   struct Interval {
     double lo, hi;
     int clo, chi;
   };
-  std::vector<Interval> stack = {{-bound, bound, SignChanges(seq, -bound), SignChanges(seq, bound)}};
-  while (!stack.empty()) {
-    Interval iv = stack.back();
-    stack.pop_back();
+  Interval stack[2 * 64 * kMaxCoeffs];
+  int top = 0;
+  stack[top++] = {-bound, bound, SignChanges(seq, len, -bound), SignChanges(seq, len, bound)};
+  while (top > 0) {
+    const Interval iv = stack[--top];
     const int n = iv.clo - iv.chi;
     if (n <= 0) continue;
     if (n == 1) {
-      const double flo = PolyEval(p, iv.lo), fhi = PolyEval(p, iv.hi);
+      const double flo = p.Eval(iv.lo), fhi = p.Eval(iv.hi);
       if ((flo > 0) != (fhi > 0) || flo == 0 || fhi == 0) {
-        roots.push_back(flo == 0 ? iv.lo : fhi == 0 ? iv.hi : Refine(p, dp, iv.lo, iv.hi));
+        roots.push_back(flo == 0 ? iv.lo : fhi == 0 ? iv.hi : Refine(p, iv.lo, iv.hi));
         continue;
       }
     }
-    if (iv.hi - iv.lo < 1e-13 * std::max(1.0, std::abs(iv.lo))) {
+    if (iv.hi - iv.lo < 1e-13 * std::max(1.0, std::abs(iv.lo)) ||
+        top + 2 > static_cast<int>(sizeof(stack) / sizeof(stack[0]))) {
       roots.push_back(0.5 * (iv.lo + iv.hi));  // a multiple root (or a cluster)
       continue;
     }
     const double mid = 0.5 * (iv.lo + iv.hi);
-    const int cm = SignChanges(seq, mid);
-    stack.push_back({iv.lo, mid, iv.clo, cm});
-    stack.push_back({mid, iv.hi, cm, iv.chi});
+    const int cm = SignChanges(seq, len, mid);
+    stack[top++] = {iv.lo, mid, iv.clo, cm};
+    stack[top++] = {mid, iv.hi, cm, iv.chi};
   }
   std::sort(roots.begin(), roots.end());
   return roots;

@@ -18,13 +18,17 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
+#include <thread>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "freeloc/core/enum_table.h"
@@ -138,10 +142,19 @@ inline double GiveUpIterations(const RansacOptions& opt, size_t n, int k, double
   return RequiredIterations(GiveUpInliers(opt, n), n, k, opt.give_up_prob, survives);
 }
 
-// `threshold_sq`: the squared inlier threshold in the estimator's error unit.
+// The course of a search that runs beside another (ConcurrentSearch below): each improvement of the best model, and
+// an iteration limit another thread may lower while it runs. A search's course depends only on its own samples, so
+// the same search with max_iterations = k would have ended exactly as the trace says at k.
+struct RansacTrace {
+  std::atomic<int> limit{std::numeric_limits<int>::max()};
+  std::vector<std::pair<int, int>> improvements;  // (iteration, inliers of the best model after it)
+  int iterations = 0;                             // how many it ran
+};
+
+// `threshold_sq`: the squared inlier threshold in the estimator's error unit. `trace` (optional): see RansacTrace.
 template <class Estimator>
 RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double threshold_sq,
-                   typename Estimator::Model* best_model) {
+                   typename Estimator::Model* best_model, RansacTrace* trace = nullptr) {
   using Model = typename Estimator::Model;
   constexpr int k = Estimator::kSampleSize;
   RansacStats st;
@@ -168,6 +181,7 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double thresh
   const auto t0 = std::chrono::steady_clock::now();
   for (; iter < opt.max_iterations; ++iter) {
     if (iter >= opt.min_iterations && iter >= needed) break;
+    if (trace && iter >= trace->limit.load(std::memory_order_relaxed)) break;
     if (opt.max_seconds > 0 && iter % 16 == 15 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.max_seconds) {
       out_of_time = true;
@@ -206,9 +220,11 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double thresh
         }
       }
       needed = std::min(static_cast<double>(opt.max_iterations), required(static_cast<size_t>(st.num_inliers)));
+      if (trace) trace->improvements.emplace_back(iter, st.num_inliers);
     }
   }
   st.iterations = iter;
+  if (trace) trace->iterations = iter;
   if (!have) {
     st.stop = sprt && !out_of_time && iter < opt.max_iterations ? RansacStop::kGaveUp : RansacStop::kNoModel;
   } else {
@@ -218,6 +234,27 @@ RansacStats Ransac(const Estimator& est, const RansacOptions& opt, double thresh
   }
   return st;
 }
+
+// A search started now on another thread (when the machine has more than one), whose result is wanted only later
+// and only for a number of iterations known later: the weak-support control (the same search on shuffled matches,
+// as many iterations as the main search took) runs while the main search does. BestInliersAfter(k) is exactly what
+// the same search with max_iterations = k finds: the trace is cut at k. Without a second core the search runs
+// inside BestInliersAfter, limited to k. The destructor stops and joins it.
+class ConcurrentSearch {
+ public:
+  explicit ConcurrentSearch(std::function<void(RansacTrace*)> search);
+  ~ConcurrentSearch();
+  ConcurrentSearch(const ConcurrentSearch&) = delete;
+  ConcurrentSearch& operator=(const ConcurrentSearch&) = delete;
+  // The inliers of the best model the search holds after k iterations; 0 if it has none.
+  int BestInliersAfter(int k);
+
+ private:
+  std::function<void(RansacTrace*)> search_;
+  RansacTrace trace_;
+  std::thread thread_;
+  std::exception_ptr error_;
+};
 
 }  // namespace freeloc::geometry
 

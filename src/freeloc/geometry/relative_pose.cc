@@ -216,6 +216,17 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   const double th = opt.threshold_px / focal;
   RelPoseEstimator est(x1, x2, th);
   const double threshold_sq = th * th;
+  // The weak-support control (below): the same search on the matches with the query points shuffled (a fixed
+  // derangement), for as many iterations as the main search takes. It starts now, beside the main search, and is
+  // cut at that count (or stopped, when the answer does not need it); its time budget is the whole search's.
+  std::vector<Eigen::Vector3d> x2s(x2.size());
+  const size_t offset = x2.size() / 2 + 1;
+  for (size_t i = 0; i < x2.size(); ++i) x2s[i] = x2[(i + offset) % x2.size()];
+  const RelPoseEstimator shuffled(x1, x2s, th);
+  ConcurrentSearch control([&](RansacTrace* trace) {
+    RelModel m;
+    Ransac(shuffled, opt.ransac, threshold_sq, &m, trace);
+  });
   RelModel best_model;
   const RansacStats st = Ransac(est, opt.ransac, threshold_sq, &best_model);
   PoseRt best = best_model.pose;
@@ -346,18 +357,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   // search on the matches with the query points shuffled (a fixed derangement) must find clearly fewer — random
   // matches select a 5-point model with a dozen chance inliers, which the fixed-model test above cannot see.
   if (!weak && n_in < std::max(3 * opt.min_inliers, static_cast<int>(0.25 * static_cast<double>(x1.size())))) {
-    std::vector<Eigen::Vector3d> x2s(x2.size());
-    const size_t offset = x2.size() / 2 + 1;
-    for (size_t i = 0; i < x2.size(); ++i) x2s[i] = x2[(i + offset) % x2.size()];
-    RelPoseEstimator shuffled(x1, x2s, th);
-    RansacOptions rs = opt.ransac;
-    rs.max_iterations = std::max(st.iterations, opt.ransac.min_iterations);
-    if (opt.ransac.max_seconds > 0)  // what is left of the budget (at least 0.1 s)
-      rs.max_seconds = std::max(
-          0.1, opt.ransac.max_seconds - std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    RelModel m;
-    const RansacStats ss = Ransac(shuffled, rs, threshold_sq, &m);
-    res.status.shuffled_best = ss.found() ? ss.num_inliers : 0;
+    res.status.shuffled_best = control.BestInliersAfter(std::max(st.iterations, opt.ransac.min_iterations));
     weak = n_in < 1.5 * res.status.shuffled_best + 4;
     trivial = n_in < 1.2 * res.status.shuffled_best + 3;
   }

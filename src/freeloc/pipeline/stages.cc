@@ -2,6 +2,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <future>
+#include <thread>
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
@@ -245,15 +247,24 @@ class HybridSolver : public PoseSolver {
              const DepthMap& d_query, QueryResult* r) const override {
     const auto t0 = std::chrono::steady_clock::now();
     QueryResult ess = *r;
-    essential_.Solve(c, k_ref, k_query, d_ref, d_query, &ess);
     if (d_ref.empty() || d_query.empty() || c.size() < 5) {  // no depth model to use: the essential route
+      essential_.Solve(c, k_ref, k_query, d_ref, d_query, &ess);
       *r = ess;
       r->route = "essential";
       return;
     }
-    const geometry::DepthSamples z = SampleDepths(c, d_ref, d_query);
-    const geometry::HybridPoseResult h =
-        geometry::EstimateHybridPose(c.ref, c.query, z.ref, z.query, k_ref, k_query, options_);
+    // The two searches are independent: the essential route on another core while the hybrid one runs here.
+    auto essential = std::async(std::thread::hardware_concurrency() > 1 ? std::launch::async : std::launch::deferred,
+                                [&] { essential_.Solve(c, k_ref, k_query, d_ref, d_query, &ess); });
+    geometry::HybridPoseResult h;
+    try {
+      const geometry::DepthSamples z = SampleDepths(c, d_ref, d_query);
+      h = geometry::EstimateHybridPose(c.ref, c.query, z.ref, z.query, k_ref, k_query, options_);
+    } catch (...) {
+      essential.get();  // the essential route's error first, as when it ran first
+      throw;
+    }
+    essential.get();
     const bool fits = h.status.success() && h.status.num_inliers >= 0.8 * ess.inliers;
     if (!fits) {
       *r = ess;
