@@ -269,7 +269,7 @@ struct Metric3dModel::Impl {
           torch::cat({fh2d(torch::relu(fh1d(net[0], p)), p), fh2n(torch::relu(fh1n(net[0], p)), p)}, 1);
       mask = 0.25 * mask2(torch::relu(mask0(net[0], p)), p);
       state = state + delta;
-      iter_states.push_back(state);
+      if (taps) iter_states.push_back(state);
     }
     if (taps) {
       Tap("iter_state", torch::stack(iter_states, 0));
