@@ -45,11 +45,8 @@ LineEstimator MakeLines(int n, double inlier_share, uint32_t seed) {
 TEST(ConcurrentSearch, CutAtKIsTheSearchWithMaxIterationsK) {
   for (const double share : {0.03, 0.08, 0.3}) {
     const LineEstimator est = MakeLines(400, share, 3);
-    RansacOptions opt;
+    RansacOptions opt(/*success_prob=*/0.999, /*min_iterations=*/5, /*max_iterations=*/5000, /*max_seconds=*/0);
     opt.seed = 9;
-    opt.success_prob = 0.999;
-    opt.min_iterations = 5;
-    opt.max_iterations = 5000;
     opt.sprt_min_data = 0;
     int improvements_seen = 0;
     for (const int k : {5, 17, 60, 250, 1000, 5000}) {
