@@ -52,12 +52,12 @@ struct VitBlock {
     const torch::Tensor a = fused ? FusedAttention(t[0], t[1], t[2], scale, {}, p.bf16).view({B, T, C})
                                   : ScaledDotProduct(t[0], t[1], t[2], scale, p).transpose(1, 2).reshape({B, T, C});
     x = x + ls1 * proj(a, p);
-    torch::Tensor h = fc1(n2(x), p);
+    torch::Tensor h;
     if (swiglu) {
-      const auto ch = h.chunk(2, -1);
+      const auto ch = fc1(n2(x), p).chunk(2, -1);
       h = torch::silu(ch[0]) * ch[1];
     } else {
-      h = torch::gelu(h);
+      h = fc1.Gelu(n2(x), p);  // bf16: GELU in the GEMM's epilogue, the hidden activations stay bf16
     }
     return x + ls2 * fc2(h, p);
   }
@@ -74,8 +74,9 @@ struct Readout {
 struct ConvBlock {
   Conv c1, c2;
   torch::Tensor operator()(const torch::Tensor& x, const PrecisionPolicy& p) const {
+    (void)p;  // the weights carry the policy (Conv::Chain); in bf16 the sum promotes c2's output to fp32
     const torch::Tensor r = torch::relu(x);
-    return r + c2(torch::relu(c1(r, p)), p);
+    return r + c2.Chain(torch::relu(c1.Chain(r)));
   }
 };
 
@@ -114,11 +115,16 @@ struct ConvGru {
   Conv z, r, q;
   torch::Tensor operator()(const torch::Tensor& h, const std::vector<torch::Tensor>& cx,
                            const std::vector<torch::Tensor>& xs, const PrecisionPolicy& p) const {
+    (void)p;  // the weights carry the policy (Conv::Chain)
     const torch::Tensor x = torch::cat(xs, 1);
-    const torch::Tensor hx = torch::cat({h, x}, 1);
-    const torch::Tensor zz = torch::sigmoid(z(hx, p) + cx[0]);
-    const torch::Tensor rr = torch::sigmoid(r(hx, p) + cx[1]);
-    const torch::Tensor qq = torch::tanh(q(torch::cat({rr * h, x}, 1), p) + cx[2]);
+    // In bf16, z and r read one bf16 copy of [h, x], and their bf16 outputs go into the fp32 sums as they are (type
+    // promotion): the values Conv::operator() gives, without an fp32 copy of each output.
+    torch::Tensor hx = torch::cat({h, x}, 1);
+    if (z.w_lp.defined()) hx = hx.to(torch::kBFloat16, false, false, torch::MemoryFormat::ChannelsLast);
+    const torch::Tensor zz = torch::sigmoid(z.Chain(hx) + cx[0]);
+    const torch::Tensor rr = torch::sigmoid(r.Chain(hx) + cx[1]);
+    hx = torch::Tensor();
+    const torch::Tensor qq = torch::tanh(q.Chain(torch::cat({rr * h, x}, 1)) + cx[2]);
     return (1 - zz) * h + zz * qq;
   }
 };
@@ -206,9 +212,12 @@ struct Metric3dModel::Impl {
     torch::Tensor o = torch::gelu(r.patch(tokens, prec) + r.learn(learn, prec)).permute({0, 3, 1, 2});
     if (r.kind == 1) o = r.sample(o, prec);
     if (r.kind == 2) {
+      // Upstream upsamples (nearest, ×3.5) and then applies the 1×1 convolution. A 1×1 convolution acts on each
+      // pixel alone and nearest upsampling copies pixels, so the two commute: convolving first gives the same values
+      // at 1/12 of the pixels (E·C channels at full size were the decoder's largest transient).
       o = torch::upsample_nearest2d(
-          o, {static_cast<int64_t>(std::floor(h14 * 3.5)), static_cast<int64_t>(std::floor(w14 * 3.5))}, 3.5, 3.5);
-      o = r.sample(o, prec);
+          r.sample(o, prec), {static_cast<int64_t>(std::floor(h14 * 3.5)), static_cast<int64_t>(std::floor(w14 * 3.5))},
+          3.5, 3.5);
     }
     return o;
   }
@@ -231,11 +240,14 @@ struct Metric3dModel::Impl {
     const int64_t dc1 = cfg.decoder_channels[1];
     const torch::Tensor feat = ref.slice(1, 0, dc1);
     // Initial depth: softmax over the 256 log-spaced bins, expectation, clamp, state = (d − 200)/100.
-    const torch::Tensor prob = torch::softmax(dr2(torch::relu(dr0(feat, p)), p), 1);
+    // conv → ReLU → conv runs stay bf16 between their convolutions (Conv::Chain): ReLU commutes with the rounding,
+    // so the values are those of converting around each convolution.
+    const torch::Tensor prob = torch::softmax(ChainOut(dr2.Chain(torch::relu(dr0.Chain(feat)))), 1);
     const torch::Tensor d = (prob * bins.view({1, -1, 1, 1})).sum(1, true);
     Tap("init_depth_expectation", d);
     const torch::Tensor d_state = (Clamp(d, cfg.min_depth, cfg.max_depth) - cfg.max_depth) / cfg.regress_scale;
-    const torch::Tensor nraw = np6(torch::relu(np4(torch::relu(np2(torch::relu(np0(feat, p)), p)), p)), p);
+    const torch::Tensor nraw =
+        ChainOut(np6.Chain(torch::relu(np4.Chain(torch::relu(np2.Chain(torch::relu(np0.Chain(feat))))))));
     Tap("normal_head_raw", nraw);
     const torch::Tensor n0 = NormNormalize(torch::cat({nraw, ref.slice(1, dc1 + 1, dc1 + 2)}, 1));
     torch::Tensor state = torch::cat({d_state, ref.slice(1, dc1, dc1 + 1), n0}, 1);
@@ -265,9 +277,10 @@ struct Metric3dModel::Impl {
       net[2] = gru32(net[2], cz[2], {Pool2x(net[1])}, p);
       net[1] = gru16(net[1], cz[1], {Interp(Pool2x(net[0]), net[1]), Interp(net[2], net[1])}, p);
       net[0] = gru08(net[0], cz[0], {flow, Interp(net[1], net[0])}, p);
-      const torch::Tensor delta =
-          torch::cat({fh2d(torch::relu(fh1d(net[0], p)), p), fh2n(torch::relu(fh1n(net[0], p)), p)}, 1);
-      mask = 0.25 * mask2(torch::relu(mask0(net[0], p)), p);
+      const torch::Tensor delta = torch::cat({ChainOut(fh2d.Chain(torch::relu(fh1d.Chain(net[0])))),
+                                              ChainOut(fh2n.Chain(torch::relu(fh1n.Chain(net[0]))))},
+                                             1);
+      mask = 0.25 * ChainOut(mask2.Chain(torch::relu(mask0.Chain(net[0]))));
       state = state + delta;
       if (taps) iter_states.push_back(state);
     }
