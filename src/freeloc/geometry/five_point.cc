@@ -130,40 +130,15 @@ bool Eliminate(Eigen::Matrix<double, 10, 20>* A) {
   return true;
 }
 
-// Polynomials in z of degree ≤ 10 on the stack: the solver runs once per RANSAC sample and allocates nothing.
-struct ZPoly {
-  double c[11] = {};
-  int n = 0;  // number of coefficients
-  double Eval(double z) const {
-    double r = 0;
-    for (int i = n; i-- > 0;) r = r * z + c[i];
-    return r;
-  }
-};
-ZPoly Mul(const ZPoly& a, const ZPoly& b) {
-  ZPoly r;
-  r.n = a.n + b.n - 1;
-  for (int i = 0; i < a.n; ++i)
-    for (int j = 0; j < b.n; ++j) r.c[i + j] += a.c[i] * b.c[j];
-  return r;
-}
-ZPoly Add(const ZPoly& a, const ZPoly& b, double sb = 1.0) {
-  ZPoly r;
-  r.n = std::max(a.n, b.n);
-  for (int i = 0; i < a.n; ++i) r.c[i] += a.c[i];
-  for (int i = 0; i < b.n; ++i) r.c[i] += sb * b.c[i];
-  return r;
-}
-ZPoly Sub(const ZPoly& a, const ZPoly& b) { return Add(a, b, -1.0); }
-
 // The hidden-variable 3×3 matrix in z (rows k, l, m; columns: coefficient of x, of y, constant) from the eliminated
 // rows: row i = leading monomial i + Σ b_ij·rest_j, rest = [xz², xz, x, yz², yz, y, z³, z², z, 1].
-void HiddenVariableMatrix(const Eigen::Matrix<double, 10, 20>& A, ZPoly M[3][3]) {
+void HiddenVariableMatrix(const Eigen::Matrix<double, 10, 20>& A, FixedPoly M[3][3]) {
   // Column `col` of row pair (r, s): row r's polynomial minus z times row s's, from `k` coefficients each
   // (b(first), b(first - 1), …: lowest degree first).
   const auto column = [&](int r, int s, int first, int k) {
-    ZPoly out;
+    FixedPoly out;
     out.n = k + 1;
+    std::fill(out.c, out.c + out.n, 0.0);
     for (int d = 0; d < k; ++d) {
       out.c[d] += A(r, 10 + first - d);
       out.c[d + 1] -= A(s, 10 + first - d);
@@ -223,13 +198,14 @@ int FivePointEssential(const Eigen::Vector3d x1[5], const Eigen::Vector3d x2[5],
   Eigen::Matrix<double, 10, 20> A = CubicConstraints(N);
   const Eigen::Matrix<double, 10, 20> A0 = A;  // the constraints before elimination, for polishing roots
   if (!Eliminate(&A)) return 0;                // degenerate sample
-  ZPoly M[3][3];
+  FixedPoly M[3][3];
   HiddenVariableMatrix(A, M);
-  const ZPoly det = Add(Sub(Mul(M[0][0], Sub(Mul(M[1][1], M[2][2]), Mul(M[1][2], M[2][1]))),
-                            Mul(M[0][1], Sub(Mul(M[1][0], M[2][2]), Mul(M[1][2], M[2][0])))),
-                        Mul(M[0][2], Sub(Mul(M[1][0], M[2][1]), Mul(M[1][1], M[2][0]))));
+  const FixedPoly det =
+      PolyAdd(PolySub(PolyMul(M[0][0], PolySub(PolyMul(M[1][1], M[2][2]), PolyMul(M[1][2], M[2][1]))),
+                      PolyMul(M[0][1], PolySub(PolyMul(M[1][0], M[2][2]), PolyMul(M[1][2], M[2][0])))),
+              PolyMul(M[0][2], PolySub(PolyMul(M[1][0], M[2][1]), PolyMul(M[1][1], M[2][0]))));
   int found = 0;
-  for (double z : RealRoots(Poly(det.c, det.c + det.n))) {
+  for (double z : RealRoots(det)) {
     Eigen::Vector3d rows[3];
     for (int i = 0; i < 3; ++i) rows[i] = {M[i][0].Eval(z), M[i][1].Eval(z), M[i][2].Eval(z)};
     // (x, y, 1) is the null vector of the 3×3 matrix: the best-conditioned cross product of two rows.

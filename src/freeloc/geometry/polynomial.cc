@@ -35,29 +35,34 @@ double PolyEval(const Poly& p, double x) {
   return r;
 }
 
+FixedPoly PolyMul(const FixedPoly& a, const FixedPoly& b) {
+  FixedPoly r;
+  r.n = std::min(a.n + b.n - 1, FixedPoly::kCapacity);
+  std::fill(r.c, r.c + r.n, 0.0);
+  for (int i = 0; i < a.n; ++i)
+    for (int j = 0; j < b.n && i + j < r.n; ++j) r.c[i + j] += a.c[i] * b.c[j];
+  return r;
+}
+
 namespace {
 
-// Fixed-capacity polynomials for the root finder: RANSAC calls it once per minimal sample, so it allocates nothing.
-constexpr int kMaxCoeffs = 21;  // degree ≤ 20
-struct FixedPoly {
-  double c[kMaxCoeffs];
-  int n = 0;  // number of coefficients
-  double Eval(double x) const {
-    double r = 0;
-    for (int i = n; i-- > 0;) r = r * x + c[i];
-    return r;
-  }
-  // p(x) and p'(x) in one Horner pass.
-  void EvalWithDerivative(double x, double* p, double* dp) const {
-    double r = 0, d = 0;
-    for (int i = n; i-- > 0;) {
-      d = d * x + r;
-      r = r * x + c[i];
-    }
-    *p = r;
-    *dp = d;
-  }
-};
+FixedPoly AddScaled(const FixedPoly& a, const FixedPoly& b, double sb) {
+  FixedPoly r;
+  r.n = std::max(a.n, b.n);
+  std::fill(r.c, r.c + r.n, 0.0);
+  for (int i = 0; i < a.n; ++i) r.c[i] += a.c[i];
+  for (int i = 0; i < b.n; ++i) r.c[i] += sb * b.c[i];
+  return r;
+}
+
+}  // namespace
+
+FixedPoly PolyAdd(const FixedPoly& a, const FixedPoly& b) { return AddScaled(a, b, 1.0); }
+FixedPoly PolySub(const FixedPoly& a, const FixedPoly& b) { return AddScaled(a, b, -1.0); }
+
+namespace {
+
+constexpr int kMaxCoeffs = FixedPoly::kCapacity;
 
 void Trim(FixedPoly* p, double eps) {
   double m = 0;
@@ -136,16 +141,20 @@ double Refine(const FixedPoly& p, double lo, double hi) {
 
 }  // namespace
 
-std::vector<double> RealRoots(Poly in) {
-  std::vector<double> roots;
-  if (in.size() > static_cast<size_t>(kMaxCoeffs)) {
-    // Beyond the solvers' degrees: drop coefficients that are numerically zero, else no roots are claimed.
-    while (in.size() > static_cast<size_t>(kMaxCoeffs) && in.back() == 0) in.pop_back();
-    if (in.size() > static_cast<size_t>(kMaxCoeffs)) return roots;
-  }
+std::vector<double> RealRoots(const Poly& in) {
+  size_t size = in.size();
+  // Beyond the solvers' degrees: leading coefficients that are exactly zero are dropped, else no roots are claimed.
+  while (size > static_cast<size_t>(kMaxCoeffs) && in[size - 1] == 0) --size;
+  if (size > static_cast<size_t>(kMaxCoeffs)) return {};
   FixedPoly p;
-  p.n = static_cast<int>(in.size());
-  std::copy(in.begin(), in.end(), p.c);
+  p.n = static_cast<int>(size);
+  std::copy(in.begin(), in.begin() + static_cast<std::ptrdiff_t>(size), p.c);
+  return RealRoots(p);
+}
+
+std::vector<double> RealRoots(const FixedPoly& in) {
+  std::vector<double> roots;
+  FixedPoly p = in;
   Trim(&p, 1e-14);
   if (p.n <= 1) return roots;
   if (p.n == 2) return {-p.c[0] / p.c[1]};
