@@ -173,7 +173,9 @@ struct Dust3rModel::Impl {
 
   // dust3r/patch_embed.py PatchEmbedDust3R + croco encoder loop (AsymmetricCroCo3DStereo._encode_image).
   torch::Tensor EncodeBatch(const torch::Tensor& img, int64_t h, int64_t w, const std::vector<int>& view_ids) const {
-    torch::Tensor x = patch(img, prec).flatten(2).transpose(1, 2);  // [B, N, C], n = y·w + x
+    // [B, N, C], n = y·w + x, contiguous: elementwise ops keep their input's strides, so a transposed view here
+    // would carry through every block's residual stream (a strided add and a LayerNorm copy per use).
+    torch::Tensor x = patch(img, prec).flatten(2).transpose(1, 2).contiguous();
     const Rope r = rope.Tables(h, w, cfg.enc_dim / cfg.enc_heads, device);
     auto tap_each = [&](const std::string& suffix, const torch::Tensor& t) {
       if (!taps) return;

@@ -51,7 +51,7 @@ struct VitBlock {
     const double scale = std::pow(static_cast<double>(hd), -0.5);
     const torch::Tensor a = fused ? FusedAttention(t[0], t[1], t[2], scale, {}, p.bf16).view({B, T, C})
                                   : ScaledDotProduct(t[0], t[1], t[2], scale, p).transpose(1, 2).reshape({B, T, C});
-    x = x + ls1 * proj(a, p);
+    x = torch::addcmul(x, ls1, proj(a, p));  // x + ls1·proj(a): one pass, the same roundings
     torch::Tensor h;
     if (swiglu) {
       const auto ch = fc1(n2(x), p).chunk(2, -1);
@@ -59,7 +59,7 @@ struct VitBlock {
     } else {
       h = fc1.Gelu(n2(x), p);  // bf16: GELU in the GEMM's epilogue, the hidden activations stay bf16
     }
-    return x + ls2 * fc2(h, p);
+    return torch::addcmul(x, ls2, fc2(h, p));
   }
 };
 
@@ -225,46 +225,52 @@ struct Metric3dModel::Impl {
   void Decode(const std::vector<torch::Tensor>& feats, int64_t h14, int64_t w14, torch::Tensor* depth,
               torch::Tensor* conf, torch::Tensor* normal) const {
     const PrecisionPolicy& p = prec;
-    torch::Tensor r[4];
-    for (int k = 0; k < 4; ++k) {
-      r[k] = RunReadout(k, feats[static_cast<size_t>(k)], h14, w14);
-      // NHWC from here on: oneDNN runs the decoder's many narrow convolutions faster channels-last.
-      r[k] = r[k].contiguous(torch::MemoryFormat::ChannelsLast);
-      Tap("readout_" + std::to_string(k), r[k]);
-    }
-    // decoder_mono: upconv_3(read_3), upconv_2(·, read_2) ×2, upconv_1(·, read_1) ×1.75.
-    torch::Tensor x = up3(r[3], nullptr, p);
-    x = up2(x, &r[2], p);
-    const torch::Tensor ref = up1(x, &r[1], p);
-    Tap("ref_feat", ref);
-    const int64_t dc1 = cfg.decoder_channels[1];
-    const torch::Tensor feat = ref.slice(1, 0, dc1);
-    // Initial depth: softmax over the 256 log-spaced bins, expectation, clamp, state = (d − 200)/100.
-    // conv → ReLU → conv runs stay bf16 between their convolutions (Conv::Chain): ReLU commutes with the rounding,
-    // so the values are those of converting around each convolution.
-    const torch::Tensor prob = torch::softmax(ChainOut(dr2.Chain(torch::relu(dr0.Chain(feat)))), 1);
-    const torch::Tensor d = (prob * bins.view({1, -1, 1, 1})).sum(1, true);
-    Tap("init_depth_expectation", d);
-    const torch::Tensor d_state = (Clamp(d, cfg.min_depth, cfg.max_depth) - cfg.max_depth) / cfg.regress_scale;
-    const torch::Tensor nraw =
-        ChainOut(np6.Chain(torch::relu(np4.Chain(torch::relu(np2.Chain(torch::relu(np0.Chain(feat))))))));
-    Tap("normal_head_raw", nraw);
-    const torch::Tensor n0 = NormNormalize(torch::cat({nraw, ref.slice(1, dc1 + 1, dc1 + 2)}, 1));
-    torch::Tensor state = torch::cat({d_state, ref.slice(1, dc1, dc1 + 1), n0}, 1);
-    Tap("depth_init", state);
-    // Context encoder on (read_0, relu(read_1), relu(read_2)) — the in-place ReLU side effect of upstream's ConvBlock.
-    const torch::Tensor levels[3] = {r[0], torch::relu(r[1]), torch::relu(r[2])};
     const char* names[3] = {"04", "08", "16"};
-    torch::Tensor net[3];
+    // The refinement below reads only its state, hidden states and context terms: everything before it (readouts,
+    // the decoder's features, the bin probabilities — ≈ 0.2 GB at the released size) lives in this scope and is gone
+    // before the loop, whose working set is the pass's memory peak.
+    torch::Tensor state, net[3];
     std::vector<torch::Tensor> cz[3];
-    const int64_t hd = cfg.hidden;
-    for (int l = 0; l < 3; ++l) {
-      net[l] = torch::tanh(ctx[l][0](levels[l], p));
-      const torch::Tensor c = torch::relu(ctx[l][1](levels[l], p));
-      Tap(std::string("net_init_") + names[l], net[l]);
-      Tap(std::string("context_") + names[l], c);
-      const torch::Tensor zqr_out = zqr[l](c, p);
-      cz[l] = {zqr_out.slice(1, 0, hd), zqr_out.slice(1, hd, 2 * hd), zqr_out.slice(1, 2 * hd, 3 * hd)};
+    {
+      torch::Tensor r[4];
+      for (int k = 0; k < 4; ++k) {
+        r[k] = RunReadout(k, feats[static_cast<size_t>(k)], h14, w14);
+        // NHWC from here on: oneDNN runs the decoder's many narrow convolutions faster channels-last.
+        r[k] = r[k].contiguous(torch::MemoryFormat::ChannelsLast);
+        Tap("readout_" + std::to_string(k), r[k]);
+      }
+      // decoder_mono: upconv_3(read_3), upconv_2(·, read_2) ×2, upconv_1(·, read_1) ×1.75.
+      torch::Tensor x = up3(r[3], nullptr, p);
+      x = up2(x, &r[2], p);
+      const torch::Tensor ref = up1(x, &r[1], p);
+      Tap("ref_feat", ref);
+      const int64_t dc1 = cfg.decoder_channels[1];
+      const torch::Tensor feat = ref.slice(1, 0, dc1);
+      // Initial depth: softmax over the 256 log-spaced bins, expectation, clamp, state = (d − 200)/100.
+      // conv → ReLU → conv runs stay bf16 between their convolutions (Conv::Chain): ReLU commutes with the rounding,
+      // so the values are those of converting around each convolution.
+      const torch::Tensor prob = torch::softmax(ChainOut(dr2.Chain(torch::relu(dr0.Chain(feat)))), 1);
+      const torch::Tensor d = (prob * bins.view({1, -1, 1, 1})).sum(1, true);
+      Tap("init_depth_expectation", d);
+      const torch::Tensor d_state = (Clamp(d, cfg.min_depth, cfg.max_depth) - cfg.max_depth) / cfg.regress_scale;
+      const torch::Tensor nraw =
+          ChainOut(np6.Chain(torch::relu(np4.Chain(torch::relu(np2.Chain(torch::relu(np0.Chain(feat))))))));
+      Tap("normal_head_raw", nraw);
+      const torch::Tensor n0 = NormNormalize(torch::cat({nraw, ref.slice(1, dc1 + 1, dc1 + 2)}, 1));
+      state = torch::cat({d_state, ref.slice(1, dc1, dc1 + 1), n0}, 1);
+      Tap("depth_init", state);
+      // Context encoder on (read_0, relu(read_1), relu(read_2)) — the in-place ReLU side effect of upstream's
+      // ConvBlock.
+      const torch::Tensor levels[3] = {r[0], torch::relu(r[1]), torch::relu(r[2])};
+      const int64_t hd = cfg.hidden;
+      for (int l = 0; l < 3; ++l) {
+        net[l] = torch::tanh(ctx[l][0](levels[l], p));
+        const torch::Tensor c = torch::relu(ctx[l][1](levels[l], p));
+        Tap(std::string("net_init_") + names[l], net[l]);
+        Tap(std::string("context_") + names[l], c);
+        const torch::Tensor zqr_out = zqr[l](c, p);
+        cz[l] = {zqr_out.slice(1, 0, hd), zqr_out.slice(1, hd, 2 * hd), zqr_out.slice(1, 2 * hd, 3 * hd)};
+      }
     }
     // Slow-fast multi-level GRU refinement (BasicMultiUpdateBlock, n_gru_layers 3).
     std::vector<torch::Tensor> iter_states;

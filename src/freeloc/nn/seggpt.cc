@@ -177,14 +177,16 @@ struct SegGptModel::Impl {
     return torch::cat(out, 0);
   }
 
-  // forward_decoder: decoder_embed, pixel shuffle nhwpqc → nchpwq, conv3×3 → LayerNorm2D → GELU → conv1×1. The 3×3
-  // convolution is a Conv::Chain link (bf16 channels-last in bf16), whose output the LayerNorm reads as NHWC without
-  // a copy.
+  // forward_decoder: decoder_embed, pixel shuffle nhwpqc → nchpwq, conv3×3 → LayerNorm2D → GELU → conv1×1. The
+  // shuffle writes channels-last (n, h·p, w·q, c): whole runs of D channels move, where the NCHW order moved single
+  // values (10× the time), and the 3×3 convolution — a Conv::Chain link, bf16 channels-last in bf16 — reads it as it
+  // is; in bf16 the embedding's output is bf16 already (it only feeds that convolution). The LayerNorm then reads
+  // the convolution's output as NHWC without a copy.
   torch::Tensor Decode(const torch::Tensor& feat, std::vector<torch::Tensor>* shuffled) const {
     const int64_t Hg = cfg.grid_h, Wg = cfg.grid_w, p = cfg.patch, D = cfg.decoder_dim;
-    torch::Tensor d = dec_embed(feat, prec).reshape({1, Hg, Wg, p, p, D});
-    d = torch::einsum("nhwpqc->nchpwq", {d}).reshape({1, D, Hg * p, Wg * p});
-    if (shuffled) shuffled->push_back(d);
+    torch::Tensor d = dec_embed.ForProducts(feat, prec).reshape({1, Hg, Wg, p, p, D});
+    d = d.permute({0, 1, 3, 2, 4, 5}).reshape({1, Hg * p, Wg * p, D}).permute({0, 3, 1, 2});  // NCHW, channels-last
+    if (shuffled) shuffled->push_back(d.to(torch::kFloat32).contiguous());
     d = dec_conv.Chain(d).to(torch::kFloat32);
     d = torch::layer_norm(d.permute({0, 2, 3, 1}), {D}, dec_ln_w, dec_ln_b, cfg.ln_eps).permute({0, 3, 1, 2});
     d = torch::gelu(d);
