@@ -10,12 +10,16 @@
 #include <sstream>
 
 #include "freeloc/core/error.h"
+#include "freeloc/nn/internal/tensor_pool.h"
 
 namespace freeloc::nn {
 
 bool CudaAvailable() { return torch::cuda::is_available(); }
 
 void ReleaseFreedMemory() {
+  if (internal::TensorPool* pool = internal::InstalledTensorPool()) {
+    pool->Trim();
+  }
 #ifdef __GLIBC__
   malloc_trim(0);
 #endif
@@ -60,6 +64,7 @@ void ApplyRuntime(const RuntimeOptions& runtime) {
   FREELOC_CHECK(runtime.device != Device::kCuda || CudaAvailable(),
                 "device: cuda is not available in this LibTorch build; run on cpu or install a CUDA build of LibTorch");
   if (runtime.threads > 0) torch::set_num_threads(runtime.threads);
+  if (runtime.device == Device::kCpu) InstallTensorPool();
 }
 
 std::string QuoteNonFiniteJson(const std::string& text) {

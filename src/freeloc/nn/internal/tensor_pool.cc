@@ -1,0 +1,150 @@
+#include "freeloc/nn/internal/tensor_pool.h"
+
+#include <c10/core/Allocator.h>
+#include <c10/core/CPUAllocator.h>
+#include <sys/mman.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <new>
+
+namespace freeloc::nn::internal {
+
+namespace {
+
+constexpr size_t kGranule = size_t{64} << 10;     // block sizes round up to 64 KiB
+constexpr size_t kPoolMin = size_t{1} << 20;      // the installed pool's smallest request
+constexpr size_t kPoolCache = size_t{256} << 20;  // and its cache of free blocks
+
+size_t RoundUp(size_t n) { return (n + kGranule - 1) / kGranule * kGranule; }
+
+}  // namespace
+
+TensorPool::TensorPool(size_t min_bytes, size_t cache_cap_bytes) : min_bytes_(min_bytes), cap_(cache_cap_bytes) {}
+
+TensorPool::~TensorPool() {
+  std::lock_guard<std::mutex> lock(mu_);
+  for (auto& [p, b] : blocks_) munmap(p, b.bytes);
+}
+
+void* TensorPool::Allocate(size_t n) {
+  if (n > (SIZE_MAX >> 1)) throw std::bad_alloc();
+  const size_t bytes = RoundUp(n);
+  std::lock_guard<std::mutex> lock(mu_);
+  // The smallest free block that fits, up to twice the size: a block already resident serves the request, where a
+  // new one would be faulted in while the other waits in the cache.
+  auto it = free_by_size_.lower_bound(bytes);
+  if (it != free_by_size_.end() && it->first <= 2 * bytes) {
+    void* p = it->second;
+    Block& b = blocks_.at(p);
+    free_by_size_.erase(it);
+    free_lru_.erase(b.lru);
+    b.free = false;
+    stats_.cached_bytes -= b.bytes;
+    stats_.live_bytes += b.bytes;
+    ++stats_.hits;
+    return p;
+  }
+  // None: make room under the cap for what is about to be mapped, then map.
+  EvictOver(cap_ > bytes ? cap_ - bytes : 0);
+  void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (p == MAP_FAILED) {
+    EvictOver(0);  // everything cached goes back; one more try
+    p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (p == MAP_FAILED) throw std::bad_alloc();
+  }
+  blocks_[p] = Block{bytes, false, {}};
+  stats_.live_bytes += bytes;
+  stats_.peak_bytes = std::max(stats_.peak_bytes, stats_.live_bytes + stats_.cached_bytes);
+  ++stats_.misses;
+  stats_.mapped_total += bytes;
+  return p;
+}
+
+void TensorPool::Free(void* p) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Block& b = blocks_.at(p);
+  b.free = true;
+  free_lru_.push_front(p);
+  b.lru = free_lru_.begin();
+  free_by_size_.emplace(b.bytes, p);
+  stats_.live_bytes -= b.bytes;
+  stats_.cached_bytes += b.bytes;
+  EvictOver(cap_);
+}
+
+bool TensorPool::Owns(void* p) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return blocks_.count(p) > 0;
+}
+
+void TensorPool::Trim() {
+  std::lock_guard<std::mutex> lock(mu_);
+  EvictOver(0);
+}
+
+TensorPoolStats TensorPool::Stats() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return stats_;
+}
+
+void TensorPool::EvictOver(size_t cap) {
+  while (stats_.cached_bytes > cap && !free_lru_.empty()) {
+    void* p = free_lru_.back();
+    free_lru_.pop_back();
+    const size_t bytes = blocks_.at(p).bytes;
+    for (auto it = free_by_size_.find(bytes); it != free_by_size_.end() && it->first == bytes; ++it)
+      if (it->second == p) {
+        free_by_size_.erase(it);
+        break;
+      }
+    blocks_.erase(p);
+    munmap(p, bytes);
+    stats_.cached_bytes -= bytes;
+  }
+}
+
+namespace {
+
+TensorPool* g_pool = nullptr;
+c10::Allocator* g_fallback = nullptr;
+
+void FreePooled(void* p) { g_pool->Free(p); }
+
+// Deletes what either allocator made (raw_allocate's callers free through raw_deleter()).
+void FreeAny(void* p) {
+  if (!p) return;
+  if (g_pool->Owns(p)) {
+    g_pool->Free(p);
+  } else {
+    g_fallback->raw_deleter()(p);
+  }
+}
+
+class PoolAllocator final : public c10::Allocator {
+ public:
+  c10::DataPtr allocate(size_t n) const override {
+    if (n < g_pool->min_bytes()) return g_fallback->allocate(n);
+    void* p = g_pool->Allocate(n);
+    return {p, p, &FreePooled, c10::Device(c10::DeviceType::CPU)};
+  }
+  c10::DeleterFnPtr raw_deleter() const override { return g_fallback->raw_deleter() ? &FreeAny : nullptr; }
+};
+
+}  // namespace
+
+TensorPool* InstalledTensorPool() { return g_pool; }
+
+void InstallTensorPool() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    const char* env = std::getenv("FREELOC_TENSOR_POOL");
+    if (env && std::strcmp(env, "off") == 0) return;
+    g_fallback = c10::GetCPUAllocator();
+    g_pool = new TensorPool(kPoolMin, kPoolCache);  // lives as long as the process: tensors may outlive any owner
+    static PoolAllocator allocator;
+    c10::SetCPUAllocator(&allocator, /*priority=*/0);
+  });
+}
+
+}  // namespace freeloc::nn::internal

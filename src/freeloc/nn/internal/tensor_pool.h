@@ -1,0 +1,67 @@
+// LibTorch's CPU allocator for large tensors: freed blocks are kept by size and handed to the next tensor of (nearly)
+// that size, instead of glibc's heap. A network pass allocates the same few sizes again and again (every block of a
+// ViT, every iteration of a GRU); glibc serves them from one heap where a long-lived tensor pins the memory around it
+// (freed but resident: 0.5 GB of a bf16 `seed` query's peak), or, above its mmap threshold, maps and faults them in
+// anew each time. Here a block is mapped once, reused while the pass runs (by requests up to its size and down to half
+// of it), and unmapped when the cache of free blocks outgrows its cap (least recently freed first) or when the pass
+// ends (nn::ReleaseFreedMemory). Small tensors stay with LibTorch's own allocator.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <list>
+#include <map>
+#include <mutex>
+#include <unordered_map>
+
+namespace freeloc::nn::internal {
+
+struct TensorPoolStats {
+  size_t live_bytes = 0;    // in blocks handed out
+  size_t cached_bytes = 0;  // in free blocks kept for reuse
+  size_t peak_bytes = 0;    // the most live + cached at once
+  uint64_t hits = 0, misses = 0;
+  size_t mapped_total = 0;  // bytes mapped over the pool's life (each miss maps, and faults in, a block)
+};
+
+class TensorPool {
+ public:
+  // Requests below `min_bytes` are not the pool's (Owns() is false for them: the caller's other allocator serves
+  // them); free blocks beyond `cache_cap_bytes` are unmapped.
+  TensorPool(size_t min_bytes, size_t cache_cap_bytes);
+  ~TensorPool();
+  TensorPool(const TensorPool&) = delete;
+  TensorPool& operator=(const TensorPool&) = delete;
+
+  size_t min_bytes() const { return min_bytes_; }
+  // A block of at least n bytes (n ≥ min_bytes), 4096-aligned; throws std::bad_alloc when the system has none.
+  void* Allocate(size_t n);
+  // Back to the cache; p must come from Allocate.
+  void Free(void* p);
+  bool Owns(void* p) const;
+  // Unmaps every free block.
+  void Trim();
+  TensorPoolStats Stats() const;
+
+ private:
+  struct Block {
+    size_t bytes = 0;
+    bool free = false;
+    std::list<void*>::iterator lru;  // position in free_lru_ while free
+  };
+  void EvictOver(size_t cap);  // mu_ held
+
+  const size_t min_bytes_, cap_;
+  mutable std::mutex mu_;
+  std::unordered_map<void*, Block> blocks_;  // every mapped block
+  std::multimap<size_t, void*> free_by_size_;
+  std::list<void*> free_lru_;  // most recently freed first
+  TensorPoolStats stats_;
+};
+
+// The process's pool behind LibTorch's CPU allocator (tensors of 1 MiB and more; a 256 MiB cache of free blocks).
+// Installed once, by ApplyRuntime for CPU models; FREELOC_TENSOR_POOL=off leaves LibTorch's allocator alone.
+TensorPool* InstalledTensorPool();  // null until installed
+void InstallTensorPool();
+
+}  // namespace freeloc::nn::internal

@@ -1,0 +1,107 @@
+// The tensor pool (tensor_pool.h): reuse by size, the cache cap, trimming, LibTorch's allocator behind it.
+#include "freeloc/nn/internal/tensor_pool.h"
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <cstring>
+#include <new>
+#include <thread>
+#include <vector>
+
+namespace freeloc::nn::internal {
+namespace {
+
+constexpr size_t kMiB = size_t{1} << 20;
+
+TEST(TensorPool, ReusesAFreedBlockOfTheSameOrANearSize) {
+  TensorPool pool(kMiB, 64 * kMiB);
+  void* a = pool.Allocate(3 * kMiB);
+  std::memset(a, 7, 3 * kMiB);  // writable
+  pool.Free(a);
+  EXPECT_EQ(pool.Allocate(3 * kMiB), a);  // the same size
+  pool.Free(a);
+  EXPECT_EQ(pool.Allocate(3 * kMiB - 100 * 1024), a);  // a little smaller: within 1/8
+  void* b = pool.Allocate(3 * kMiB);                   // a busy block is never handed out twice
+  EXPECT_NE(b, a);
+  pool.Free(b);
+  EXPECT_NE(pool.Allocate(kMiB), b);  // less than half: a block of its own, not a third of b
+  const TensorPoolStats st = pool.Stats();
+  EXPECT_EQ(st.hits, 2u);
+  EXPECT_EQ(st.misses, 3u);
+  EXPECT_EQ(st.cached_bytes, 3 * kMiB);
+  EXPECT_TRUE(pool.Owns(a));
+  int elsewhere = 0;
+  EXPECT_FALSE(pool.Owns(&elsewhere));
+}
+
+TEST(TensorPool, KeepsFreeBlocksUnderItsCapAndTrimsThemAll) {
+  TensorPool pool(kMiB, 8 * kMiB);
+  std::vector<void*> p;
+  for (int i = 0; i < 5; ++i) p.push_back(pool.Allocate(4 * kMiB));
+  EXPECT_EQ(pool.Stats().live_bytes, 20 * kMiB);
+  for (void* q : p) pool.Free(q);
+  TensorPoolStats st = pool.Stats();
+  EXPECT_EQ(st.live_bytes, 0u);
+  EXPECT_EQ(st.cached_bytes, 8 * kMiB);  // the two most recently freed
+  EXPECT_TRUE(pool.Owns(p[4]) && pool.Owns(p[3]));
+  EXPECT_FALSE(pool.Owns(p[0]));  // unmapped
+  EXPECT_EQ(st.peak_bytes, 20 * kMiB);
+  pool.Trim();
+  st = pool.Stats();
+  EXPECT_EQ(st.cached_bytes, 0u);
+  EXPECT_FALSE(pool.Owns(p[4]));
+}
+
+TEST(TensorPool, RefusesAnImpossibleSize) {
+  TensorPool pool(kMiB, 8 * kMiB);
+  EXPECT_THROW(pool.Allocate(SIZE_MAX - 10), std::bad_alloc);
+  EXPECT_THROW(pool.Allocate(size_t{1} << 62), std::bad_alloc);  // more than any machine maps
+  EXPECT_EQ(pool.Stats().live_bytes, 0u);
+}
+
+TEST(TensorPool, ManyThreadsAllocateAndFreeConsistently) {
+  TensorPool pool(kMiB, 16 * kMiB);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 4; ++t)
+    threads.emplace_back([&pool, t] {
+      for (int i = 0; i < 200; ++i) {
+        const size_t n = (1 + (i + t) % 3) * kMiB;
+        auto* p = static_cast<unsigned char*>(pool.Allocate(n));
+        p[0] = p[n - 1] = static_cast<unsigned char>(i);
+        EXPECT_EQ(p[n - 1], static_cast<unsigned char>(i));
+        pool.Free(p);
+      }
+    });
+  for (auto& th : threads) th.join();
+  const TensorPoolStats st = pool.Stats();
+  EXPECT_EQ(st.live_bytes, 0u);
+  EXPECT_LE(st.cached_bytes, 16 * kMiB);
+  EXPECT_EQ(st.hits + st.misses, 800u);
+}
+
+TEST(TensorPool, BacksLibTorchsLargeCpuTensors) {
+  InstallTensorPool();
+  TensorPool* pool = InstalledTensorPool();
+  if (!pool) GTEST_SKIP() << "FREELOC_TENSOR_POOL=off";
+  const torch::Tensor small = torch::ones({16});
+  EXPECT_FALSE(pool->Owns(small.data_ptr()));  // LibTorch's own allocator
+  size_t cached;
+  {
+    torch::Tensor big = torch::arange(1 << 20, torch::kFloat32);  // 4 MiB
+    EXPECT_TRUE(pool->Owns(big.data_ptr()));
+    EXPECT_EQ(big[123456].item<float>(), 123456.0f);
+    EXPECT_EQ((big + 1).to(torch::kFloat64).sum().item<double>(), (double(1 << 20) * ((1 << 20) + 1)) / 2);
+    cached = pool->Stats().cached_bytes;
+  }
+  EXPECT_GE(pool->Stats().cached_bytes, cached);  // freed into the cache (or evicted under the cap)
+  const torch::Tensor again = torch::zeros({1 << 20});
+  EXPECT_TRUE(pool->Owns(again.data_ptr()));
+  EXPECT_EQ(again.abs().sum().item<float>(), 0.0f);  // zeros() fills a reused block
+  pool->Trim();
+  EXPECT_EQ(pool->Stats().cached_bytes, 0u);
+  EXPECT_TRUE(pool->Owns(again.data_ptr()));  // a live tensor keeps its block
+}
+
+}  // namespace
+}  // namespace freeloc::nn::internal
