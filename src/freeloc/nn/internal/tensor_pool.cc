@@ -4,6 +4,7 @@
 #include <c10/core/CPUAllocator.h>
 #include <sys/mman.h>
 
+#include <atomic>
 #include <cstdlib>
 #include <cstring>
 #include <new>
@@ -106,16 +107,19 @@ void TensorPool::EvictOver(size_t cap) {
 
 namespace {
 
-TensorPool* g_pool = nullptr;
+// Set once (InstallTensorPool) before any tensor of the pool exists; read by every allocation and by
+// ReleaseFreedMemory on any thread.
+std::atomic<TensorPool*> g_pool{nullptr};
 c10::Allocator* g_fallback = nullptr;
 
-void FreePooled(void* p) { g_pool->Free(p); }
+void FreePooled(void* p) { g_pool.load(std::memory_order_acquire)->Free(p); }
 
 // Deletes what either allocator made (raw_allocate's callers free through raw_deleter()).
 void FreeAny(void* p) {
   if (!p) return;
-  if (g_pool->Owns(p)) {
-    g_pool->Free(p);
+  TensorPool* pool = g_pool.load(std::memory_order_acquire);
+  if (pool->Owns(p)) {
+    pool->Free(p);
   } else {
     g_fallback->raw_deleter()(p);
   }
@@ -124,8 +128,9 @@ void FreeAny(void* p) {
 class PoolAllocator final : public c10::Allocator {
  public:
   c10::DataPtr allocate(size_t n) const override {
-    if (n < g_pool->min_bytes()) return g_fallback->allocate(n);
-    void* p = g_pool->Allocate(n);
+    TensorPool* pool = g_pool.load(std::memory_order_acquire);
+    if (n < pool->min_bytes()) return g_fallback->allocate(n);
+    void* p = pool->Allocate(n);
     return {p, p, &FreePooled, c10::Device(c10::DeviceType::CPU)};
   }
   c10::DeleterFnPtr raw_deleter() const override { return g_fallback->raw_deleter() ? &FreeAny : nullptr; }
@@ -133,7 +138,7 @@ class PoolAllocator final : public c10::Allocator {
 
 }  // namespace
 
-TensorPool* InstalledTensorPool() { return g_pool; }
+TensorPool* InstalledTensorPool() { return g_pool.load(std::memory_order_acquire); }
 
 void InstallTensorPool() {
   static std::once_flag once;
@@ -141,7 +146,8 @@ void InstallTensorPool() {
     const char* env = std::getenv("FREELOC_TENSOR_POOL");
     if (env && std::strcmp(env, "off") == 0) return;
     g_fallback = c10::GetCPUAllocator();
-    g_pool = new TensorPool(kPoolMin, kPoolCache);  // lives as long as the process: tensors may outlive any owner
+    // Lives as long as the process: tensors may outlive any owner.
+    g_pool.store(new TensorPool(kPoolMin, kPoolCache), std::memory_order_release);
     static PoolAllocator allocator;
     c10::SetCPUAllocator(&allocator, /*priority=*/0);
   });
