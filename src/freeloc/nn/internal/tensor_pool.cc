@@ -40,7 +40,6 @@ void* TensorPool::Allocate(size_t n) {
     Block& b = blocks_.at(p);
     free_by_size_.erase(it);
     free_lru_.erase(b.lru);
-    b.free = false;
     stats_.cached_bytes -= b.bytes;
     stats_.live_bytes += b.bytes;
     ++stats_.hits;
@@ -54,21 +53,19 @@ void* TensorPool::Allocate(size_t n) {
     p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (p == MAP_FAILED) throw std::bad_alloc();
   }
-  blocks_[p] = Block{bytes, false, {}};
+  blocks_[p] = Block{bytes, {}, {}};
   stats_.live_bytes += bytes;
   stats_.peak_bytes = std::max(stats_.peak_bytes, stats_.live_bytes + stats_.cached_bytes);
   ++stats_.misses;
-  stats_.mapped_total += bytes;
   return p;
 }
 
 void TensorPool::Free(void* p) {
   std::lock_guard<std::mutex> lock(mu_);
   Block& b = blocks_.at(p);
-  b.free = true;
   free_lru_.push_front(p);
   b.lru = free_lru_.begin();
-  free_by_size_.emplace(b.bytes, p);
+  b.by_size = free_by_size_.emplace(b.bytes, p);
   stats_.live_bytes -= b.bytes;
   stats_.cached_bytes += b.bytes;
   EvictOver(cap_);
@@ -93,13 +90,10 @@ void TensorPool::EvictOver(size_t cap) {
   while (stats_.cached_bytes > cap && !free_lru_.empty()) {
     void* p = free_lru_.back();
     free_lru_.pop_back();
-    const size_t bytes = blocks_.at(p).bytes;
-    for (auto it = free_by_size_.find(bytes); it != free_by_size_.end() && it->first == bytes; ++it)
-      if (it->second == p) {
-        free_by_size_.erase(it);
-        break;
-      }
-    blocks_.erase(p);
+    const auto b = blocks_.find(p);
+    const size_t bytes = b->second.bytes;
+    free_by_size_.erase(b->second.by_size);
+    blocks_.erase(b);
     munmap(p, bytes);
     stats_.cached_bytes -= bytes;
   }

@@ -21,7 +21,6 @@ struct TensorPoolStats {
   size_t cached_bytes = 0;  // in free blocks kept for reuse
   size_t peak_bytes = 0;    // the most live + cached at once
   uint64_t hits = 0, misses = 0;
-  size_t mapped_total = 0;  // bytes mapped over the pool's life (each miss maps, and faults in, a block)
 };
 
 class TensorPool {
@@ -46,8 +45,9 @@ class TensorPool {
  private:
   struct Block {
     size_t bytes = 0;
-    bool free = false;
-    std::list<void*>::iterator lru;  // position in free_lru_ while free
+    // While free: its entries in free_lru_ and free_by_size_.
+    std::list<void*>::iterator lru;
+    std::multimap<size_t, void*>::iterator by_size;
   };
   void EvictOver(size_t cap);  // mu_ held
 
