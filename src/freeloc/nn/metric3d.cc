@@ -116,15 +116,28 @@ struct ConvGru {
   torch::Tensor operator()(const torch::Tensor& h, const std::vector<torch::Tensor>& cx,
                            const std::vector<torch::Tensor>& xs, const PrecisionPolicy& p) const {
     (void)p;  // the weights carry the policy (Conv::Chain)
-    const torch::Tensor x = torch::cat(xs, 1);
-    // In bf16, z and r read one bf16 copy of [h, x], and their bf16 outputs go into the fp32 sums as they are (type
-    // promotion): the values Conv::operator() gives, without an fp32 copy of each output.
-    torch::Tensor hx = torch::cat({h, x}, 1);
-    if (z.w_lp.defined()) hx = hx.to(torch::kBFloat16, false, false, torch::MemoryFormat::ChannelsLast);
-    const torch::Tensor zz = torch::sigmoid(z.Chain(hx) + cx[0]);
-    const torch::Tensor rr = torch::sigmoid(r.Chain(hx) + cx[1]);
-    hx = torch::Tensor();
-    const torch::Tensor qq = torch::tanh(q.Chain(torch::cat({rr * h, x}, 1)) + cx[2]);
+    // [h, x…] is written once, channels-last in the convolutions' type (bf16 in bf16: one conversion per value, no
+    // fp32 concatenation first); z and r read it, then its h channels are overwritten by r·h for q — the x channels
+    // are the same in both inputs. The values are those of cat + conversion.
+    const bool lp = z.w_lp.defined();
+    int64_t channels = h.size(1);
+    for (const auto& x : xs) channels += x.size(1);
+    const torch::Tensor hx = torch::empty(
+        {h.size(0), channels, h.size(2), h.size(3)},
+        h.options().dtype(lp ? torch::kBFloat16 : torch::kFloat32).memory_format(torch::MemoryFormat::ChannelsLast));
+    const int64_t ch = h.size(1);
+    hx.narrow(1, 0, ch).copy_(h);
+    int64_t at = ch;
+    for (const auto& x : xs) {
+      hx.narrow(1, at, x.size(1)).copy_(x);
+      at += x.size(1);
+    }
+    // In bf16 the convolutions' bf16 outputs go into the fp32 sums as they are (type promotion): the values
+    // Conv::operator() gives, without an fp32 copy of each output.
+    const torch::Tensor zz = torch::add(z.Chain(hx), cx[0]).sigmoid_();
+    const torch::Tensor rr = torch::add(r.Chain(hx), cx[1]).sigmoid_();
+    hx.narrow(1, 0, ch).copy_(rr * h);
+    const torch::Tensor qq = torch::add(q.Chain(hx), cx[2]).tanh_();
     return (1 - zz) * h + zz * qq;
   }
 };
@@ -286,7 +299,8 @@ struct Metric3dModel::Impl {
       const torch::Tensor delta = torch::cat({ChainOut(fh2d.Chain(torch::relu(fh1d.Chain(net[0])))),
                                               ChainOut(fh2n.Chain(torch::relu(fh1n.Chain(net[0]))))},
                                              1);
-      mask = 0.25 * ChainOut(mask2.Chain(torch::relu(mask0.Chain(net[0]))));
+      // The upsampling mask: upstream computes it every iteration, but only the last one's is read.
+      if (it == cfg.iters - 1) mask = 0.25 * ChainOut(mask2.Chain(torch::relu(mask0.Chain(net[0]))));
       state = state + delta;
       if (taps) iter_states.push_back(state);
     }
@@ -371,6 +385,10 @@ Metric3dConfig ConfigFromTensors(const std::map<std::string, torch::Tensor>& ten
                         c.embed_dim};
   c.hidden = static_cast<int>(shape("decoder.context_zqr_convs.0.weight")[0]) / 3;
   c.iters = jd.value("iters", c.embed_dim == 384 ? 4 : 8);
+  FREELOC_CHECK(c.iters >= 1 && c.iters <= 64, "Metric3D config: \"iters\" is "
+                                                   << c.iters
+                                                   << "; the GRU refinement needs 1 to 64 iterations (the released "
+                                                      "models use 4 for ViT-S, 8 otherwise)");
   c.num_bins = static_cast<int>(shape("decoder.depth_regressor.2.weight")[0]);
   if (jdata.contains("input_size")) {
     const auto s = Ints(jdata["input_size"]);

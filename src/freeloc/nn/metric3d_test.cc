@@ -123,5 +123,29 @@ TEST(Metric3d, MissingAndUnexpectedTensorsAreListed) {
   }
 }
 
+// The GRU refinement runs `iters` times and its last iteration's mask upsamples the result: a config without one
+// is refused by name, not run into an undefined tensor.
+TEST(Metric3d, IterationCountOutsideItsRangeIsRefused) {
+  const std::string dir = testing::TinyModelPath("metric3d/");
+  const io::SafetensorsFile w = io::SafetensorsFile::Open(dir + "model.safetensors");
+  std::map<std::string, io::TensorView> sd;
+  for (const auto& n : w.names) sd[n] = w.Get(n);
+  const std::string config = testing::ReadText(dir + "config.json");
+  EXPECT_NO_THROW(Metric3dModel::Create(sd, config, "tiny"));
+  for (const char* iters : {"0", "-3", "1000"}) {
+    std::string bad = config;
+    const size_t at = bad.find("\"iters\":", bad.find("\"decoder\""));
+    ASSERT_NE(at, std::string::npos);
+    const size_t value = at + std::strlen("\"iters\":");
+    bad.replace(value, bad.find_first_of(",}", value) - value, std::string(" ") + iters);
+    try {
+      Metric3dModel::Create(sd, bad, "tiny");
+      ADD_FAILURE() << "iters " << iters << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("\"iters\" is " + std::string(iters)), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace freeloc::nn
