@@ -27,8 +27,8 @@ Layout LayoutFor(const Problem& p, bool bf16) {
   L.packed_v_words = L.key_blocks * kKeyBlock * L.dv_pad / per_word;
   L.scratch_words =
       kQueryBlock * L.d_pad + 2 * kQueryBlock * kKeyBlock + kQueryBlock * L.dv_pad + 17 * kQueryBlock + 2 * L.d_pad;
-  if (p.rel_h)  // each row's bias over all keys (+ one vector), and a padded rel_w row
-    L.scratch_words += kQueryBlock * (L.key_blocks * kKeyBlock + 16) + p.key_w + 16;
+  if (p.rel_h)  // each row's rel_h and padded rel_w, and one key block's bias with a padded segment either side
+    L.scratch_words += kQueryBlock * (p.key_h + p.key_w + 16) + 2 * (p.key_w + 16) + kKeyBlock + 16;
   return L;
 }
 }  // namespace attention_kernel

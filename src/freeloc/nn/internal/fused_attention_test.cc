@@ -156,6 +156,8 @@ TEST(FusedAttention, EveryKernelMatchesTheNaiveReference) {
       {1, 2, 77, 77, 64, 64, /*rope=*/true},
       {1, 2, 50, 90, 32, 32, true},  // cross-attention: different grids for q and k
       {1, 2, 45, 60, 16, 16, false, /*rel=*/true},
+      {1, 2, 70, 280, 16, 16, false, true},  // rel over several key blocks: rows of 56 keys crossing block edges
+      {1, 1, 30, 301, 8, 8, false, true},    // one 301-key row of rel_w spanning three key blocks
       {2, 1, 40, 75, 12, 12, false, true, /*mask=*/true},
       {1, 2, 70, 70, 64, 64, true, false, false, /*strided=*/true},
       {1, 3, 33, 33, 20, 20, false, false, false, true, /*bf16_inputs=*/true},
