@@ -10,6 +10,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/io/checkpoint.h"
+#include "freeloc/nn/internal/bf16_linear.h"
 #include "freeloc/nn/internal/layers.h"
 #include "freeloc/nn/internal/torch_util.h"
 
@@ -34,15 +35,19 @@ SegType ParseSegType(const std::string& s) {
 
 namespace {
 
-// vitdet_utils.get_rel_pos: the table for q_size × k_size, linearly interpolated when its length differs.
-torch::Tensor GetRelPos(int64_t q, int64_t k, const torch::Tensor& rel) {
+// vitdet_utils.get_rel_pos, first half: the relative table [2·max(q, k) − 1, hd], linearly interpolated when its
+// length differs.
+torch::Tensor RelTable(int64_t q, int64_t k, const torch::Tensor& rel) {
   const int64_t max_dist = 2 * std::max(q, k) - 1;
-  torch::Tensor r = rel;
-  if (rel.size(0) != max_dist) {
-    r = torch::upsample_linear1d(rel.reshape({1, rel.size(0), -1}).permute({0, 2, 1}), {max_dist}, false)
-            .reshape({-1, max_dist})
-            .permute({1, 0});
-  }
+  if (rel.size(0) == max_dist) return rel;
+  return torch::upsample_linear1d(rel.reshape({1, rel.size(0), -1}).permute({0, 2, 1}), {max_dist}, false)
+      .reshape({-1, max_dist})
+      .permute({1, 0});
+}
+
+// vitdet_utils.get_rel_pos: the table for q_size × k_size, [q, k, hd].
+torch::Tensor GetRelPos(int64_t q, int64_t k, const torch::Tensor& rel) {
+  const torch::Tensor r = RelTable(q, k, rel);
   const torch::Tensor qc = torch::arange(q, torch::kFloat64).unsqueeze(1) * std::max(static_cast<double>(k) / q, 1.0);
   const torch::Tensor kc = torch::arange(k, torch::kFloat64).unsqueeze(0) * std::max(static_cast<double>(q) / k, 1.0);
   const torch::Tensor idx = (qc - kc + (k - 1) * std::max(static_cast<double>(q) / k, 1.0)).to(torch::kLong);
@@ -55,23 +60,42 @@ struct Block {
   torch::Tensor rel_h, rel_w;
   Mlp mlp;
   int64_t heads = 1;
+  // bf16 on the CPU: the relative tables of the model's token grid, prepacked (q is bf16 already: bf16 products,
+  // fp32 accumulation and output, as every other product of q).
+  std::shared_ptr<PackedLinearBf16> rel_h_packed, rel_w_packed;
+  int64_t packed_h = 0, packed_w = 0;
+
+  void PackRelTables(int64_t H, int64_t W) {
+    rel_h_packed = std::make_shared<PackedLinearBf16>(RelTable(H, H, rel_h).contiguous(), torch::Tensor());
+    rel_w_packed = std::make_shared<PackedLinearBf16>(RelTable(W, W, rel_w).contiguous(), torch::Tensor());
+    packed_h = H;
+    packed_w = W;
+  }
 
   // models_seggpt.Attention with use_rel_pos (vitdet add_decomposed_rel_pos): logits = (q·scale)·kᵀ + rel terms of the
   // UNSCALED q, global over all tokens.
   torch::Tensor Attend(const torch::Tensor& x, const PrecisionPolicy& p) const {
     const int64_t B = x.size(0), H = x.size(1), W = x.size(2), C = x.size(3), hd = C / heads, N = H * W;
-    const torch::Tensor Rh = GetRelPos(H, H, rel_h), Rw = GetRelPos(W, W, rel_w);
     const double scale = std::pow(static_cast<double>(hd), -0.5);
     if (UseFusedAttention(x.device())) {
-      // q/k/v as views into the projection (bf16 when it runs bf16); the rel terms (of the unscaled q, N × (H + W) per
-      // head) added inside the fused pass.
+      // q/k/v as views into the projection (bf16 when it runs bf16); the rel terms of the unscaled q added inside the
+      // fused pass, given by relative offset: q times each relative table is one GEMM (N × (2H − 1) and N × (2W − 1)
+      // per head), where the per-pair tables [H, H, hd] needed a batched product per query row and its copies.
       const torch::Tensor t = qkv.ForProducts(x, p).reshape({B, N, 3, heads, hd}).permute({2, 0, 3, 1, 4});
-      const torch::Tensor rq = t[0].to(torch::kFloat32).reshape({B * heads, H, W, hd});
       AttentionExtras e;
-      e.rel_h = torch::einsum("bhwc,hkc->bhwk", {rq, Rh}).reshape({B * heads, N, H});
-      e.rel_w = torch::einsum("bhwc,wkc->bhwk", {rq, Rw}).reshape({B * heads, N, W});
+      if (p.bf16 && rel_h_packed && H == packed_h && W == packed_w) {
+        e.rel_h = (*rel_h_packed)(t[0]).reshape({B * heads, N, -1});
+        e.rel_w = (*rel_w_packed)(t[0]).reshape({B * heads, N, -1});
+      } else {
+        const torch::Tensor rq = t[0].to(torch::kFloat32).reshape({B * heads, N, hd});
+        e.rel_h = torch::matmul(rq, RelTable(H, H, rel_h).t());
+        e.rel_w = torch::matmul(rq, RelTable(W, W, rel_w).t());
+      }
+      e.rel_by_offset = true;
+      e.rel_key_w = W;
       return proj(FusedAttention(t[0], t[1], t[2], scale, e, p.bf16).view({B, H, W, C}), p);
     }
+    const torch::Tensor Rh = GetRelPos(H, H, rel_h), Rw = GetRelPos(W, W, rel_w);
     const torch::Tensor t =
         qkv(x, p).reshape({B, N, 3, heads, hd}).permute({2, 0, 3, 1, 4}).reshape({3, B * heads, N, hd});
     const torch::Tensor q = t[0], k = t[1], v = t[2];
@@ -338,6 +362,7 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, io:
     b.proj.Load(ws, pre + ".attn.proj", C, C, true, p);
     b.rel_h = ws.Take(pre + ".attn.rel_pos_h", {-1, hd_dim});
     b.rel_w = ws.Take(pre + ".attn.rel_pos_w", {-1, hd_dim});
+    if (p.bf16 && b.rel_h.device().is_cpu()) b.PackRelTables(c.grid_h, c.grid_w);
     b.n2.Load(ws, pre + ".norm2", C, c.ln_eps);
     b.mlp.Load(ws, pre + ".mlp", C, c.mlp, p);
   }

@@ -133,13 +133,24 @@ torch::Tensor FusedAttention(const torch::Tensor& q, const torch::Tensor& k, con
   if (x.rel_h.defined() || x.rel_w.defined()) {
     FREELOC_CHECK(x.rel_h.defined() && x.rel_w.defined() && x.rel_h.dim() == 3 && x.rel_w.dim() == 3,
                   "fused attention: relative-position terms come as rel_h and rel_w, each [B·H, Nq, n]");
-    p.key_h = x.rel_h.size(2);
-    p.key_w = x.rel_w.size(2);
+    if (x.rel_by_offset) {
+      FREELOC_CHECK(x.rel_key_w >= 1 && p.Nk % x.rel_key_w == 0 && p.Nq == p.Nk,
+                    "fused attention: relative terms by offset need Nq = Nk on a grid "
+                        << x.rel_key_w << " keys wide, not Nq = " << p.Nq << ", Nk = " << p.Nk);
+      p.key_w = x.rel_key_w;
+      p.key_h = p.Nk / p.key_w;
+      p.rel_by_offset = true;
+    } else {
+      p.key_h = x.rel_h.size(2);
+      p.key_w = x.rel_w.size(2);
+    }
+    const int64_t nh = p.rel_by_offset ? 2 * p.key_h - 1 : p.key_h, nw = p.rel_by_offset ? 2 * p.key_w - 1 : p.key_w;
     FREELOC_CHECK(x.rel_h.size(0) == p.B * p.H && x.rel_w.size(0) == p.B * p.H && x.rel_h.size(1) == p.Nq &&
-                      x.rel_w.size(1) == p.Nq && p.key_h * p.key_w == p.Nk,
+                      x.rel_w.size(1) == p.Nq && x.rel_h.size(2) == nh && x.rel_w.size(2) == nw &&
+                      p.key_h * p.key_w == p.Nk,
                   "fused attention: rel_h " << x.rel_h.sizes() << " and rel_w " << x.rel_w.sizes()
                                             << " do not fit B·H = " << p.B * p.H << ", Nq = " << p.Nq
-                                            << ", Nk = " << p.Nk);
+                                            << ", Nk = " << p.Nk << (p.rel_by_offset ? " (by offset)" : ""));
     rel_h = x.rel_h.to(torch::kFloat32).contiguous();
     rel_w = x.rel_w.to(torch::kFloat32).contiguous();
     p.rel_h = rel_h.data_ptr<float>();

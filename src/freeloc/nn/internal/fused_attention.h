@@ -19,7 +19,13 @@ struct AttentionExtras {
   const std::pair<torch::Tensor, torch::Tensor>* rope_k = nullptr;
   // vitdet decomposed relative position: logit[i][j] += rel_h[bh][i][j / key_w] + rel_w[bh][i][j % key_w];
   // [B·H, Nq, key_h] and [B·H, Nq, key_w] fp32 with key_h·key_w = Nk. Undefined: none.
+  // With rel_by_offset (self-attention on one key_h × key_w grid, Nq = Nk): [B·H, Nq, 2·key_h − 1] and
+  // [B·H, Nq, 2·key_w − 1] by relative offset, the term of query (hq, wq) for key row hk at hq − hk + key_h − 1 —
+  // q times the relative table once (one GEMM), where the per-pair form needs the table gathered per query row.
+  // key_w is then given (key_h = Nk / key_w).
   torch::Tensor rel_h, rel_w;
+  bool rel_by_offset = false;
+  int64_t rel_key_w = 0;
   // Additive mask [Nq, Nk] fp32 shared by every head (−inf removes a pair). Undefined: none.
   torch::Tensor mask;
 };

@@ -24,6 +24,10 @@ struct Problem {
   // key_h·key_w = Nk; [B·H][Nq][key_h] and [B·H][Nq][key_w] fp32, or null.
   const float *rel_h = nullptr, *rel_w = nullptr;
   int64_t key_h = 0, key_w = 0;
+  // The same terms given by relative offset (queries on the keys' key_h × key_w grid, as in self-attention): rel_h
+  // [B·H][Nq][2·key_h − 1] and rel_w [B·H][Nq][2·key_w − 1], the term of query i = (hq, wq) for key row hk being
+  // rel_h[bh][i][hq − hk + key_h − 1] (vitdet's get_rel_pos index for equal sizes), likewise for wk.
+  bool rel_by_offset = false;
   // Additive mask shared by every head, [Nq][Nk] fp32 (−inf removes a pair), or null. A row with every key removed
   // gives zeros.
   const float* mask = nullptr;

@@ -170,6 +170,54 @@ TEST(FusedAttention, EveryKernelMatchesTheNaiveReference) {
   }
 }
 
+// Relative-position terms given by offset (one GEMM per table in SegGPT) are the per-pair terms gathered by vitdet's
+// index hq − hk + key_h − 1: the same bias values, so the same outputs bit for bit, on grids of one and of several
+// key blocks, in every kernel.
+TEST(FusedAttention, RelativeTermsByOffsetAreThePerPairTerms) {
+  struct Grid {
+    int64_t B, H, kh, kw, D;
+  };
+  uint64_t seed = 100;
+  for (AttentionIsa isa : Kernels())
+    for (const Grid g : {Grid{1, 2, 3, 5, 16}, Grid{2, 1, 7, 19, 8}, Grid{1, 2, 6, 40, 32}}) {
+      SCOPED_TRACE(::testing::Message() << AttentionIsaName(isa) << " grid " << g.kh << "x" << g.kw);
+      torch::manual_seed(seed++);
+      const int64_t N = g.kh * g.kw, BH = g.B * g.H;
+      const torch::Tensor q = torch::randn({g.B, g.H, N, g.D}), k = torch::randn({g.B, g.H, N, g.D}),
+                          v = torch::randn({g.B, g.H, N, g.D});
+      AttentionExtras by_offset;
+      by_offset.rel_h = torch::randn({BH, N, 2 * g.kh - 1});
+      by_offset.rel_w = torch::randn({BH, N, 2 * g.kw - 1});
+      by_offset.rel_by_offset = true;
+      by_offset.rel_key_w = g.kw;
+      AttentionExtras per_pair;
+      per_pair.rel_h = torch::empty({BH, N, g.kh});
+      per_pair.rel_w = torch::empty({BH, N, g.kw});
+      auto oh = by_offset.rel_h.accessor<float, 3>(), ow = by_offset.rel_w.accessor<float, 3>();
+      auto ph = per_pair.rel_h.accessor<float, 3>(), pw = per_pair.rel_w.accessor<float, 3>();
+      for (int64_t b = 0; b < BH; ++b)
+        for (int64_t i = 0; i < N; ++i) {
+          const int64_t hq = i / g.kw, wq = i % g.kw;
+          for (int64_t hk = 0; hk < g.kh; ++hk) ph[b][i][hk] = oh[b][i][hq - hk + g.kh - 1];
+          for (int64_t wk = 0; wk < g.kw; ++wk) pw[b][i][wk] = ow[b][i][wq - wk + g.kw - 1];
+        }
+      const bool bf16 = isa == AttentionIsa::kAvx512Bf16;
+      const torch::Tensor a = FusedAttention(q, k, v, 0.3, by_offset, bf16, isa);
+      const torch::Tensor b = FusedAttention(q, k, v, 0.3, per_pair, bf16, isa);
+      EXPECT_TRUE(torch::equal(a, b)) << (a - b).abs().max().item<float>();
+    }
+  // By offset needs one grid for queries and keys.
+  AttentionExtras bad;
+  bad.rel_h = torch::randn({1, 6, 5});
+  bad.rel_w = torch::randn({1, 6, 3});
+  bad.rel_by_offset = true;
+  bad.rel_key_w = 2;
+  const torch::Tensor q6 = torch::randn({1, 1, 6, 8}), k4 = torch::randn({1, 1, 4, 8});
+  EXPECT_THROW(FusedAttention(q6, k4, k4, 1.0, bad, false), Error);
+  bad.rel_key_w = 4;  // 6 keys are not rows of 4
+  EXPECT_THROW(FusedAttention(q6, q6, q6, 1.0, bad, false), Error);
+}
+
 // The auto choice runs bf16 products only where the CPU has them, and every CPU gets some kernel.
 TEST(FusedAttention, AutoPicksARunnableKernel) {
   EXPECT_TRUE(AttentionIsaAvailable(AutoAttentionIsa(false)));
