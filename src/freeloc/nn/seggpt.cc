@@ -2,6 +2,7 @@
 // util/vitdet_utils.py) they reproduce.
 #include "freeloc/nn/seggpt.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -137,10 +138,15 @@ struct SegGptModel::Impl {
     if (taps) (*taps)[n] = ToView(t);
   }
 
-  torch::Tensor Forward(const torch::Tensor& imgs, const torch::Tensor& tgts, SegType type, bool ensemble) const {
-    const int64_t K = imgs.size(0), Hg = cfg.grid_h, Wg = cfg.grid_w, C = cfg.embed_dim;
+  // `shared_image`: every item's image pair is the same (one reference and one query, K prompts' masks — the
+  // pipeline's instance propagation). The image stream is then computed once up to the merge, where it meets each
+  // item's mask stream: the same values for a K-th of that work (3 of SegGPT-L's 24 blocks run at 2K items).
+  torch::Tensor Forward(const torch::Tensor& imgs, const torch::Tensor& tgts, SegType type, bool ensemble,
+                        bool shared_image = false) const {
+    const int64_t K = tgts.size(0), Hg = cfg.grid_h, Wg = cfg.grid_w, C = cfg.embed_dim;
+    const bool one_image = shared_image && !ensemble && K > 1;
     // forward_encoder: shared patch embedding (channels-last tokens).
-    torch::Tensor x = patch(imgs, prec).permute({0, 2, 3, 1});
+    torch::Tensor x = patch(one_image ? imgs.slice(0, 0, 1) : imgs, prec).permute({0, 2, 3, 1});
     torch::Tensor y = patch(tgts, prec).permute({0, 2, 3, 1});
     // bool_masked_pos: the bottom half of the token grid (the target half) of the mask stream only.
     torch::Tensor w = torch::zeros({1, Hg, Wg, 1}, torch::TensorOptions().device(device));
@@ -184,7 +190,8 @@ struct SegGptModel::Impl {
       x = x + b.mlp(b.n2(x), prec);
       if (idx == 0) Tap("block0_out", x);
       if (static_cast<int>(idx) == cfg.merge_index) {
-        x = (x.slice(0, 0, x.size(0) / 2) + x.slice(0, x.size(0) / 2, x.size(0))) * 0.5;
+        const int64_t images = one_image ? 1 : K;  // the image stream's items, then the K mask-stream items
+        x = (x.slice(0, 0, images) + x.slice(0, images, x.size(0))) * 0.5;
         Tap("merged", x);
       }
       if (std::find(cfg.out_indices.begin(), cfg.out_indices.end(), static_cast<int>(idx)) != cfg.out_indices.end())
@@ -386,7 +393,11 @@ io::TensorView SegGptModel::Forward(const std::vector<float>& imgs, const std::v
   const auto opts = torch::TensorOptions().dtype(torch::kFloat32);
   const torch::Tensor a = torch::from_blob(const_cast<float*>(imgs.data()), {k, 3, 2 * S, S}, opts).to(impl_->device);
   const torch::Tensor b = torch::from_blob(const_cast<float*>(tgts.data()), {k, 3, 2 * S, S}, opts).to(impl_->device);
-  return ToView(impl_->Forward(a.clone(), b.clone(), type, ensemble));
+  bool shared = true;
+  for (int i = 1; i < k && shared; ++i)
+    shared = std::equal(imgs.begin(), imgs.begin() + static_cast<std::ptrdiff_t>(item),
+                        imgs.begin() + static_cast<std::ptrdiff_t>(item * i));
+  return ToView(impl_->Forward(a.clone(), b.clone(), type, ensemble, shared));
 }
 
 vision::SegGptMask SegGptModel::Segment(const std::vector<Image>& prompt_images, const std::vector<Image>& prompt_masks,

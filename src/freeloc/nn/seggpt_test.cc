@@ -77,6 +77,35 @@ TEST(SegGpt, ParityOnEveryCaseFromStoredInputs) {
   }
 }
 
+// Instance propagation sends K prompts with one image pair (reference and query) and K masks: the image stream is
+// then computed once up to the merge. Each item's prediction is the one it gets alone (fp32 and bf16).
+TEST(SegGpt, SharedImagePairGivesEachItemsOwnPrediction) {
+  for (const Precision precision : {Precision::kFp32, Precision::kBf16}) {
+    RuntimeOptions rt;
+    rt.precision = precision;
+    const auto m = SegGptModel::Load(testing::TinyModelPath("seggpt/model.safetensors"),
+                                     testing::TinyModelPath("seggpt/config.json"), rt);
+    const size_t item = 3 * 128 * 64;
+    const int K = 3;
+    std::vector<float> img(item), imgs, tgts(item * K);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-2, 2);
+    for (auto& x : img) x = u(rng);
+    for (int k = 0; k < K; ++k) imgs.insert(imgs.end(), img.begin(), img.end());
+    for (auto& x : tgts) x = u(rng) > 0 ? 1.5f : -1.5f;
+    const io::TensorView batch = m->Forward(imgs, tgts, K, SegType::kInstance, false);
+    ASSERT_EQ(batch.numel(), static_cast<int64_t>(item * K));
+    for (int k = 0; k < K; ++k) {
+      const std::vector<float> t(tgts.begin() + k * item, tgts.begin() + (k + 1) * item);
+      const io::TensorView alone = m->Forward(img, t, 1, SegType::kInstance, false);
+      double worst = 0;
+      for (size_t i = 0; i < item; ++i)
+        worst = std::max(worst, static_cast<double>(std::abs(batch.as<float>()[k * item + i] - alone.as<float>()[i])));
+      EXPECT_LE(worst, 1e-5) << (precision == Precision::kBf16 ? "bf16" : "fp32") << " item " << k;
+    }
+  }
+}
+
 TEST(SegGpt, FromPngsToTheBinaryMask) {
   FREELOC_REQUIRE_SHARED("fixtures/seggpt/images/a_instance/target_image.png");
   const auto m = Tiny();
