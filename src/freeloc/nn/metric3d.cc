@@ -138,7 +138,8 @@ struct ConvGru {
     const torch::Tensor rr = torch::add(r.Chain(hx), cx[1]).sigmoid_();
     hx.narrow(1, 0, ch).copy_(rr * h);
     const torch::Tensor qq = torch::add(q.Chain(hx), cx[2]).tanh_();
-    return (1 - zz) * h + zz * qq;
+    // (1 − z)·h + z·q as h + z·(q − h): two passes over the state instead of four (a rounding apart).
+    return torch::addcmul(h, zz, qq - h);
   }
 };
 
