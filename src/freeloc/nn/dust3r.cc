@@ -242,7 +242,7 @@ struct Dust3rModel::Impl {
 
   // dust3r/heads/postprocess.py: reg_dense_depth('exp') and reg_dense_conf.
   void Postprocess(const torch::Tensor& raw, io::TensorView* pts, io::TensorView* conf) const {
-    const torch::Tensor f = raw.permute({0, 2, 3, 1});  // B,H,W,4
+    const torch::Tensor f = raw.permute({0, 2, 3, 1}).contiguous();  // B,H,W,4 (the norm runs over contiguous xyz)
     const torch::Tensor xyz = f.slice(3, 0, 3);
     const torch::Tensor d = xyz.norm(2, -1, true);
     const torch::Tensor p = xyz / d.clamp_min(1e-8) * torch::expm1(d);
@@ -263,13 +263,16 @@ struct Dust3rModel::Impl {
     Tap(tp + "mlp_hidden", hidden);
     const torch::Tensor out = local[which].fc2(hidden, prec);  // [1, N, (D + T)·P²]
     Tap(tp + "mlp_out", out);
-    const torch::Tensor grid = out.transpose(1, 2).reshape({1, out.size(2), h, w});
-    const torch::Tensor fmap = torch::pixel_shuffle(grid, P);  // [1, D + T, H, W]
-    Tap(tp + "local", fmap);
-    const torch::Tensor f = fmap[0].slice(0, 0, D).permute({1, 2, 0});  // H, W, D
+    const int64_t C = out.size(2) / (P * P);  // D + T
+    if (taps) Tap(tp + "local", torch::pixel_shuffle(out.transpose(1, 2).reshape({1, out.size(2), h, w}), P));
+    // pixel_shuffle(P) straight to channels-last: token (y, x)'s channel c·P² + i·P + j is pixel (y·P + i, x·P + j)'s
+    // channel c — one gather into [H, W, D + T], where the NCHW shuffle took a transpose copy, the shuffle's copy and a
+    // norm over a strided dimension.
+    const torch::Tensor hwc = out.reshape({h, w, C, P, P}).permute({0, 3, 1, 4, 2}).reshape({h * P, w * P, C});
+    const torch::Tensor f = hwc.slice(2, 0, D);  // H, W, D
     *desc = ToView(f / f.norm(2, -1, true));
     if (cfg.two_confs)
-      *desc_conf = ToView(DenseConf(fmap[0][D], cfg.desc_conf_min, cfg.desc_conf_max));
+      *desc_conf = ToView(DenseConf(hwc.select(2, D), cfg.desc_conf_min, cfg.desc_conf_max));
     else
       *desc_conf = conf;
   }
