@@ -120,12 +120,12 @@ struct ConvGru {
     // fp32 concatenation first); z and r read it, then its h channels are overwritten by r·h for q — the x channels
     // are the same in both inputs. The values are those of cat + conversion.
     const bool lp = z.w_lp.defined();
-    int64_t channels = h.size(1);
+    const int64_t ch = h.size(1);
+    int64_t channels = ch;
     for (const auto& x : xs) channels += x.size(1);
     const torch::Tensor hx = torch::empty(
         {h.size(0), channels, h.size(2), h.size(3)},
         h.options().dtype(lp ? torch::kBFloat16 : torch::kFloat32).memory_format(torch::MemoryFormat::ChannelsLast));
-    const int64_t ch = h.size(1);
     hx.narrow(1, 0, ch).copy_(h);
     int64_t at = ch;
     for (const auto& x : xs) {
