@@ -216,6 +216,32 @@ TEST(RelativePoseSafety, RandomDenseSetsGiveUpAfterTheSamplesThatWouldFindAFifth
   }
 }
 
+// The dense rule on a sparse set (sprt_min_data = 1: the hybrid route's essential guard, pipeline/stages.cc): 500
+// random matches stop at the same give-up bound, and a solvable 500-match set gives the plain search's answer.
+TEST(RelativePoseSafety, TheDenseRuleOnASparseSetGivesUpAtTheSameBound) {
+  for (uint32_t seed : {43u, 44u}) {
+    const TwoView tv = MakeTwoView(seed, 500, 1.0);
+    RelativePoseOptions o;
+    o.ransac.seed = seed;
+    o.ransac.sprt_min_data = 1;
+    const RelativePoseResult r = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, o);
+    EXPECT_EQ(r.status.outcome, EstimatorOutcome::kNoConsensus) << "seed " << seed;
+    EXPECT_TRUE(r.status.stop == RansacStop::kNoModel || r.status.stop == RansacStop::kGaveUp)
+        << ToString(r.status.stop);
+    EXPECT_LE(r.status.iterations, static_cast<int>(RequiredIterations(100, 500, 5, o.ransac.give_up_prob, 0.9)) + 1);
+  }
+  const TwoView tv = MakeTwoView(45, 500, 0.5);
+  RelativePoseOptions rule, plain;
+  rule.ransac.sprt_min_data = 1;
+  const RelativePoseResult a = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, rule);
+  const RelativePoseResult b = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, plain);
+  ASSERT_TRUE(a.status.success()) << ToString(a.status.outcome);
+  ASSERT_TRUE(b.status.success()) << ToString(b.status.outcome);
+  EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, tv.truth.rotation), 0.3);
+  EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, b.query_from_ref.rotation), 0.05);
+  EXPECT_NEAR(a.status.num_inliers, b.status.num_inliers, 3);
+}
+
 TEST(RelativePose, DenseSetsGiveThePlainSearchsAnswer) {
   for (const double outliers : {0.3, 0.7}) {
     const TwoView tv = MakeTwoView(51, 20000, outliers);

@@ -82,7 +82,8 @@ struct SolveOptions {
   // rotation, zero translation) and confidence 0; the status still says which. 0 = submit ok queries only.
   int always_answer = 1;
   // Robust searches over at least this many matches check each hypothesis sequentially and give up on a set with no
-  // consensus (geometry/ransac.h, docs/geometry.md "Dense sets"); 0: never — the full search to its budget.
+  // consensus (geometry/ransac.h, docs/geometry.md "Dense sets"); the hybrid route's essential guard applies the rule
+  // to every set (stages.cc GuardOptions). 0: never — the full search to its budget.
   int sprt_min_matches = 2000;
   void Validate() const;  // throws freeloc::Error naming the option
 };

@@ -234,9 +234,21 @@ class EssentialSolver : public PoseSolver {
 // 5-point model does (a depth map that pulls the pose away from what the matches say), or fails. Its translation is
 // in reference-depth units; when the query depth agrees on the scale within a factor 2, the two anchorings are
 // combined by their geometric mean (t / √s), else the reference's is kept.
+//
+// The guard searches every set with the dense-set rule (sequential test + give-up, ransac.h), sparse ones included:
+// a consensus holding less than its minimum share (a fifth) is the hybrid search's to find — its 3-point depth
+// samples find one of 8 % with 99 % in their budget — so the guard no longer spends the plain search's 100 000
+// five-point samples (and its weak-support control as many again) on a few hundred matches with no consensus.
+// What it gives up: a consensus under a fifth that the depths contradict (docs/geometry.md "Sparse sets").
+// sprt_min_matches = 0 still means the plain search everywhere.
+PipelineOptions GuardOptions(PipelineOptions o) {
+  if (o.solve.sprt_min_matches > 0) o.solve.sprt_min_matches = 1;
+  return o;
+}
+
 class HybridSolver : public PoseSolver {
  public:
-  explicit HybridSolver(const PipelineOptions& o) : essential_(o) {
+  explicit HybridSolver(const PipelineOptions& o) : essential_(GuardOptions(o)) {
     if (o.solve.threshold_px > 0) options_.threshold_px = o.solve.threshold_px;
     options_.reprojection_px = o.solve.reprojection_px;
     options_.shifts = o.solve.depth_shifts != 0;
