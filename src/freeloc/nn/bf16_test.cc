@@ -11,6 +11,8 @@
 #include "freeloc/io/safetensors.h"
 #include "freeloc/nn/dust3r.h"
 #include "freeloc/nn/internal/bf16_linear.h"
+#include "freeloc/nn/internal/layers.h"
+#include "freeloc/nn/internal/torch_util.h"
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
 #include "testing/testing.h"
@@ -95,6 +97,30 @@ TEST(Bf16, PackedLayerMatchesFp32WithinBf16Rounding) {
     EXPECT_TRUE(torch::equal(o16, got.to(torch::kBFloat16)));
     const torch::Tensor gr = torch::gelu(ref);
     EXPECT_LT(((g.to(torch::kFloat32) - gr).norm() / gr.norm()).item<double>(), 1.2e-2);
+  }
+}
+
+// The DPT head's last 1×1 convolution on a bf16 channels-last activation: its split weights (hi + lo bf16) give the
+// fp32 convolution of the same activation to 2⁻¹⁷ — far below plain bf16 weights' 2⁻⁹ — as fp32 NCHW.
+TEST(Bf16, PointwiseOutKeepsFp32WeightsOnABf16Chain) {
+  torch::manual_seed(6);
+  const int64_t in = 40, out = 4, h = 13, w = 17;
+  const torch::Tensor wt = torch::randn({out, in, 1, 1}) / std::sqrt(in), bias = torch::randn({out});
+  const torch::Tensor x =
+      torch::relu(torch::randn({1, in, h, w})).to(torch::kBFloat16).contiguous(torch::MemoryFormat::ChannelsLast);
+  const torch::Tensor ref = torch::conv2d(x.to(torch::kFloat32), wt, bias);
+  for (const bool bf16 : {false, true}) {
+    internal::PrecisionPolicy p;
+    p.bf16 = bf16;
+    internal::WeightStore ws({{"h.weight", wt.clone()}, {"h.bias", bias.clone()}}, "test", torch::kCPU);
+    internal::PointwiseOut layer;
+    layer.Load(ws, "h", out, in, true, p);
+    EXPECT_EQ(layer.packed != nullptr, bf16);
+    const torch::Tensor got = layer(x);
+    ASSERT_EQ(got.sizes(), ref.sizes());
+    EXPECT_EQ(got.scalar_type(), torch::kFloat32);
+    EXPECT_TRUE(got.is_contiguous());
+    EXPECT_LT(((got - ref).norm() / ref.norm()).item<double>(), bf16 ? 2e-5 : 1e-6) << "bf16 " << bf16;
   }
 }
 

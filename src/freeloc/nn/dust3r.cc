@@ -73,7 +73,10 @@ struct Fusion {
     torch::Tensor o = x0;
     if (x1) o = o + rcu1(*x1);
     o = rcu2(o);
-    return out.Chain(Upsample2xAlignCorners(o)).to(torch::kFloat32);
+    // Upstream upsamples (×2 bilinear, align_corners) and then applies out_conv (1×1). The two commute — a 1×1
+    // convolution acts on each pixel's channels alike, and the interpolation weights sum to 1 — so the convolution
+    // runs on the small map: a quarter of its work, and no conversion of the upsampled map into and out of bf16.
+    return Upsample2xAlignCorners(out.Chain(o).to(torch::kFloat32));
   }
 };
 
@@ -81,7 +84,8 @@ struct DptHead {
   Conv act_proj[4], act_resize[4];  // act_postprocess.{i}.0 and .1 (none for i = 2)
   Conv layer_rn[4];
   Fusion refine[4];  // refinenet1..4
-  Conv head0, head2, head4;
+  Conv head0, head2;
+  PointwiseOut head4;
 };
 
 // mast3r/catmlp_dpt_head.py Cat_MLP_LocalFeatures_DPT_Pts3d: head_local_features (Mlp: fc1, exact GELU, fc2).
@@ -125,7 +129,7 @@ void LoadDptHead(WeightStore& ws, const Dust3rConfig& c, int h, const PrecisionP
   }
   hd.head0.Load(ws, pre + "head.0", {c.dpt_head0_dim, F, 3, 3}, true, 1, 1, false, hp);
   hd.head2.Load(ws, pre + "head.2", {c.dpt_last_dim, c.dpt_head0_dim, 3, 3}, true, 1, 1, false, hp);
-  hd.head4.Load(ws, pre + "head.4", {c.dpt_channels, c.dpt_last_dim, 1, 1}, true, 1, 0, false, PrecisionPolicy{});
+  hd.head4.Load(ws, pre + "head.4", c.dpt_channels, c.dpt_last_dim, true, hp);
 }
 
 // load_model(): dec_blocks copied into dec_blocks2 when the checkpoint has none.
@@ -228,7 +232,7 @@ struct Dust3rModel::Impl {
     o = Upsample2xAlignCorners(o);
     o = hd.head2.Chain(o);
     o.relu_();
-    o = ChainOut(hd.head4.Chain(o));  // head.4 holds fp32 weights: the raw output the exp() reads is fp32
+    o = hd.head4(o);  // fp32-exact weights and fp32 output: the raw output the exp() reads
     Tap(tp + "raw", o);
     return o;
   }

@@ -224,6 +224,28 @@ torch::Tensor Conv::Chain(const torch::Tensor& x) const {
 
 torch::Tensor ChainOut(const torch::Tensor& x) { return x.to(torch::kFloat32).contiguous(); }
 
+void PointwiseOut::Load(WeightStore& ws, const std::string& prefix, int64_t o, int64_t in, bool bias,
+                        const PrecisionPolicy& p) {
+  out = o;
+  conv.Load(ws, prefix, {o, in, 1, 1}, bias, 1, 0, false, PrecisionPolicy{});
+  if (!p.bf16 || !conv.w.device().is_cpu()) return;
+  const torch::Tensor w = conv.w.reshape({o, in});
+  const torch::Tensor hi = w.to(torch::kBFloat16).to(torch::kFloat32);
+  const torch::Tensor b = conv.b.defined() ? torch::cat({conv.b, torch::zeros_like(conv.b)}) : torch::Tensor();
+  packed = std::make_shared<PackedLinearBf16>(torch::cat({hi, w - hi}), b);
+  conv = Conv();  // held once, as the two bf16 parts
+}
+
+torch::Tensor PointwiseOut::operator()(const torch::Tensor& x) const {
+  if (!packed) return ChainOut(conv.Chain(x));
+  // Channels-last bf16 [B, C, H, W] is [B, H, W, C] in memory: rows of channels.
+  const torch::Tensor rows =
+      x.to(torch::kBFloat16, /*non_blocking=*/false, /*copy=*/false, torch::MemoryFormat::ChannelsLast)
+          .permute({0, 2, 3, 1});
+  const torch::Tensor y = (*packed)(rows);  // [B, H, W, 2·out] fp32
+  return (y.slice(3, 0, out) + y.slice(3, out, 2 * out)).permute({0, 3, 1, 2}).contiguous();
+}
+
 torch::Tensor Upsample2xAlignCorners(const torch::Tensor& x) {
   return torch::upsample_bilinear2d(x, {2 * x.size(2), 2 * x.size(3)}, /*align_corners=*/true);
 }

@@ -110,6 +110,20 @@ struct Conv {
 // A chain's activation back in fp32, contiguous (NCHW): the one conversion out.
 torch::Tensor ChainOut(const torch::Tensor& x);
 
+// The 1×1 convolution that ends a bf16 chain with fp32 output and fp32-exact weights (the DPT head's last layer:
+// its raw output feeds exp()). In bf16 on the CPU it reads the chain's bf16 channels-last activation as rows of
+// channels — a prepacked bf16 matmul whose weights are each split into two bf16 parts (hi + lo: 16 significant bits,
+// 2⁻¹⁷ relative, against 2⁻⁹ for plain bf16) and summed in fp32 — instead of converting the whole activation to an
+// fp32 copy (100 MB at 128 × 384 × 512) for an fp32 convolution. Otherwise the fp32 convolution. Output: fp32 NCHW,
+// contiguous.
+struct PointwiseOut {
+  Conv conv;                                 // fp32 weights (not bf16, or not on the CPU)
+  std::shared_ptr<PackedLinearBf16> packed;  // [hi; lo] rows, bias on the hi rows
+  int64_t out = 0;
+  void Load(WeightStore& ws, const std::string& prefix, int64_t out, int64_t in, bool bias, const PrecisionPolicy& p);
+  torch::Tensor operator()(const torch::Tensor& x) const;
+};
+
 // F.interpolate(x, scale_factor=2, mode='bilinear', align_corners=True).
 torch::Tensor Upsample2xAlignCorners(const torch::Tensor& x);
 
