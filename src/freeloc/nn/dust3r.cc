@@ -31,8 +31,8 @@ struct EncBlock {
   SelfAttention attn;
   Mlp mlp;
   torch::Tensor operator()(torch::Tensor x, const Rope& r, const PrecisionPolicy& p) const {
-    x = x + attn(n1(x), r, p);
-    return x + mlp(n2(x), p);
+    const torch::Tensor h = n2.AddForProducts(&x, attn(n1.ForProducts(x, p), r, p), p);
+    return x + mlp(h, p);
   }
 };
 
@@ -44,10 +44,10 @@ struct DecBlock {
   Mlp mlp;
   torch::Tensor operator()(torch::Tensor x, const torch::Tensor& y, const Rope& rx, const Rope& ry,
                            const PrecisionPolicy& p) const {
-    x = x + attn(n1(x), rx, p);
-    const torch::Tensor yn = ny(y);
-    x = x + cross(n2(x), yn, rx, ry, p);
-    return x + mlp(n3(x), p);
+    torch::Tensor h = n2.AddForProducts(&x, attn(n1.ForProducts(x, p), rx, p), p);
+    const torch::Tensor yn = ny.ForProducts(y, p);
+    h = n3.AddForProducts(&x, cross(h, yn, rx, ry, p), p);
+    return x + mlp(h, p);
   }
 };
 

@@ -46,18 +46,19 @@ struct VitBlock {
   torch::Tensor operator()(torch::Tensor x, const PrecisionPolicy& p) const {
     const int64_t B = x.size(0), T = x.size(1), C = x.size(2), hd = C / heads;
     const bool fused = UseFusedAttention(x.device());
-    const torch::Tensor t =
-        (fused ? qkv.ForProducts(n1(x), p) : qkv(n1(x), p)).reshape({B, T, 3, heads, hd}).permute({2, 0, 3, 1, 4});
+    const torch::Tensor t = (fused ? qkv.ForProducts(n1.ForProducts(x, p), p) : qkv(n1(x), p))
+                                .reshape({B, T, 3, heads, hd})
+                                .permute({2, 0, 3, 1, 4});
     const double scale = std::pow(static_cast<double>(hd), -0.5);
     const torch::Tensor a = fused ? FusedAttention(t[0], t[1], t[2], scale, {}, p.bf16).view({B, T, C})
                                   : ScaledDotProduct(t[0], t[1], t[2], scale, p).transpose(1, 2).reshape({B, T, C});
     x = torch::addcmul(x, ls1, proj(a, p));  // x + ls1·proj(a): one pass, the same roundings
     torch::Tensor h;
     if (swiglu) {
-      const auto ch = fc1(n2(x), p).chunk(2, -1);
+      const auto ch = fc1(n2.ForProducts(x, p), p).chunk(2, -1);
       h = torch::silu(ch[0]) * ch[1];
     } else {
-      h = fc1.Gelu(n2(x), p);  // bf16: GELU in the GEMM's epilogue, the hidden activations stay bf16
+      h = fc1.Gelu(n2.ForProducts(x, p), p);  // bf16: GELU in the GEMM's epilogue, the hidden activations stay bf16
     }
     return torch::addcmul(x, ls2, fc2(h, p));
   }

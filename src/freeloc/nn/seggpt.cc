@@ -169,7 +169,7 @@ struct SegGptModel::Impl {
     std::vector<torch::Tensor> feats;
     for (size_t idx = 0; idx < blocks.size(); ++idx) {
       const Block& b = blocks[idx];
-      torch::Tensor a = b.Attend(b.n1(x), prec);
+      torch::Tensor a = b.Attend(b.n1.ForProducts(x, prec), prec);
       if (ensemble) {
         // Block.forward feature ensemble on the attention output's query half: per stream up to merge_index,
         // over the whole batch afterwards.
@@ -186,8 +186,8 @@ struct SegGptModel::Impl {
         }
         a = torch::cat({top, bottom}, 1);
       }
-      x = x + a;
-      x = x + b.mlp(b.n2(x), prec);
+      const torch::Tensor h = b.n2.AddForProducts(&x, a, prec);
+      x = x + b.mlp(h, prec);
       if (idx == 0) Tap("block0_out", x);
       if (static_cast<int>(idx) == cfg.merge_index) {
         const int64_t images = one_image ? 1 : K;  // the image stream's items, then the K mask-stream items

@@ -40,6 +40,13 @@ struct LayerNorm {
   double eps = 1e-6;
   void Load(WeightStore& ws, const std::string& prefix, int64_t dim, double eps);
   torch::Tensor operator()(const torch::Tensor& x) const;
+  // For an output that only feeds bf16 products (the next layer runs prepacked bf16: p.bf16 on the CPU): the norm
+  // written in bf16 by one pass over x (fp32 statistics, round to nearest even — what the layer's own conversion
+  // would do), instead of an fp32 norm and a conversion; else operator().
+  torch::Tensor ForProducts(const torch::Tensor& x, const PrecisionPolicy& p) const;
+  // The residual step and the next norm in one pass: *x = *x + delta (a new tensor; the old one is left alone), and
+  // returns ForProducts(*x).
+  torch::Tensor AddForProducts(torch::Tensor* x, const torch::Tensor& delta, const PrecisionPolicy& p) const;
 };
 
 // croco/models/blocks.py Mlp: fc2(GELU_erf(fc1(x))).

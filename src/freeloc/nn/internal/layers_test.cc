@@ -110,5 +110,49 @@ TEST(Kernels, Rope2DMatchesTheReferenceFormula) {
   }
 }
 
+// The fused residual step + LayerNorm in bf16 (LayerNorm::AddForProducts / ForProducts) against a naive double
+// LayerNorm rounded to bf16: the sum exact, the norm within one bf16 step everywhere (and equal nearly everywhere),
+// odd widths and a NaN kept; without bf16 (or with a bf16 input) the plain fp32 path.
+TEST(Kernels, FusedAddLayerNormInBf16MatchesTheNaiveNorm) {
+  torch::manual_seed(9);
+  PrecisionPolicy bf16;
+  bf16.bf16 = true;
+  for (const int64_t c : {1, 7, 16, 33, 768, 1031}) {
+    LayerNorm n;
+    n.w = torch::randn({c});
+    n.b = torch::randn({c});
+    n.eps = 1e-6;
+    const torch::Tensor x = torch::randn({2, 5, c}) * 3 + 1, d = torch::randn({2, 5, c});
+    torch::Tensor s = x;
+    const torch::Tensor y = n.AddForProducts(&s, d, bf16);
+    ASSERT_EQ(y.scalar_type(), torch::kBFloat16);
+    ASSERT_EQ(y.sizes(), x.sizes());
+    EXPECT_TRUE(torch::equal(s, x + d));
+    EXPECT_FALSE(s.is_same(x));  // a new tensor: the input is left alone
+    // Naive reference in double.
+    const torch::Tensor sd = (x + d).to(torch::kFloat64);
+    const torch::Tensor mean = sd.mean(-1, true), var = (sd - mean).pow(2).mean(-1, true);
+    const torch::Tensor ref = ((sd - mean) / (var + n.eps).sqrt() * n.w.to(torch::kFloat64) + n.b.to(torch::kFloat64));
+    const torch::Tensor err = (y.to(torch::kFloat64) - ref).abs();
+    // One bf16 step at the value's magnitude (2⁻⁷ relative), plus a little for the fp32 statistics.
+    EXPECT_TRUE((err <= ref.abs() * (1.0 / 128) + 1e-6).all().item<bool>()) << "c = " << c;
+    const torch::Tensor ref16 = ref.to(torch::kFloat32).to(torch::kBFloat16);
+    EXPECT_LE((y != ref16).sum().item<int64_t>(), std::max<int64_t>(1, y.numel() / 100)) << "c = " << c;
+    // ForProducts alone: the same norm of s.
+    EXPECT_TRUE(torch::equal(n.ForProducts(s, bf16), y));
+  }
+  // A NaN stays NaN; the fp32 policy gives torch's fp32 norm.
+  LayerNorm n;
+  n.w = torch::ones({8});
+  n.b = torch::zeros({8});
+  torch::Tensor x = torch::randn({1, 8});
+  x[0][3] = std::nan("");
+  EXPECT_TRUE(torch::isnan(n.ForProducts(x, bf16).to(torch::kFloat32)).all().item<bool>());
+  const torch::Tensor xf = torch::randn({3, 8});
+  const torch::Tensor yf = n.ForProducts(xf, PrecisionPolicy{});
+  EXPECT_EQ(yf.scalar_type(), torch::kFloat32);
+  EXPECT_TRUE(torch::allclose(yf, torch::layer_norm(xf, {8}, n.w, n.b, n.eps)));
+}
+
 }  // namespace
 }  // namespace freeloc::nn::internal
