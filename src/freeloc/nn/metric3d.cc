@@ -50,8 +50,10 @@ struct VitBlock {
                                 .reshape({B, T, 3, heads, hd})
                                 .permute({2, 0, 3, 1, 4});
     const double scale = std::pow(static_cast<double>(hd), -0.5);
-    const torch::Tensor a = fused ? FusedAttention(t[0], t[1], t[2], scale, {}, p.bf16).view({B, T, C})
-                                  : ScaledDotProduct(t[0], t[1], t[2], scale, p).transpose(1, 2).reshape({B, T, C});
+    const torch::Tensor a =
+        fused ? FusedAttention(t[0], t[1], t[2], scale, {}, p.bf16, AttentionIsa::kAuto, proj.TakesBf16(p))
+                    .view({B, T, C})
+              : ScaledDotProduct(t[0], t[1], t[2], scale, p).transpose(1, 2).reshape({B, T, C});
     x = torch::addcmul(x, ls1, proj(a, p));  // x + ls1·proj(a): one pass, the same roundings
     torch::Tensor h;
     if (swiglu) {

@@ -94,7 +94,9 @@ struct Block {
       }
       e.rel_by_offset = true;
       e.rel_key_w = W;
-      return proj(FusedAttention(t[0], t[1], t[2], scale, e, p.bf16).view({B, H, W, C}), p);
+      return proj(
+          FusedAttention(t[0], t[1], t[2], scale, e, p.bf16, AttentionIsa::kAuto, proj.TakesBf16(p)).view({B, H, W, C}),
+          p);
     }
     const torch::Tensor Rh = GetRelPos(H, H, rel_h), Rw = GetRelPos(W, W, rel_w);
     const torch::Tensor t =

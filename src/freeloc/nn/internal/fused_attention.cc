@@ -80,7 +80,7 @@ AttentionIsa AutoAttentionIsa(bool bf16) {
 }
 
 torch::Tensor FusedAttention(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
-                             const AttentionExtras& x, bool bf16, AttentionIsa isa) {
+                             const AttentionExtras& x, bool bf16, AttentionIsa isa, bool bf16_out) {
   FREELOC_CHECK(q.dim() == 4 && k.dim() == 4 && v.dim() == 4, "fused attention: q, k, v must be [B, H, N, D]");
   FREELOC_CHECK(q.device().is_cpu() && k.device().is_cpu() && v.device().is_cpu(), "fused attention: CPU tensors only");
   const auto dtype = q.scalar_type();
@@ -101,7 +101,7 @@ torch::Tensor FusedAttention(const torch::Tensor& q, const torch::Tensor& k, con
                 "fused attention: head dims " << p.D << ", " << p.Dv << " outside 1…1024");
   FREELOC_CHECK(q.stride(3) == 1 && k.stride(3) == 1 && v.stride(3) == 1,
                 "fused attention: the last dim of q, k, v must be contiguous");
-  torch::Tensor out = torch::empty({p.B, p.Nq, p.H, p.Dv}, torch::kFloat32);
+  torch::Tensor out = torch::empty({p.B, p.Nq, p.H, p.Dv}, bf16_out ? torch::kBFloat16 : torch::kFloat32);
   if (out.numel() == 0) return out;
   if (p.Nk == 0) return out.zero_();
   p.q = q.data_ptr();
@@ -162,7 +162,11 @@ torch::Tensor FusedAttention(const torch::Tensor& q, const torch::Tensor& k, con
     mask = x.mask.to(torch::kFloat32).contiguous();
     p.mask = mask.data_ptr<float>();
   }
-  p.out = out.data_ptr<float>();
+  if (bf16_out) {
+    p.out_bf16 = reinterpret_cast<uint16_t*>(out.data_ptr());
+  } else {
+    p.out = out.data_ptr<float>();
+  }
   if (isa == AttentionIsa::kAuto) isa = AutoAttentionIsa(bf16);
   FREELOC_CHECK(AttentionIsaAvailable(isa),
                 "fused attention: this CPU cannot run the " << AttentionIsaName(isa) << " kernel");

@@ -45,9 +45,11 @@ const char* AttentionIsaName(AttentionIsa isa);
 AttentionIsa AutoAttentionIsa(bool bf16);
 
 // q [B,H,Nq,D], k [B,H,Nk,D], v [B,H,Nk,Dv]: CPU, fp32 or bf16 (all three alike), any strides with a contiguous last
-// dim (views into a fused qkv projection need no copy). Returns [B, Nq, H, Dv] fp32 — the output projection's input.
+// dim (views into a fused qkv projection need no copy). Returns [B, Nq, H, Dv] fp32 — the output projection's input —
+// or with `bf16_out` the same values rounded to bf16 (for a bf16 projection: its own conversion, one pass less).
 // D, Dv ≤ 1024; with RoPE D % 4 == 0. Throws freeloc::Error on shapes it cannot take.
 torch::Tensor FusedAttention(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v, double scale,
-                             const AttentionExtras& extras, bool bf16, AttentionIsa isa = AttentionIsa::kAuto);
+                             const AttentionExtras& extras, bool bf16, AttentionIsa isa = AttentionIsa::kAuto,
+                             bool bf16_out = false);
 
 }  // namespace freeloc::nn::internal

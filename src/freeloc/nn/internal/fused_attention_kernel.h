@@ -32,6 +32,8 @@ struct Problem {
   // gives zeros.
   const float* mask = nullptr;
   float* out = nullptr;  // [B][Nq][H][Dv] fp32: the output projection's input without a transpose
+  // Instead of `out`: the same values rounded to bf16 (nearest even), for a bf16 output projection.
+  uint16_t* out_bf16 = nullptr;
 };
 
 // The blocking every entry uses; the buffers below are sized from it.

@@ -218,6 +218,28 @@ TEST(FusedAttention, RelativeTermsByOffsetAreThePerPairTerms) {
   EXPECT_THROW(FusedAttention(q6, q6, q6, 1.0, bad, false), Error);
 }
 
+// bf16 output: exactly the fp32 output rounded to bf16 (nearest even, as torch's conversion), every kernel, with an
+// odd head dim and a masked row (zeros).
+TEST(FusedAttention, Bf16OutputIsTheFp32OutputRounded) {
+  uint64_t seed = 300;
+  for (AttentionIsa isa : Kernels())
+    for (const int64_t Dv : {8, 13, 64}) {
+      SCOPED_TRACE(::testing::Message() << AttentionIsaName(isa) << " Dv " << Dv);
+      torch::manual_seed(seed++);
+      const torch::Tensor q = torch::randn({2, 3, 70, 16}), k = torch::randn({2, 3, 131, 16}),
+                          v = torch::randn({2, 3, 131, Dv}) * 5;
+      AttentionExtras x;
+      x.mask = torch::zeros({70, 131});
+      x.mask[4].fill_(-INFINITY);
+      const bool bf16 = isa == AttentionIsa::kAvx512Bf16;
+      const torch::Tensor f = FusedAttention(q, k, v, 0.25, x, bf16, isa);
+      const torch::Tensor h = FusedAttention(q, k, v, 0.25, x, bf16, isa, /*bf16_out=*/true);
+      ASSERT_EQ(h.scalar_type(), torch::kBFloat16);
+      ASSERT_EQ(h.sizes(), f.sizes());
+      EXPECT_TRUE(torch::equal(h, f.to(torch::kBFloat16)));
+    }
+}
+
 // The auto choice runs bf16 products only where the CPU has them, and every CPU gets some kernel.
 TEST(FusedAttention, AutoPicksARunnableKernel) {
   EXPECT_TRUE(AttentionIsaAvailable(AutoAttentionIsa(false)));

@@ -230,7 +230,8 @@ torch::Tensor SelfAttention::operator()(const torch::Tensor& x, const std::pair<
     const torch::Tensor t = qkv.ForProducts(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});
     AttentionExtras e;
     e.rope_q = e.rope_k = &rope;
-    return proj(FusedAttention(t[0], t[1], t[2], scale, e, p.bf16).view({B, N, C}), p);
+    return proj(
+        FusedAttention(t[0], t[1], t[2], scale, e, p.bf16, AttentionIsa::kAuto, proj.TakesBf16(p)).view({B, N, C}), p);
   }
   const torch::Tensor t = qkv(x, p).reshape({B, N, 3, heads, dh}).permute({2, 0, 3, 1, 4});  // 3,B,H,N,dh
   const torch::Tensor q = Rope2D::Apply(t[0], rope), k = Rope2D::Apply(t[1], rope);
@@ -260,7 +261,8 @@ torch::Tensor CrossAttention::operator()(const torch::Tensor& x, const torch::Te
     AttentionExtras e;
     e.rope_q = &rope_x;
     e.rope_k = &rope_y;
-    return proj(FusedAttention(qq, kk, vv, scale, e, p.bf16).view({B, Nq, C}), p);
+    return proj(FusedAttention(qq, kk, vv, scale, e, p.bf16, AttentionIsa::kAuto, proj.TakesBf16(p)).view({B, Nq, C}),
+                p);
   }
   const torch::Tensor qq = q(x, p).reshape({B, Nq, heads, dh}).transpose(1, 2);
   const torch::Tensor kk = k(y, p).reshape({B, Nk, heads, dh}).transpose(1, 2);

@@ -32,6 +32,8 @@ struct Linear {
   // GELU_erf(this(x)): in bf16 from the prepacked layer's fused epilogue (bf16 output, which a following bf16 layer
   // reads as is), else GELU of operator().
   torch::Tensor Gelu(const torch::Tensor& x, const PrecisionPolicy& p) const;
+  // Whether this layer reads a bf16 input as is (prepacked bf16): a producer may then write bf16 for it.
+  bool TakesBf16(const PrecisionPolicy& p) const { return p.bf16 && packed != nullptr; }
 };
 
 // torch.nn.LayerNorm over the last dimension (biased variance).
