@@ -216,6 +216,26 @@ TEST(RelativePoseSafety, RandomDenseSetsGiveUpAfterTheSamplesThatWouldFindAFifth
   }
 }
 
+// A solvable set under the dense rule (sequential test + give-up from `sprt_min_data` matches) against the plain
+// search: both refine on the same inlier set, so the same pose to well below the noise (within `same_deg`, and
+// `truth_deg` of the truth), nearly the same support (`inlier_share`), and the test drops most hypotheses early (no
+// more samples than the plain search, give or take).
+void ExpectThePlainSearchsAnswer(const TwoView& tv, int sprt_min_data, double truth_deg, double same_deg,
+                                 double inlier_share) {
+  RelativePoseOptions rule, plain;
+  rule.ransac.sprt_min_data = sprt_min_data;
+  plain.ransac.sprt_min_data = 0;
+  const RelativePoseResult a = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, rule);
+  const RelativePoseResult b = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, plain);
+  ASSERT_TRUE(a.status.success()) << ToString(a.status.outcome);
+  ASSERT_TRUE(b.status.success()) << ToString(b.status.outcome);
+  EXPECT_EQ(a.status.stop, RansacStop::kConfidence);
+  EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, tv.truth.rotation), truth_deg);
+  EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, b.query_from_ref.rotation), same_deg);
+  EXPECT_NEAR(a.status.num_inliers, b.status.num_inliers, inlier_share * b.status.num_inliers);
+  EXPECT_LE(a.status.iterations, b.status.iterations * 1.1 + 60);
+}
+
 // The dense rule on a sparse set (sprt_min_data = 1: the hybrid route's essential guard, pipeline/stages.cc): 500
 // random matches stop at the same give-up bound, and a solvable 500-match set gives the plain search's answer.
 TEST(RelativePoseSafety, TheDenseRuleOnASparseSetGivesUpAtTheSameBound) {
@@ -230,35 +250,12 @@ TEST(RelativePoseSafety, TheDenseRuleOnASparseSetGivesUpAtTheSameBound) {
         << ToString(r.status.stop);
     EXPECT_LE(r.status.iterations, static_cast<int>(RequiredIterations(100, 500, 5, o.ransac.give_up_prob, 0.9)) + 1);
   }
-  const TwoView tv = MakeTwoView(45, 500, 0.5);
-  RelativePoseOptions rule, plain;
-  rule.ransac.sprt_min_data = 1;
-  const RelativePoseResult a = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, rule);
-  const RelativePoseResult b = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, plain);
-  ASSERT_TRUE(a.status.success()) << ToString(a.status.outcome);
-  ASSERT_TRUE(b.status.success()) << ToString(b.status.outcome);
-  EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, tv.truth.rotation), 0.3);
-  EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, b.query_from_ref.rotation), 0.05);
-  EXPECT_NEAR(a.status.num_inliers, b.status.num_inliers, 3);
+  ExpectThePlainSearchsAnswer(MakeTwoView(45, 500, 0.5), /*sprt_min_data=*/1, 0.3, 0.05, 0.012);
 }
 
 TEST(RelativePose, DenseSetsGiveThePlainSearchsAnswer) {
-  for (const double outliers : {0.3, 0.7}) {
-    const TwoView tv = MakeTwoView(51, 20000, outliers);
-    RelativePoseOptions dense, plain;
-    plain.ransac.sprt_min_data = 0;
-    const RelativePoseResult a = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, dense);
-    const RelativePoseResult b = EstimateRelativePose(tv.p1, tv.p2, tv.ref, tv.query, plain);
-    ASSERT_TRUE(a.status.success()) << ToString(a.status.outcome);
-    ASSERT_TRUE(b.status.success()) << ToString(b.status.outcome);
-    EXPECT_EQ(a.status.stop, RansacStop::kConfidence);
-    // Both refine on the same inlier set: the same pose to well below the noise, nearly the same support.
-    EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, tv.truth.rotation), 0.1);
-    EXPECT_LT(RotationAngleDeg(a.query_from_ref.rotation, b.query_from_ref.rotation), 0.01);
-    EXPECT_NEAR(a.status.num_inliers, b.status.num_inliers, 0.005 * b.status.num_inliers);
-    // The test drops most hypotheses early: far fewer full scorings (local optimisations run only on new bests).
-    EXPECT_LE(a.status.iterations, b.status.iterations * 1.1 + 60);
-  }
+  for (const double outliers : {0.3, 0.7})
+    ExpectThePlainSearchsAnswer(MakeTwoView(51, 20000, outliers), /*sprt_min_data=*/2000, 0.1, 0.01, 0.005);
 }
 
 // A few hundred random matches (what random-weight descriptor matchers give): RANSAC's search selects a model with
