@@ -78,6 +78,7 @@ matching::PairPointmaps CachingDust3r::RunSwappedLast() {
   only1.view2 = false;
   only1.descriptors = false;
   matching::PairPointmaps pm;
+  nn::BeginNetworkPass(model_.get());
   {
     const nn::Dust3rPrediction p = model_->Decode(*std::static_pointer_cast<const Enc>(last_query_),
                                                   *std::static_pointer_cast<const Enc>(last_ref_), only1);
@@ -86,7 +87,7 @@ matching::PairPointmaps CachingDust3r::RunSwappedLast() {
   }
   pm.h1 = last_h_;
   pm.w1 = last_w_;
-  nn::ReleaseFreedMemory();  // as after Run, once the prediction's tensors are gone
+  nn::ReleaseFreedMemory(model_.get());  // as after Run, once the prediction's tensors are gone
   return pm;
 }
 
@@ -110,6 +111,7 @@ const CachingDust3r::Entry* CachingDust3r::Cached(const vision::Dust3rInput& a) 
     e->h = a.height();
     e->w = a.width();
     e->data = a.normalized;
+    nn::BeginNetworkPass(model_.get());
     e->encoding = model_->Encode(ViewOf(a));
     hit = e.get();
     entries_.push_back(std::move(e));
@@ -119,6 +121,7 @@ const CachingDust3r::Entry* CachingDust3r::Cached(const vision::Dust3rInput& a) 
 }
 
 matching::PairPointmaps CachingDust3r::Run(const vision::Dust3rInput& a, const vision::Dust3rInput& b) {
+  nn::BeginNetworkPass(model_.get());
   const Entry* hit = Cached(a);
   // (reference, reference), as for the instance proposals: the query side is that same encoding.
   const auto query = &a == &b ? hit->encoding : model_->Encode(ViewOf(b));
@@ -128,8 +131,8 @@ matching::PairPointmaps CachingDust3r::Run(const vision::Dust3rInput& a, const v
   last_w_ = b.width();
   matching::PairPointmaps pm = ToHost(model_->Decode(*hit->encoding, *query, Outputs(descriptors_)), a, b);
   // The pass's freed activations back to the system (nn::ReleaseFreedMemory): glibc would keep them as fragmented
-  // free space in its heap, resident between queries.
-  nn::ReleaseFreedMemory();
+  // free space in its heap, resident between queries. The tensor pool keeps its cache for this model's next pass.
+  nn::ReleaseFreedMemory(model_.get());
   return pm;
 }
 

@@ -204,8 +204,9 @@ class Dust3rMatcher : public Matcher {
           if (id == idr) pairs.push_back({id, mr, mq});
       return pairs;
     }
+    nn::BeginNetworkPass(seggpt_.get());
     const auto props = nn::InstanceSegmenter(seggpt_, o_.instances.segmenter).Propagate(ref_, ref_masks_, query);
-    nn::ReleaseFreedMemory();  // as after each pair pass (CachingDust3r::Run)
+    nn::ReleaseFreedMemory(seggpt_.get());  // as after each pair pass (CachingDust3r::Run)
     for (size_t i = 0; i < props.size(); ++i)
       if (props[i].kept) pairs.push_back({props[i].id, ref_masks_[i].second, props[i].query_mask});
     return pairs;
@@ -257,8 +258,9 @@ class Metric3dDepth : public DepthEstimator {
   explicit Metric3dDepth(std::shared_ptr<nn::Metric3dModel> m) : model_(std::move(m)) {}
   DepthMap Depth(const Image& image, const Camera& camera, DepthMap) override {
     ++passes_;
+    nn::BeginNetworkPass(model_.get());
     DepthMap d = model_->Estimate(image, camera).depth;
-    nn::ReleaseFreedMemory();  // as after each pair pass (CachingDust3r::Run)
+    nn::ReleaseFreedMemory(model_.get());  // as after each pair pass (CachingDust3r::Run)
     return d;
   }
   void AddStats(CacheStats* s) const override { s->depth_estimates = passes_; }

@@ -79,6 +79,18 @@ bool TensorPool::Owns(void* p) const {
 void TensorPool::Trim() {
   std::lock_guard<std::mutex> lock(mu_);
   EvictOver(0);
+  owner_ = nullptr;
+}
+
+void TensorPool::Keep(const void* owner) {
+  std::lock_guard<std::mutex> lock(mu_);
+  owner_ = owner;
+}
+
+void TensorPool::Claim(const void* owner) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (owner_ != owner) EvictOver(0);
+  owner_ = owner;
 }
 
 TensorPoolStats TensorPool::Stats() const {

@@ -40,6 +40,12 @@ class TensorPool {
   bool Owns(void* p) const;
   // Unmaps every free block.
   void Trim();
+  // The free blocks belong to `owner` (a model whose pass just ended) and stay cached for its next pass: a pass of the
+  // same network asks for the same sizes, served without page faults.
+  void Keep(const void* owner);
+  // A pass of `owner` begins: the cache is unmapped first if another owner left it (its sizes would sit idle beside
+  // the blocks this pass maps — the peak grows), kept if it is this owner's.
+  void Claim(const void* owner);
   TensorPoolStats Stats() const;
 
  private:
@@ -55,7 +61,8 @@ class TensorPool {
   mutable std::mutex mu_;
   std::unordered_map<void*, Block> blocks_;  // every mapped block
   std::multimap<size_t, void*> free_by_size_;
-  std::list<void*> free_lru_;  // most recently freed first
+  std::list<void*> free_lru_;    // most recently freed first
+  const void* owner_ = nullptr;  // whose blocks the cache holds (Keep / Claim); null: nobody's
   TensorPoolStats stats_;
 };
 

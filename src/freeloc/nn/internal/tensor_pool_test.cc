@@ -53,6 +53,36 @@ TEST(TensorPool, KeepsFreeBlocksUnderItsCapAndTrimsThemAll) {
   EXPECT_FALSE(pool.Owns(p[4]));
 }
 
+// Between passes: the cache kept for its owner's next pass (the same sizes come back as hits, no new mappings), and
+// unmapped as soon as another owner's pass begins — or by Trim.
+TEST(TensorPool, KeepsItsCacheForTheSameOwnersNextPassOnly) {
+  TensorPool pool(kMiB, 16 * kMiB);
+  int a = 0, b = 0;  // two "models"
+  const auto pass = [&](const void* owner) {
+    pool.Claim(owner);
+    void* x = pool.Allocate(4 * kMiB);
+    void* y = pool.Allocate(6 * kMiB);
+    pool.Free(x);
+    pool.Free(y);
+    pool.Keep(owner);
+  };
+  pass(&a);
+  EXPECT_EQ(pool.Stats().misses, 2u);
+  EXPECT_EQ(pool.Stats().cached_bytes, 10 * kMiB);
+  pass(&a);  // the same model again: served from the cache
+  EXPECT_EQ(pool.Stats().misses, 2u);
+  EXPECT_EQ(pool.Stats().hits, 2u);
+  pool.Claim(&b);  // another model begins: the cache goes first
+  EXPECT_EQ(pool.Stats().cached_bytes, 0u);
+  pass(&b);
+  EXPECT_EQ(pool.Stats().misses, 4u);
+  EXPECT_EQ(pool.Stats().peak_bytes, 10 * kMiB);  // never a's and b's blocks at once
+  pool.Trim();
+  EXPECT_EQ(pool.Stats().cached_bytes, 0u);
+  pool.Claim(&b);  // after a trim nobody's blocks are cached; nothing to hand back
+  EXPECT_EQ(pool.Stats().cached_bytes, 0u);
+}
+
 TEST(TensorPool, RefusesAnImpossibleSize) {
   TensorPool pool(kMiB, 8 * kMiB);
   EXPECT_THROW(pool.Allocate(SIZE_MAX - 10), std::bad_alloc);

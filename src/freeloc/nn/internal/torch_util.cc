@@ -25,6 +25,19 @@ void ReleaseFreedMemory() {
 #endif
 }
 
+void ReleaseFreedMemory(const void* model) {
+  if (internal::TensorPool* pool = internal::InstalledTensorPool()) {
+    pool->Keep(model);
+  }
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
+}
+
+void BeginNetworkPass(const void* model) {
+  if (internal::TensorPool* pool = internal::InstalledTensorPool()) pool->Claim(model);
+}
+
 namespace internal {
 
 torch::Tensor ToTorch(const io::TensorView& t) {
