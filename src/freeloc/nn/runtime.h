@@ -31,12 +31,12 @@ bool CudaAvailable();
 // a bf16 seed query's peak went 4.7 -> 4.3 GB, and 2.9 instead of 4.4 GB stays resident between queries, at no
 // measurable cost in time).
 void ReleaseFreedMemory();
-// The same after a pass of `model`, except that the tensor pool's cache of free blocks (≤ 256 MiB) stays for that
-// model's next pass (the same sizes again: no page faults — first-touch faults cost ≈ 0.4 ms per MB on a VM). It goes
+// After a pass of `model`: the tensor pool's cache of free blocks (≤ 256 MiB) and glibc's freed chunks stay for that
+// model's next pass (the same sizes again: no page faults — first-touch faults cost ≈ 0.4 ms per MB on a VM). They go
 // back when another model's pass begins (BeginNetworkPass) or at the next ReleaseFreedMemory().
 void ReleaseFreedMemory(const void* model);
-// Before a network pass of `model`: the pool's cache goes back first if another model left it, so a query's peak is
-// what it was with every pass trimmed.
+// Before a network pass of `model`: what another model left (the pool's cache, glibc's freed chunks) goes back
+// first, so a query's peak is what it was with every pass trimmed.
 void BeginNetworkPass(const void* model);
 
 }  // namespace freeloc::nn

@@ -87,10 +87,12 @@ void TensorPool::Keep(const void* owner) {
   owner_ = owner;
 }
 
-void TensorPool::Claim(const void* owner) {
+bool TensorPool::Claim(const void* owner) {
   std::lock_guard<std::mutex> lock(mu_);
-  if (owner_ != owner) EvictOver(0);
+  const bool changed = owner_ != owner;
+  if (changed) EvictOver(0);
   owner_ = owner;
+  return changed;
 }
 
 TensorPoolStats TensorPool::Stats() const {

@@ -44,8 +44,8 @@ class TensorPool {
   // same network asks for the same sizes, served without page faults.
   void Keep(const void* owner);
   // A pass of `owner` begins: the cache is unmapped first if another owner left it (its sizes would sit idle beside
-  // the blocks this pass maps — the peak grows), kept if it is this owner's.
-  void Claim(const void* owner);
+  // the blocks this pass maps — the peak grows), kept if it is this owner's. Returns whether the owner changed.
+  bool Claim(const void* owner);
   TensorPoolStats Stats() const;
 
  private:
