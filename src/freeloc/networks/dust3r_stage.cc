@@ -91,7 +91,10 @@ matching::PairPointmaps CachingDust3r::RunSwappedLast() {
   return pm;
 }
 
-void CachingDust3r::Prime(const vision::Dust3rInput& ref) { Cached(ref); }
+void CachingDust3r::Prime(const vision::Dust3rInput& ref) {
+  nn::BeginNetworkPass(model_.get());
+  Cached(ref);
+}
 
 const CachingDust3r::Entry* CachingDust3r::Cached(const vision::Dust3rInput& a) {
   const size_t bytes = a.normalized.size() * sizeof(float);
@@ -111,7 +114,6 @@ const CachingDust3r::Entry* CachingDust3r::Cached(const vision::Dust3rInput& a) 
     e->h = a.height();
     e->w = a.width();
     e->data = a.normalized;
-    nn::BeginNetworkPass(model_.get());
     e->encoding = model_->Encode(ViewOf(a));
     hit = e.get();
     entries_.push_back(std::move(e));
