@@ -31,7 +31,7 @@ bool CudaAvailable();
 // a bf16 seed query's peak went 4.7 -> 4.3 GB, and 2.9 instead of 4.4 GB stays resident between queries, at no
 // measurable cost in time).
 void ReleaseFreedMemory();
-// After a pass of `model`: the tensor pool's cache of free blocks (≤ 256 MiB) and glibc's freed chunks stay for that
+// After a pass of `model`: the tensor pool's cache of free blocks (≤ 384 MiB) and glibc's freed chunks stay for that
 // model's next pass (the same sizes again: no page faults — first-touch faults cost ≈ 0.4 ms per MB on a VM). They go
 // back when another model's pass begins (BeginNetworkPass) or at the next ReleaseFreedMemory().
 void ReleaseFreedMemory(const void* model);

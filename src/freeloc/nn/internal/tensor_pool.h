@@ -17,17 +17,23 @@
 namespace freeloc::nn::internal {
 
 struct TensorPoolStats {
-  size_t live_bytes = 0;    // in blocks handed out
-  size_t cached_bytes = 0;  // in free blocks kept for reuse
-  size_t peak_bytes = 0;    // the most live + cached at once
+  size_t live_bytes = 0;       // in blocks handed out
+  size_t cached_bytes = 0;     // in free blocks kept for reuse
+  size_t peak_bytes = 0;       // the most live + cached at once
+  size_t peak_live_bytes = 0;  // the most live at once
   uint64_t hits = 0, misses = 0;
 };
 
 class TensorPool {
  public:
   // Requests below `min_bytes` are not the pool's (Owns() is false for them: the caller's other allocator serves
-  // them); free blocks beyond `cache_cap_bytes` are unmapped.
-  TensorPool(size_t min_bytes, size_t cache_cap_bytes);
+  // them); free blocks beyond `cache_cap_bytes` are unmapped. `idle_slack_bytes` bounds what idle blocks may add to
+  // the pool's footprint: before a block is mapped, cached blocks are unmapped (least recently freed first) until
+  // live + cached + the new block ≤ the high-water mark of live bytes + idle_slack_bytes. The pool's peak is then at
+  // most the live high-water mark + idle_slack_bytes whatever the cap, so the cap can be large enough for a whole
+  // pass of the same network to be served from its previous pass's blocks without idle blocks raising the peak of
+  // a pass whose sizes they do not fit. SIZE_MAX: no such bound.
+  TensorPool(size_t min_bytes, size_t cache_cap_bytes, size_t idle_slack_bytes = SIZE_MAX);
   ~TensorPool();
   TensorPool(const TensorPool&) = delete;
   TensorPool& operator=(const TensorPool&) = delete;
@@ -57,7 +63,7 @@ class TensorPool {
   };
   void EvictOver(size_t cap);  // mu_ held
 
-  const size_t min_bytes_, cap_;
+  const size_t min_bytes_, cap_, slack_;
   mutable std::mutex mu_;
   std::unordered_map<void*, Block> blocks_;  // every mapped block
   std::multimap<size_t, void*> free_by_size_;
@@ -66,7 +72,8 @@ class TensorPool {
   TensorPoolStats stats_;
 };
 
-// The process's pool behind LibTorch's CPU allocator (tensors of 1 MiB and more; a 256 MiB cache of free blocks).
+// The process's pool behind LibTorch's CPU allocator (tensors of 1 MiB and more; a cache of free blocks up to 384 MiB,
+// idle blocks at most 192 MiB beyond the live high-water mark).
 // Installed once, by ApplyRuntime for CPU models; FREELOC_TENSOR_POOL=off leaves LibTorch's allocator alone.
 TensorPool* InstalledTensorPool();  // null until installed
 void InstallTensorPool();
