@@ -176,12 +176,15 @@ torch::Tensor FusedAttention(const torch::Tensor& q, const torch::Tensor& k, con
   // Visible to LibTorch's profiler and FLOP counters (bench/bench_torch.h) like the matmuls it replaces.
   RECORD_FUNCTION("freeloc::fused_attention", std::vector<c10::IValue>({q, k, v}));
   const int64_t BH = p.B * p.H, qblocks = (p.Nq + ak::kQueryBlock - 1) / ak::kQueryBlock;
-  // Uninitialised: pack() zeroes what it packs into, run() writes its scratch before reading it.
-  const std::unique_ptr<float[]> kv(new float[static_cast<size_t>(BH * (L.packed_k_words + L.packed_v_words))]);
-  at::parallel_for(0, BH, 1, [&](int64_t b0, int64_t b1) { entry.pack(p, L, b0, b1, kv.get()); });
+  // Uninitialised: pack() zeroes what it packs into, run() writes its scratch before reading it. A tensor, so that
+  // the packed K and V (megabytes, every call) come from LibTorch's allocator — the tensor pool during a network pass,
+  // which hands back the previous call's block already mapped — rather than pages faulted in anew each call.
+  const torch::Tensor kv_buffer = torch::empty({BH * (L.packed_k_words + L.packed_v_words)}, torch::kFloat32);
+  float* const kv = kv_buffer.data_ptr<float>();
+  at::parallel_for(0, BH, 1, [&](int64_t b0, int64_t b1) { entry.pack(p, L, b0, b1, kv); });
   at::parallel_for(0, BH * qblocks, 1, [&](int64_t i0, int64_t i1) {
     const std::unique_ptr<float[]> scratch(new float[static_cast<size_t>(L.scratch_words)]);
-    entry.run(p, L, kv.get(), i0, i1, scratch.get());
+    entry.run(p, L, kv, i0, i1, scratch.get());
   });
   return out;
 }

@@ -161,6 +161,7 @@ TEST(FusedAttention, EveryKernelMatchesTheNaiveReference) {
       {2, 1, 40, 75, 12, 12, false, true, /*mask=*/true},
       {1, 2, 70, 70, 64, 64, true, false, false, /*strided=*/true},
       {1, 3, 33, 33, 20, 20, false, false, false, true, /*bf16_inputs=*/true},
+      {2, 2, 41, 129, 24, 17, false, false, false, false, true},  // bf16 V packed in key pairs: an odd Nk and Dv
       {1, 2, 80, 300, 64, 64, false, false, false, false, false, /*q_gain=*/6},
       {1, 1, 20, 1100, 8, 16, false, false, true},
   };
