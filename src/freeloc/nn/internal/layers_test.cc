@@ -154,5 +154,44 @@ TEST(Kernels, FusedAddLayerNormInBf16MatchesTheNaiveNorm) {
   EXPECT_TRUE(torch::allclose(yf, torch::layer_norm(xf, {8}, n.w, n.b, n.eps)));
 }
 
+// The DPT heads' ×2 upsampling (align_corners) on channels-last maps is freeloc's own kernel: LibTorch's values up to
+// fp32 rounding (the same source indices and lambdas, the four terms summed in another order) and, in bf16, up to one
+// step of the rounding on a few values; anything else goes to LibTorch's op unchanged.
+TEST(Kernels, Upsample2xAlignCornersMatchesLibTorchsOp) {
+  torch::manual_seed(11);
+  const std::vector<std::vector<int64_t>> shapes = {{2, 37, 5, 7}, {1, 128, 12, 16}, {1, 3, 1, 9}, {1, 16, 6, 1}};
+  for (const auto& shape : shapes) {
+    SCOPED_TRACE(::testing::Message() << torch::IntArrayRef(shape));
+    const torch::Tensor x = torch::randn(shape).contiguous(torch::MemoryFormat::ChannelsLast);
+    const std::vector<int64_t> size = {2 * shape[2], 2 * shape[3]};
+    const torch::Tensor ref = torch::upsample_bilinear2d(x.contiguous(), size, true);
+    const torch::Tensor y = Upsample2xAlignCorners(x);
+    EXPECT_TRUE(y.is_contiguous(torch::MemoryFormat::ChannelsLast));
+    ASSERT_EQ(y.sizes(), ref.sizes());
+    EXPECT_LE((y - ref).abs().max().item<float>(), 1e-6f * (1.0f + ref.abs().max().item<float>()));
+    // bf16: fp32 arithmetic and one rounding — the fp32 op on the bf16 input, rounded (a bf16 step apart at most, on
+    // the few values where the order of the four terms decides the rounding) — where LibTorch 1.13's bf16 op rounds its
+    // weights and every product to bf16: never further from the fp32 values than that op.
+    const torch::Tensor xb = x.to(torch::kBFloat16);
+    const torch::Tensor exact = torch::upsample_bilinear2d(xb.to(torch::kFloat32).contiguous(), size, true);
+    const torch::Tensor yb = Upsample2xAlignCorners(xb);
+    ASSERT_EQ(yb.scalar_type(), torch::kBFloat16);
+    const torch::Tensor diff = (yb.to(torch::kFloat32) - exact.to(torch::kBFloat16).to(torch::kFloat32)).abs();
+    // (Near a cancellation the fp32 sums themselves differ by their rounding: 1e-6 absolute.)
+    EXPECT_TRUE((diff <= exact.abs() * (1.0 / 128) + 1e-6).all().item<bool>());
+    EXPECT_LE((diff > 0).to(torch::kFloat32).mean().item<float>(), 0.01f);
+    const torch::Tensor torch_bf16 = torch::upsample_bilinear2d(xb, size, true).to(torch::kFloat32);
+    EXPECT_LE((yb.to(torch::kFloat32) - exact).abs().max().item<float>(),
+              (torch_bf16 - exact).abs().max().item<float>());
+    // NCHW goes to LibTorch's op: bit for bit.
+    EXPECT_TRUE(torch::equal(Upsample2xAlignCorners(x.contiguous()), ref));
+  }
+  // A NaN stays a NaN in both precisions.
+  torch::Tensor n = torch::ones({1, 4, 3, 3}).contiguous(torch::MemoryFormat::ChannelsLast);
+  n.index_put_({0, 2, 1, 1}, NAN);
+  EXPECT_TRUE(Upsample2xAlignCorners(n).isnan().any().item<bool>());
+  EXPECT_TRUE(Upsample2xAlignCorners(n.to(torch::kBFloat16)).isnan().any().item<bool>());
+}
+
 }  // namespace
 }  // namespace freeloc::nn::internal
