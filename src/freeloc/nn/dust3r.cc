@@ -130,6 +130,17 @@ void LoadDptHead(WeightStore& ws, const Dust3rConfig& c, int h, const PrecisionP
   hd.head0.Load(ws, pre + "head.0", {c.dpt_head0_dim, F, 3, 3}, true, 1, 1, false, hp);
   hd.head2.Load(ws, pre + "head.2", {c.dpt_last_dim, c.dpt_head0_dim, 3, 3}, true, 1, 1, false, hp);
   hd.head4.Load(ws, pre + "head.4", c.dpt_channels, c.dpt_last_dim, true, hp);
+  // Every (non-transposed) convolution of the head runs through Chain.
+  for (int i = 0; i < 4; ++i) {
+    hd.act_proj[i].ForChains();
+    hd.act_resize[i].ForChains();
+    hd.layer_rn[i].ForChains();
+    for (Conv* cv : {&hd.refine[i].rcu1.c1, &hd.refine[i].rcu1.c2, &hd.refine[i].rcu2.c1, &hd.refine[i].rcu2.c2,
+                     &hd.refine[i].out})
+      cv->ForChains();
+  }
+  hd.head0.ForChains();
+  hd.head2.ForChains();
 }
 
 // load_model(): dec_blocks copied into dec_blocks2 when the checkpoint has none.

@@ -114,6 +114,10 @@ struct Conv {
   // 2.5× the fp32 rate on channels-last activations, and the chain converts once in and once out. With fp32 weights
   // (fp32 policy, transposed convolutions) it is operator() on an fp32 input.
   torch::Tensor Chain(const torch::Tensor& x) const;
+  // For a convolution that runs only through Chain: its bf16 weights are kept channels-last, the layout oneDNN's
+  // channels-last kernels read (LibTorch otherwise copies them into it at every call: 17 ms of a MASt3R query).
+  // Not for one that operator() runs on NCHW inputs: channels-last weights take LibTorch's input into that layout.
+  void ForChains();
 };
 
 // A chain's activation back in fp32, contiguous (NCHW): the one conversion out.

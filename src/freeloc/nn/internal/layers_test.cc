@@ -193,5 +193,36 @@ TEST(Kernels, Upsample2xAlignCornersMatchesLibTorchsOp) {
   EXPECT_TRUE(Upsample2xAlignCorners(n.to(torch::kBFloat16)).isnan().any().item<bool>());
 }
 
+// A transposed convolution whose kernel is its stride is one matmul and a rearrangement: LibTorch's
+// conv_transpose2d's values up to fp32 rounding, on odd sizes, with and without bias; other transposed convolutions
+// (overlapping windows, padding) are LibTorch's op itself.
+TEST(Kernels, NonOverlappingTransposedConvolutionIsLibTorchs) {
+  torch::manual_seed(5);
+  struct C {
+    int64_t B, cin, cout, H, W, k, s, pad;
+    bool bias;
+  };
+  for (const C& c :
+       {C{1, 96, 96, 24, 32, 4, 4, 0, true}, C{2, 7, 5, 3, 5, 2, 2, 0, false}, C{1, 3, 4, 1, 1, 3, 3, 0, true},
+        C{1, 6, 4, 5, 4, 3, 2, 1, true}, C{1, 6, 4, 5, 4, 4, 2, 0, true}}) {
+    SCOPED_TRACE(::testing::Message() << "B" << c.B << " " << c.cin << "->" << c.cout << " " << c.H << "x" << c.W
+                                      << " k" << c.k << " s" << c.s << " pad" << c.pad);
+    Conv conv;
+    conv.w = torch::randn({c.cin, c.cout, c.k, c.k});
+    if (c.bias) conv.b = torch::randn({c.cout});
+    conv.stride = c.s;
+    conv.padding = c.pad;
+    conv.transpose = true;
+    const torch::Tensor x = torch::randn({c.B, c.cin, c.H, c.W});
+    const torch::Tensor ref = torch::conv_transpose2d(x, conv.w, conv.b, c.s, c.pad);
+    const torch::Tensor y = conv(x, PrecisionPolicy{});
+    ASSERT_EQ(y.sizes(), ref.sizes());
+    EXPECT_LE((y - ref).abs().max().item<float>(), 1e-5f * (1.0f + ref.abs().max().item<float>()));
+    if (c.k != c.s || c.pad != 0) {
+      EXPECT_TRUE(torch::equal(y, ref));  // LibTorch's op
+    }
+  }
+}
+
 }  // namespace
 }  // namespace freeloc::nn::internal

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <new>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 namespace freeloc::nn::internal {
@@ -81,6 +82,37 @@ TEST(TensorPool, KeepsItsCacheForTheSameOwnersNextPassOnly) {
   EXPECT_EQ(pool.Stats().cached_bytes, 0u);
   pool.Claim(&b);  // after a trim nobody's blocks are cached; nothing to hand back
   EXPECT_EQ(pool.Stats().cached_bytes, 0u);
+}
+
+// Idle blocks that a pass's sizes do not fit may add at most the slack to the pool's footprint: before a block is
+// mapped, cached blocks go (least recently freed first) until live + cached + new ≤ live high-water + slack. Blocks
+// that do fit are still reused, however large the cache.
+TEST(TensorPool, IdleBlocksAddAtMostTheSlackToThePeak) {
+  const auto run = [](size_t slack) {
+    TensorPool pool(kMiB, 64 * kMiB, slack);
+    void* a = pool.Allocate(8 * kMiB);
+    void* b = pool.Allocate(8 * kMiB);
+    pool.Free(a);
+    pool.Free(b);  // live high-water 16 MiB, both cached
+    std::vector<void*> small;
+    for (int i = 0; i < 3; ++i) small.push_back(pool.Allocate(2 * kMiB));  // too small for an 8 MiB block
+    const bool a_kept = pool.Owns(a), b_kept = pool.Owns(b);
+    for (void* q : small) pool.Free(q);
+    void* c = pool.Allocate(8 * kMiB);  // whichever 8 MiB block is left serves this
+    pool.Free(c);
+    return std::make_tuple(pool.Stats(), a_kept, b_kept);
+  };
+  const auto [bounded, a_kept, b_kept] = run(4 * kMiB);
+  EXPECT_EQ(bounded.peak_live_bytes, 16 * kMiB);
+  EXPECT_EQ(bounded.peak_bytes, 20 * kMiB);  // 16 + 2 + 2 while both 8 MiB blocks still fit under 16 + 4
+  EXPECT_LE(bounded.peak_bytes, bounded.peak_live_bytes + 4 * kMiB);
+  EXPECT_FALSE(a_kept);  // the third 2 MiB block needed room: the least recently freed went
+  EXPECT_TRUE(b_kept);
+  EXPECT_EQ(bounded.misses, 5u);  // a, b and the three small ones; c was b's block
+  EXPECT_EQ(bounded.hits, 1u);
+  const auto [unbounded, a_kept_u, b_kept_u] = run(SIZE_MAX);
+  EXPECT_EQ(unbounded.peak_bytes, 22 * kMiB);  // without the slack the idle blocks stay under the cap alone
+  EXPECT_TRUE(a_kept_u && b_kept_u);
 }
 
 TEST(TensorPool, RefusesAnImpossibleSize) {
