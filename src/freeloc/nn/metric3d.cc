@@ -477,6 +477,8 @@ void Metric3dModel::Impl::LoadDecoder(WeightStore& ws) {
   auto block = [&](ConvBlock& b, const std::string& n, int64_t ch) {
     Conv3(ws, p, b.c1, n + ".conv1", ch, ch);
     Conv3(ws, p, b.c2, n + ".conv2", ch, ch);
+    b.c1.ForChains();  // both run through Chain only
+    b.c2.ForChains();
   };
   const std::string dm = "decoder.decoder_mono.";
   block(up3.trunk, dm + "upconv_3.way_trunk", C);
@@ -533,6 +535,7 @@ void Metric3dModel::Impl::LoadRefiner(WeightStore& ws) {
     Conv3(ws, p, g.z, n + ".convz", hd, hd + in);
     Conv3(ws, p, g.r, n + ".convr", hd, hd + in);
     Conv3(ws, p, g.q, n + ".convq", hd, hd + in);
+    for (Conv* cv : {&g.z, &g.r, &g.q}) cv->ForChains();  // Chain only
   };
   gru(gru08, "decoder.update_block.gru08", 2 * hd + 6 - hd);
   gru(gru16, "decoder.update_block.gru16", 2 * hd);
@@ -543,6 +546,8 @@ void Metric3dModel::Impl::LoadRefiner(WeightStore& ws) {
   Conv3(ws, p, fh2n, "decoder.update_block.flow_head.conv2n", 4, hd);
   Conv3(ws, p, mask0, "decoder.update_block.mask.0", hd, hd);
   Conv1(ws, p, mask2, "decoder.update_block.mask.2", 144, hd);
+  // The depth, normal, flow and mask heads run through Chain only (ContextHead, zqr and the readouts do not).
+  for (Conv* cv : {&dr0, &dr2, &np0, &np2, &np4, &np6, &fh1d, &fh2d, &fh1n, &fh2n, &mask0, &mask2}) cv->ForChains();
 }
 
 std::shared_ptr<Metric3dModel> Metric3dModel::Create(const std::map<std::string, io::TensorView>& sd_in,

@@ -378,6 +378,7 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, io:
   impl->norm.Load(ws, "norm", C, c.ln_eps);
   impl->dec_embed.Load(ws, "decoder_embed", static_cast<int64_t>(c.patch) * c.patch * c.decoder_dim, dec_in, true, p);
   impl->dec_conv.Load(ws, "decoder_pred.0", {c.decoder_dim, c.decoder_dim, 3, 3}, true, 1, 1, false, p);
+  impl->dec_conv.ForChains();  // a Chain link only
   impl->dec_ln_w = ws.Take("decoder_pred.1.weight", {c.decoder_dim});
   impl->dec_ln_b = ws.Take("decoder_pred.1.bias", {c.decoder_dim});
   impl->dec_head.Load(ws, "decoder_pred.3", {3, c.decoder_dim, 1, 1}, true, 1, 0, false, p);
