@@ -39,10 +39,12 @@ void* TensorPool::Allocate(size_t n) {
   if (n > (SIZE_MAX >> 1)) throw std::bad_alloc();
   const size_t bytes = RoundUp(n);
   std::lock_guard<std::mutex> lock(mu_);
-  // The smallest free block that fits, up to twice the size: a block already resident serves the request, where a
-  // new one would be faulted in while the other waits in the cache.
+  // The smallest free block that fits, up to 1.5× the size: a block already resident serves the request, where a
+  // new one would be faulted in while the other waits in the cache. (Up to 2× let long-lived tensors — weights
+  // converted at load, a bf16 copy in its fp32 original's block — hold twice their size: replaying a bf16 `seed`
+  // run's allocations, 1.5× lowers the pool's peak by 108 MB for 6 % more bytes mapped.)
   auto it = free_by_size_.lower_bound(bytes);
-  if (it != free_by_size_.end() && it->first <= 2 * bytes) {
+  if (it != free_by_size_.end() && it->first <= bytes + bytes / 2) {
     void* p = it->second;
     Block& b = blocks_.at(p);
     free_by_size_.erase(it);

@@ -2,9 +2,9 @@
 // that size, instead of glibc's heap. A network pass allocates the same few sizes again and again (every block of a
 // ViT, every iteration of a GRU); glibc serves them from one heap where a long-lived tensor pins the memory around it
 // (freed but resident: 0.5 GB of a bf16 `seed` query's peak), or, above its mmap threshold, maps and faults them in
-// anew each time. Here a block is mapped once, reused while the pass runs (by requests up to its size and down to half
-// of it), and unmapped when the cache of free blocks outgrows its cap (least recently freed first) or when the pass
-// ends (nn::ReleaseFreedMemory). Small tensors stay with LibTorch's own allocator.
+// anew each time. Here a block is mapped once, reused while the pass runs (by requests up to its size and down to two
+// thirds of it), and unmapped when the cache of free blocks outgrows its cap (least recently freed first) or when the
+// pass ends (nn::ReleaseFreedMemory). Small tensors stay with LibTorch's own allocator.
 #pragma once
 
 #include <cstddef>

@@ -34,6 +34,10 @@ TEST(TensorPool, ReusesAFreedBlockOfTheSameOrANearSize) {
   EXPECT_TRUE(pool.Owns(a));
   int elsewhere = 0;
   EXPECT_FALSE(pool.Owns(&elsewhere));
+  // Up to 1.5× the request: 3 MiB is too large for 1.9 MiB (a weight converted at load would hold it for good) and
+  // serves 2.5 MiB.
+  EXPECT_NE(pool.Allocate(kMiB * 19 / 10), b);
+  EXPECT_EQ(pool.Allocate(kMiB * 5 / 2), b);
 }
 
 TEST(TensorPool, KeepsFreeBlocksUnderItsCapAndTrimsThemAll) {
