@@ -224,5 +224,26 @@ TEST(Kernels, NonOverlappingTransposedConvolutionIsLibTorchs) {
   }
 }
 
+// A chain-only convolution's bf16 weights kept channels-last (Conv::ForChains): the layout changes, the values the
+// chain computes do not; fp32 weights are left alone.
+TEST(Kernels, ChainWeightsChannelsLastGiveTheSameValues) {
+  torch::manual_seed(3);
+  Conv conv;
+  conv.w_lp = torch::randn({24, 40, 3, 3}).to(torch::kBFloat16);
+  conv.b_lp = torch::randn({24}).to(torch::kBFloat16);
+  conv.padding = 1;
+  const torch::Tensor x = torch::randn({1, 40, 13, 17});
+  const torch::Tensor before = conv.Chain(x);
+  EXPECT_FALSE(conv.w_lp.is_contiguous(torch::MemoryFormat::ChannelsLast));
+  conv.ForChains();
+  EXPECT_TRUE(conv.w_lp.is_contiguous(torch::MemoryFormat::ChannelsLast));
+  EXPECT_TRUE(torch::equal(conv.Chain(x), before));
+  Conv fp32;
+  fp32.w = torch::randn({4, 3, 3, 3});
+  fp32.ForChains();
+  EXPECT_FALSE(fp32.w_lp.defined());
+  EXPECT_TRUE(fp32.w.is_contiguous());
+}
+
 }  // namespace
 }  // namespace freeloc::nn::internal
