@@ -134,7 +134,7 @@ struct SegGptModel::Impl {
   LayerNorm norm;
   Linear dec_embed;
   Conv dec_conv, dec_head;
-  torch::Tensor dec_ln_w, dec_ln_b;
+  LayerNorm dec_ln;  // decoder_pred.1
   mutable std::map<std::string, io::TensorView>* taps = nullptr;
   void Tap(const std::string& n, const torch::Tensor& t) const {
     if (taps) (*taps)[n] = ToView(t);
@@ -220,8 +220,13 @@ struct SegGptModel::Impl {
     torch::Tensor d = dec_embed.ForProducts(feat, prec).reshape({1, Hg, Wg, p, p, D});
     d = d.permute({0, 1, 3, 2, 4, 5}).reshape({1, Hg * p, Wg * p, D}).permute({0, 3, 1, 2});  // NCHW, channels-last
     if (shuffled) shuffled->push_back(d.to(torch::kFloat32).contiguous());
-    d = dec_conv.Chain(d).to(torch::kFloat32);
-    d = torch::layer_norm(d.permute({0, 2, 3, 1}), {D}, dec_ln_w, dec_ln_b, cfg.ln_eps).permute({0, 3, 1, 2});
+    d = dec_conv.Chain(d);
+    if (prec.bf16 && d.device().is_cpu()) {  // norm + GELU in one pass, written in bf16 for the bf16 1×1 head
+      d = dec_ln.GeluForProducts(d.permute({0, 2, 3, 1}), prec).permute({0, 3, 1, 2});
+      return dec_head(d, prec);
+    }
+    d = d.to(torch::kFloat32);
+    d = dec_ln(d.permute({0, 2, 3, 1})).permute({0, 3, 1, 2});
     d = torch::gelu(d);
     return dec_head(d, prec);
   }
@@ -379,8 +384,7 @@ std::shared_ptr<SegGptModel> SegGptModel::Create(const std::map<std::string, io:
   impl->dec_embed.Load(ws, "decoder_embed", static_cast<int64_t>(c.patch) * c.patch * c.decoder_dim, dec_in, true, p);
   impl->dec_conv.Load(ws, "decoder_pred.0", {c.decoder_dim, c.decoder_dim, 3, 3}, true, 1, 1, false, p);
   impl->dec_conv.ForChains();  // a Chain link only
-  impl->dec_ln_w = ws.Take("decoder_pred.1.weight", {c.decoder_dim});
-  impl->dec_ln_b = ws.Take("decoder_pred.1.bias", {c.decoder_dim});
+  impl->dec_ln.Load(ws, "decoder_pred.1", c.decoder_dim, c.ln_eps);
   impl->dec_head.Load(ws, "decoder_pred.3", {3, c.decoder_dim, 1, 1}, true, 1, 0, false, p);
   ws.Finish();
   return std::shared_ptr<SegGptModel>(new SegGptModel(std::move(impl)));

@@ -408,6 +408,67 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void ResizeRowBf16(
   ResizeRow(x0, x1, h0, h1, iw, lw, ow, c, out);
 }
 
+// e^x for x ≤ 0 in fp32 (branch-free, so that the loops below vectorise): 2^n·e^r, |r| ≤ ln2/2, r's series to degree
+// 6 (≤ 2e-7 relative); below −87 it is e^−87 (≈ 1.6e-38: nothing next to the 1 it is subtracted from).
+inline __attribute__((always_inline)) float ExpNonPositive(float x) {
+  x = x < -87.0f ? -87.0f : x;
+  const float n = (x * 1.44269504f + 12582912.0f) - 12582912.0f;  // rounded to the nearest integer
+  const float r = (x - n * 0.693145751953125f) - n * 1.428606765330187e-6f;
+  const float e =
+      1.0f + r * (1.0f + r * (0.5f + r * (1.0f / 6 + r * (1.0f / 24 + r * (1.0f / 120 + r * (1.0f / 720))))));
+  const int32_t bits = (static_cast<int32_t>(n) + 127) << 23;
+  float scale;
+  std::memcpy(&scale, &bits, 4);
+  return e * scale;
+}
+// GELU_erf(y) = y/2·(1 + erf(y/√2)), erf by Abramowitz & Stegun 7.1.26 (|error| ≤ 1.5e-7); NaN stays NaN.
+inline __attribute__((always_inline)) float GeluErf(float y) {
+  const float z = y * 0.70710678118654752f, a = z < 0 ? -z : z;
+  const float t = 1.0f / (1.0f + 0.3275911f * a);
+  const float poly =
+      t * (0.254829592f + t * (-0.284496736f + t * (1.421413741f + t * (-1.453152027f + t * 1.061405429f))));
+  const float e = 1.0f - poly * ExpNonPositive(-a * a);
+  return 0.5f * y * (1.0f + (z < 0 ? -e : e));
+}
+template <typename T>  // always inlined: each target_clones copy compiles it for its own instruction set
+inline __attribute__((always_inline)) void NormGeluRows(const T* x, const float* w, const float* b, float eps,
+                                                        int64_t c, int64_t r0, int64_t r1, uint16_t* y) {
+  std::vector<float> row(static_cast<size_t>(c));
+  for (int64_t r = r0; r < r1; ++r) {
+    const T* xr = x + r * c;
+    for (int64_t i = 0; i < c; ++i) row[i] = Load1(xr + i);
+    // Sums in 16 lanes (vectorised without reassociation flags), then across them, as AddNormRowsBf16 does.
+    float acc[16] = {}, sq_acc[16] = {};
+    int64_t i0 = 0;
+    for (; i0 + 16 <= c; i0 += 16)
+      for (int j = 0; j < 16; ++j) acc[j] += row[i0 + j];
+    float sum = 0;
+    for (int j = 0; j < 16; ++j) sum += acc[j];
+    for (int64_t i = i0; i < c; ++i) sum += row[i];
+    const float mean = sum / static_cast<float>(c);
+    for (i0 = 0; i0 + 16 <= c; i0 += 16)
+      for (int j = 0; j < 16; ++j) sq_acc[j] += (row[i0 + j] - mean) * (row[i0 + j] - mean);
+    float sq = 0;
+    for (int j = 0; j < 16; ++j) sq += sq_acc[j];
+    for (int64_t i = i0; i < c; ++i) sq += (row[i] - mean) * (row[i] - mean);
+    const float rstd = 1.0f / std::sqrt(sq / static_cast<float>(c) + eps);
+    uint16_t* yr = y + r * c;
+    for (int64_t i = 0; i < c; ++i) row[i] = GeluErf((row[i] - mean) * rstd * w[i] + b[i]);
+    for (int64_t i = 0; i < c; ++i) Store1(yr + i, row[i]);
+  }
+}
+__attribute__((target_clones("avx512f", "avx2", "default"))) void NormGeluRowsF32(const float* x, const float* w,
+                                                                                  const float* b, float eps, int64_t c,
+                                                                                  int64_t r0, int64_t r1, uint16_t* y) {
+  NormGeluRows(x, w, b, eps, c, r0, r1, y);
+}
+__attribute__((target_clones("avx512f", "avx2", "default"))) void NormGeluRowsBf16(const uint16_t* x, const float* w,
+                                                                                   const float* b, float eps, int64_t c,
+                                                                                   int64_t r0, int64_t r1,
+                                                                                   uint16_t* y) {
+  NormGeluRows(x, w, b, eps, c, r0, r1, y);
+}
+
 // LibTorch's align_corners source index and lambdas (compute_source_index_and_lambda): src = o·(in − 1)/(out − 1)
 // in fp32, i0 = ⌊src⌋, i1 = i0 + 1 unless i0 is the last, λ1 = src − i0, λ0 = 1 − λ1.
 void SourceIndex(int64_t in, int64_t out, int64_t o, int64_t* i0, int64_t* i1, float* l0, float* l1) {
@@ -420,6 +481,28 @@ void SourceIndex(int64_t in, int64_t out, int64_t o, int64_t* i0, int64_t* i1, f
 }
 
 }  // namespace
+
+torch::Tensor LayerNorm::GeluForProducts(const torch::Tensor& x, const PrecisionPolicy& p) const {
+  const bool own = p.bf16 && x.device().is_cpu() && x.numel() > 0 &&
+                   (x.scalar_type() == torch::kFloat32 || x.scalar_type() == torch::kBFloat16);
+  if (!own) return torch::gelu(torch::layer_norm(x.to(torch::kFloat32), {x.size(-1)}, w, b, eps));
+  const int64_t c = x.size(-1), rows = x.numel() / c;
+  const torch::Tensor xc = x.contiguous();  // a channels-last map's [N, H, W, C] view: no copy
+  const torch::Tensor wc = w.contiguous(), bc = b.contiguous();
+  torch::Tensor y = torch::empty(x.sizes(), x.options().dtype(torch::kBFloat16));
+  uint16_t* yp = reinterpret_cast<uint16_t*>(y.data_ptr());
+  const bool bf16 = x.scalar_type() == torch::kBFloat16;
+  at::parallel_for(0, rows, 256, [&](int64_t r0, int64_t r1) {
+    if (bf16) {
+      NormGeluRowsBf16(reinterpret_cast<const uint16_t*>(xc.data_ptr()), wc.data_ptr<float>(), bc.data_ptr<float>(),
+                       static_cast<float>(eps), c, r0, r1, yp);
+    } else {
+      NormGeluRowsF32(xc.data_ptr<float>(), wc.data_ptr<float>(), bc.data_ptr<float>(), static_cast<float>(eps), c, r0,
+                      r1, yp);
+    }
+  });
+  return y;
+}
 
 torch::Tensor Upsample2xAlignCorners(const torch::Tensor& x) {
   const int64_t B = x.dim() == 4 ? x.size(0) : 0, C = x.dim() == 4 ? x.size(1) : 0;

@@ -245,5 +245,42 @@ TEST(Kernels, ChainWeightsChannelsLastGiveTheSameValues) {
   EXPECT_TRUE(fp32.w.is_contiguous());
 }
 
+// Norm + GELU_erf in one pass, written in bf16 (SegGPT's decoder tail): the fp32 LibTorch ops' values rounded to bf16
+// (one bf16 step apart at most, where the 1.5e-7 erf or the order of the sums decides the rounding), from fp32 and
+// bf16 inputs, odd widths; NaN kept; without bf16 it is LibTorch's ops.
+TEST(Kernels, NormGeluInBf16IsLibTorchsRounded) {
+  torch::manual_seed(9);
+  PrecisionPolicy bf16;
+  bf16.bf16 = true;
+  for (const int64_t c : {64, 37, 3}) {
+    SCOPED_TRACE(c);
+    LayerNorm n;
+    n.w = torch::randn({c}) * 2;
+    n.b = torch::randn({c});
+    n.eps = 1e-6;
+    for (const bool bf16_in : {false, true}) {
+      torch::Tensor x = torch::randn({2, 9, 7, c}) * 3 + 0.5;
+      if (bf16_in) x = x.to(torch::kBFloat16);
+      const torch::Tensor ref = torch::gelu(torch::layer_norm(x.to(torch::kFloat32), {c}, n.w, n.b, n.eps));
+      const torch::Tensor y = n.GeluForProducts(x, bf16);
+      ASSERT_EQ(y.scalar_type(), torch::kBFloat16);
+      const torch::Tensor diff = (y.to(torch::kFloat32) - ref.to(torch::kBFloat16).to(torch::kFloat32)).abs();
+      EXPECT_TRUE((diff <= ref.abs() * (1.0 / 128) + 1e-6).all().item<bool>());
+      EXPECT_LE((diff > 0).to(torch::kFloat32).mean().item<float>(), 0.01f);
+    }
+    const torch::Tensor x = torch::randn({5, c});
+    EXPECT_TRUE(
+        torch::equal(n.GeluForProducts(x, PrecisionPolicy{}), torch::gelu(torch::layer_norm(x, {c}, n.w, n.b, n.eps))));
+  }
+  LayerNorm n;
+  n.w = torch::ones({4});
+  n.b = torch::zeros({4});
+  torch::Tensor x = torch::randn({3, 4});
+  x.index_put_({1, 2}, NAN);
+  const torch::Tensor y = n.GeluForProducts(x, bf16).to(torch::kFloat32);
+  EXPECT_TRUE(y[1].isnan().all().item<bool>());  // the row's statistics are NaN
+  EXPECT_FALSE(y[0].isnan().any().item<bool>());
+}
+
 }  // namespace
 }  // namespace freeloc::nn::internal
