@@ -45,6 +45,28 @@ torch::Tensor LayerNorm::operator()(const torch::Tensor& x) const {
 
 namespace {
 
+// A row's mean and 1/sqrt(biased variance + eps) in fp32: sums in 16 lanes (vectorised without reassociation flags),
+// then across them. Inlined into each target_clones copy.
+inline __attribute__((always_inline)) void RowStatistics(const float* src, int64_t c, float eps, float* mean_out,
+                                                         float* rstd_out) {
+  float acc[16] = {};
+  int64_t i0 = 0;
+  for (; i0 + 16 <= c; i0 += 16)
+    for (int j = 0; j < 16; ++j) acc[j] += src[i0 + j];
+  float sum = 0;
+  for (int j = 0; j < 16; ++j) sum += acc[j];
+  for (int64_t i = i0; i < c; ++i) sum += src[i];
+  const float mean = sum / static_cast<float>(c);
+  float sq_acc[16] = {};
+  for (i0 = 0; i0 + 16 <= c; i0 += 16)
+    for (int j = 0; j < 16; ++j) sq_acc[j] += (src[i0 + j] - mean) * (src[i0 + j] - mean);
+  float sq = 0;
+  for (int j = 0; j < 16; ++j) sq += sq_acc[j];
+  for (int64_t i = i0; i < c; ++i) sq += (src[i] - mean) * (src[i] - mean);
+  *mean_out = mean;
+  *rstd_out = 1.0f / std::sqrt(sq / static_cast<float>(c) + eps);
+}
+
 // Rows of `c` values: s = x (+ d), then y = (s − mean)·rstd·w + b rounded to bf16 (nearest even, NaN kept). Compiled
 // for AVX-512, AVX2 and the baseline; the loader picks one (GCC target_clones).
 __attribute__((target_clones("avx512f", "avx2", "default"))) void AddNormRowsBf16(const float* x, const float* d,
@@ -60,22 +82,8 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void AddNormRowsBf1
       for (int64_t i = 0; i < c; ++i) sr[i] = xr[i] + dr[i];
       src = sr;
     }
-    // Sums in 16 lanes (vectorised without reassociation flags), then across them.
-    float acc[16] = {};
-    int64_t i0 = 0;
-    for (; i0 + 16 <= c; i0 += 16)
-      for (int j = 0; j < 16; ++j) acc[j] += src[i0 + j];
-    float sum = 0;
-    for (int j = 0; j < 16; ++j) sum += acc[j];
-    for (int64_t i = i0; i < c; ++i) sum += src[i];
-    const float mean = sum / static_cast<float>(c);
-    float sq_acc[16] = {};
-    for (i0 = 0; i0 + 16 <= c; i0 += 16)
-      for (int j = 0; j < 16; ++j) sq_acc[j] += (src[i0 + j] - mean) * (src[i0 + j] - mean);
-    float sq = 0;
-    for (int j = 0; j < 16; ++j) sq += sq_acc[j];
-    for (int64_t i = i0; i < c; ++i) sq += (src[i] - mean) * (src[i] - mean);
-    const float rstd = 1.0f / std::sqrt(sq / static_cast<float>(c) + eps);
+    float mean, rstd;
+    RowStatistics(src, c, eps, &mean, &rstd);
     uint16_t* yr = y + r * c;
     for (int64_t i = 0; i < c; ++i) {
       const float v = (src[i] - mean) * rstd * w[i] + b[i];
@@ -437,21 +445,8 @@ inline __attribute__((always_inline)) void NormGeluRows(const T* x, const float*
   for (int64_t r = r0; r < r1; ++r) {
     const T* xr = x + r * c;
     for (int64_t i = 0; i < c; ++i) row[i] = Load1(xr + i);
-    // Sums in 16 lanes (vectorised without reassociation flags), then across them, as AddNormRowsBf16 does.
-    float acc[16] = {}, sq_acc[16] = {};
-    int64_t i0 = 0;
-    for (; i0 + 16 <= c; i0 += 16)
-      for (int j = 0; j < 16; ++j) acc[j] += row[i0 + j];
-    float sum = 0;
-    for (int j = 0; j < 16; ++j) sum += acc[j];
-    for (int64_t i = i0; i < c; ++i) sum += row[i];
-    const float mean = sum / static_cast<float>(c);
-    for (i0 = 0; i0 + 16 <= c; i0 += 16)
-      for (int j = 0; j < 16; ++j) sq_acc[j] += (row[i0 + j] - mean) * (row[i0 + j] - mean);
-    float sq = 0;
-    for (int j = 0; j < 16; ++j) sq += sq_acc[j];
-    for (int64_t i = i0; i < c; ++i) sq += (row[i] - mean) * (row[i] - mean);
-    const float rstd = 1.0f / std::sqrt(sq / static_cast<float>(c) + eps);
+    float mean, rstd;
+    RowStatistics(row.data(), c, eps, &mean, &rstd);
     uint16_t* yr = y + r * c;
     for (int64_t i = 0; i < c; ++i) row[i] = GeluErf((row[i] - mean) * rstd * w[i] + b[i]);
     for (int64_t i = 0; i < c; ++i) Store1(yr + i, row[i]);
