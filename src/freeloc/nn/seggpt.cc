@@ -221,13 +221,8 @@ struct SegGptModel::Impl {
     d = d.permute({0, 1, 3, 2, 4, 5}).reshape({1, Hg * p, Wg * p, D}).permute({0, 3, 1, 2});  // NCHW, channels-last
     if (shuffled) shuffled->push_back(d.to(torch::kFloat32).contiguous());
     d = dec_conv.Chain(d);
-    if (prec.bf16 && d.device().is_cpu()) {  // norm + GELU in one pass, written in bf16 for the bf16 1×1 head
-      d = dec_ln.GeluForProducts(d.permute({0, 2, 3, 1}), prec).permute({0, 3, 1, 2});
-      return dec_head(d, prec);
-    }
-    d = d.to(torch::kFloat32);
-    d = dec_ln(d.permute({0, 2, 3, 1})).permute({0, 3, 1, 2});
-    d = torch::gelu(d);
+    // Norm + GELU (bf16 on the CPU: one pass, written in bf16 for the bf16 1×1 head; else LibTorch's fp32 ops).
+    d = dec_ln.GeluForProducts(d.permute({0, 2, 3, 1}), prec).permute({0, 3, 1, 2});
     return dec_head(d, prec);
   }
 };

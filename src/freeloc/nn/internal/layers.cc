@@ -45,6 +45,22 @@ torch::Tensor LayerNorm::operator()(const torch::Tensor& x) const {
 
 namespace {
 
+// One value as fp32 from fp32 or bf16 (uint16_t), and back: bf16 rounded to nearest even, NaN kept a (quiet) NaN.
+inline __attribute__((always_inline)) float Load1(const float* p) { return *p; }
+inline __attribute__((always_inline)) float Load1(const uint16_t* p) {
+  const uint32_t u = static_cast<uint32_t>(*p) << 16;
+  float f;
+  std::memcpy(&f, &u, 4);
+  return f;
+}
+inline __attribute__((always_inline)) void Store1(float* p, float v) { *p = v; }
+inline __attribute__((always_inline)) void Store1(uint16_t* p, float v) {
+  uint32_t u;
+  std::memcpy(&u, &v, 4);
+  const uint32_t rounded = (u + 0x7FFFu + ((u >> 16) & 1u)) >> 16;
+  *p = static_cast<uint16_t>(v != v ? (u >> 16) | 0x40u : rounded);
+}
+
 // A row's mean and 1/sqrt(biased variance + eps) in fp32: sums in 16 lanes (vectorised without reassociation flags),
 // then across them. Inlined into each target_clones copy.
 inline __attribute__((always_inline)) void RowStatistics(const float* src, int64_t c, float eps, float* mean_out,
@@ -85,13 +101,7 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void AddNormRowsBf1
     float mean, rstd;
     RowStatistics(src, c, eps, &mean, &rstd);
     uint16_t* yr = y + r * c;
-    for (int64_t i = 0; i < c; ++i) {
-      const float v = (src[i] - mean) * rstd * w[i] + b[i];
-      uint32_t u;
-      std::memcpy(&u, &v, 4);
-      const uint32_t rounded = (u + 0x7FFFu + ((u >> 16) & 1u)) >> 16;
-      yr[i] = static_cast<uint16_t>(v != v ? (u >> 16) | 0x40u : rounded);
-    }
+    for (int64_t i = 0; i < c; ++i) Store1(yr + i, (src[i] - mean) * rstd * w[i] + b[i]);
   }
 }
 
@@ -377,20 +387,6 @@ namespace {
 // One output row of a channels-last bilinear resize: out[ow][c] = x0[iw0][c]·w00 + x0[iw1][c]·w01 + x1[iw0][c]·w10 +
 // x1[iw1][c]·w11, the weights products of the row's and the column's lambdas (LibTorch's channels-last kernel's
 // terms), computed in fp32. `T` is float or uint16_t (bf16, rounded to nearest even, NaN kept).
-inline float Load1(const float* p) { return *p; }
-inline float Load1(const uint16_t* p) {
-  const uint32_t u = static_cast<uint32_t>(*p) << 16;
-  float f;
-  std::memcpy(&f, &u, 4);
-  return f;
-}
-inline void Store1(float* p, float v) { *p = v; }
-inline void Store1(uint16_t* p, float v) {
-  uint32_t u;
-  std::memcpy(&u, &v, 4);
-  const uint32_t rounded = (u + 0x7FFFu + ((u >> 16) & 1u)) >> 16;
-  *p = static_cast<uint16_t>(v != v ? (u >> 16) | 0x40u : rounded);
-}
 template <typename T>
 inline void ResizeRow(const T* x0, const T* x1, float h0, float h1, const int64_t* iw, const float* lw, int64_t ow,
                       int64_t c, T* out) {
