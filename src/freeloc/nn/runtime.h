@@ -31,12 +31,13 @@ bool CudaAvailable();
 // a bf16 seed query's peak went 4.7 -> 4.3 GB, and 2.9 instead of 4.4 GB stays resident between queries, at no
 // measurable cost in time).
 void ReleaseFreedMemory();
-// After a pass of `model`: the tensor pool's cache of free blocks (≤ 384 MiB) and glibc's freed chunks stay for that
-// model's next pass (the same sizes again: no page faults — first-touch faults cost ≈ 0.4 ms per MB on a VM). They go
-// back when another model's pass begins (BeginNetworkPass) or at the next ReleaseFreedMemory().
+// After a pass of `model`: the tensor pool's cache of free blocks (≤ 1 GiB) and glibc's freed chunks stay for the
+// next pass (the same sizes again: no page faults — first-touch faults cost ≈ 0.4 ms per MB on a VM). The pool's
+// blocks go when a pass needs room for blocks of other sizes (idle blocks add at most 192 MiB to the high-water mark of
+// the passes since the model changed) or at the next ReleaseFreedMemory().
 void ReleaseFreedMemory(const void* model);
-// Before a network pass of `model`: what another model left (the pool's cache, glibc's freed chunks) goes back
-// first, so a query's peak is what it was with every pass trimmed.
+// Before a network pass of `model`: if another model's pass came last, glibc's freed chunks go back (malloc_trim) and
+// the pool's slack is counted from this model's passes on.
 void BeginNetworkPass(const void* model);
 
 }  // namespace freeloc::nn

@@ -49,8 +49,8 @@ class TensorPool {
   // The free blocks belong to `owner` (a model whose pass just ended) and stay cached for its next pass: a pass of the
   // same network asks for the same sizes, served without page faults.
   void Keep(const void* owner);
-  // A pass of `owner` begins: the cache is unmapped first if another owner left it (its sizes would sit idle beside
-  // the blocks this pass maps — the peak grows), kept if it is this owner's. Returns whether the owner changed.
+  // A pass of `owner` begins. The cache stays whoever left it: blocks of the right sizes serve this pass too, and the
+  // slack rule bounds what the others add to the peak. Returns whether the owner changed.
   bool Claim(const void* owner);
   TensorPoolStats Stats() const;
 
@@ -69,10 +69,13 @@ class TensorPool {
   std::multimap<size_t, void*> free_by_size_;
   std::list<void*> free_lru_;    // most recently freed first
   const void* owner_ = nullptr;  // whose blocks the cache holds (Keep / Claim); null: nobody's
+  // The live high-water mark the slack is counted from: since the current owner's first pass began (Claim) or the
+  // last Trim — not the process's, which a larger pass of another model (the reference side) may have set.
+  size_t pass_high_ = 0;
   TensorPoolStats stats_;
 };
 
-// The process's pool behind LibTorch's CPU allocator (tensors of 1 MiB and more; a cache of free blocks up to 384 MiB,
+// The process's pool behind LibTorch's CPU allocator (tensors of 1 MiB and more; a cache of free blocks up to 1 GiB,
 // idle blocks at most 192 MiB beyond the live high-water mark).
 // Installed once, by ApplyRuntime for CPU models; FREELOC_TENSOR_POOL=off leaves LibTorch's allocator alone.
 TensorPool* InstalledTensorPool();  // null until installed

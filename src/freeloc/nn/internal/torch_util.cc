@@ -31,8 +31,8 @@ void ReleaseFreedMemory(const void* model) {
     ReleaseFreedMemory();
     return;
   }
-  // glibc's heap (the tensors under 1 MiB) is trimmed when another model's pass begins, like the pool's cache: the
-  // same model's next pass reuses its freed chunks instead of faulting them in again (malloc_trim itself took 20 ms).
+  // glibc's heap (the tensors under 1 MiB) is trimmed when another model's pass begins: the same model's next pass
+  // reuses its freed chunks instead of faulting them in again (malloc_trim itself took 20 ms).
   pool->Keep(model);
 }
 
