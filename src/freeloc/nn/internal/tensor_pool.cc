@@ -20,7 +20,7 @@ constexpr size_t kPoolMin = size_t{1} << 20;   // the installed pool's smallest 
 // the previous pass's blocks with 384 MiB, where 256 MiB left ≈ 300 MB to be mapped and faulted in again each pass
 // (0.42 ms/MB on a 2-core EPYC VM: ≈ 2 % of a query). The slack keeps idle blocks from raising the peak of a pass
 // they do not fit; counted from the current owner's high-water mark, it lets the cache stay across the models of a
-// `seed` query (1 GiB: replaying a bf16 `seed` run's allocations, 6.4 instead of 12.8 GB mapped, the same pool peak).
+// `seed` query (1 GiB: replaying a bf16 `seed` run's allocations, 11.4 instead of 12.8 GB mapped, the same pool peak).
 constexpr size_t kPoolCache = size_t{1024} << 20;
 constexpr size_t kPoolIdleSlack = size_t{192} << 20;
 

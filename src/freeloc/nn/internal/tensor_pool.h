@@ -3,8 +3,9 @@
 // ViT, every iteration of a GRU); glibc serves them from one heap where a long-lived tensor pins the memory around it
 // (freed but resident: 0.5 GB of a bf16 `seed` query's peak), or, above its mmap threshold, maps and faults them in
 // anew each time. Here a block is mapped once, reused while the pass runs (by requests up to its size and down to two
-// thirds of it), and unmapped when the cache of free blocks outgrows its cap (least recently freed first) or when the
-// pass ends (nn::ReleaseFreedMemory). Small tensors stay with LibTorch's own allocator.
+// thirds of it) and by the passes after it, and unmapped when the cache of free blocks outgrows its cap or its idle
+// slack (least recently freed first) or on Trim (nn::ReleaseFreedMemory()). Small tensors stay with LibTorch's own
+// allocator.
 #pragma once
 
 #include <cstddef>
@@ -29,10 +30,10 @@ class TensorPool {
   // Requests below `min_bytes` are not the pool's (Owns() is false for them: the caller's other allocator serves
   // them); free blocks beyond `cache_cap_bytes` are unmapped. `idle_slack_bytes` bounds what idle blocks may add to
   // the pool's footprint: before a block is mapped, cached blocks are unmapped (least recently freed first) until
-  // live + cached + the new block ≤ the high-water mark of live bytes + idle_slack_bytes. The pool's peak is then at
-  // most the live high-water mark + idle_slack_bytes whatever the cap, so the cap can be large enough for a whole
-  // pass of the same network to be served from its previous pass's blocks without idle blocks raising the peak of
-  // a pass whose sizes they do not fit. SIZE_MAX: no such bound.
+  // live + cached + the new block ≤ the high-water mark of live bytes (since the owner last changed: Claim) +
+  // idle_slack_bytes. The pool's peak is then at most that high-water mark + idle_slack_bytes whatever the cap, so
+  // the cap can be large enough for a whole pass of the same network to be served from its previous pass's blocks
+  // without idle blocks raising the peak of a pass whose sizes they do not fit. SIZE_MAX: no such bound.
   TensorPool(size_t min_bytes, size_t cache_cap_bytes, size_t idle_slack_bytes = SIZE_MAX);
   ~TensorPool();
   TensorPool(const TensorPool&) = delete;
@@ -46,8 +47,8 @@ class TensorPool {
   bool Owns(void* p) const;
   // Unmaps every free block.
   void Trim();
-  // The free blocks belong to `owner` (a model whose pass just ended) and stay cached for its next pass: a pass of the
-  // same network asks for the same sizes, served without page faults.
+  // `owner`'s pass (a model's) just ended; its free blocks stay cached for the next pass — the same network asks for
+  // the same sizes, served without page faults.
   void Keep(const void* owner);
   // A pass of `owner` begins. The cache stays whoever left it: blocks of the right sizes serve this pass too, and the
   // slack rule bounds what the others add to the peak. Returns whether the owner changed.
