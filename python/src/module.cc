@@ -112,8 +112,8 @@ std::vector<Eigen::Vector2d> Points(const py::handle& x, const char* what) {
 bool IsPath(const py::handle& v) { return py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__"); }
 std::string PathOf(const py::handle& v) { return py::str(py::module_::import("os").attr("fspath")(v)); }
 
-// A path, an H×W float array of metres, or an H×W uint16 array of millimetres (the map-free PNG values, as
-// cv2.imread(…, IMREAD_UNCHANGED) gives them); 0 = invalid; None → empty.
+// A path, an H×W float array of metres, or an H×W uint16 array (the map-free PNG values, as cv2.imread(…,
+// IMREAD_UNCHANGED) gives them: millimetres, or the `depth_unit` keyword's unit); 0 = invalid; None → empty.
 DepthMap DepthOf(const py::handle& d, const char* what) {
   if (d.is_none()) return {};
   if (IsPath(d)) return io::ReadDepthPng(PathOf(d));
@@ -129,9 +129,12 @@ DepthMap DepthOf(const py::handle& d, const char* what) {
   m.width = static_cast<int>(a.shape(1));
   m.height = static_cast<int>(a.shape(0));
   m.data.assign(a.data(), a.data() + a.size());
-  if (millimetres)
+  if (millimetres) {
     for (float& v : m.data) v = static_cast<float>(v / 1000.0);
+    m.storage = DepthStorage::kInteger;  // the `depth_unit` keyword says what its integers are (mm by default)
+  }
   for (float& v : m.data) v = (v > 0.f && v <= std::numeric_limits<float>::max()) ? v : 0.f;  // NaN, inf, ≤ 0: invalid
+  m.source = what;
   return m;
 }
 
@@ -215,15 +218,13 @@ PoseResult EstimateRelativePose(const py::handle& x_ref, const py::handle& x_que
   PoseResult p;
   p.options = o;
   p.n = a.size();
-  const auto solver = pipeline::MakePoseSolver(o);
   matching::Correspondences c;
   c.ref = a;
   c.query = b;
   {
     py::gil_scoped_release nogil;
-    solver->Solve(c, kr, kq, dr, dq, &p.r);
+    p.r = pipeline::SolveCorrespondences(c, kr, kq, dr, dq, o);
   }
-  pipeline::AnswerUnsolved(o, &p.r);
   return p;
 }
 
@@ -639,6 +640,9 @@ void BindPoses(py::module_& m) {
   py::class_<PoseResult>(m, "PoseResult", "A pose query_from_ref (x_query = R·x_ref + t) with its status.")
       .def_property_readonly("status", [](const PoseResult& p) { return ToString(p.r.status); })
       .def_property_readonly("message", [](const PoseResult& p) { return p.r.message; })
+      .def_property_readonly(
+          "inputs", [](const PoseResult& p) { return p.r.input_notes; },
+          "what the plausible-input checks did (a resampled depth map, a loosened bound); each lowers the confidence")
       .def_property_readonly("ok", [](const PoseResult& p) { return p.r.ok(); })
       .def_property_readonly("metric", [](const PoseResult& p) { return p.r.metric(); })
       .def_property_readonly(

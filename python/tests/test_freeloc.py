@@ -537,3 +537,40 @@ def test_evaluate_multi_frame_scores_linear_positions_9_19(tmp_path):
     assert single["counts"]["estimates"] == 5
     with pytest.raises(ValueError, match="track"):
         freeloc.evaluate(tmp_path, zpath, track="multi")
+
+
+def test_plausible_inputs_refuse_the_usual_mistakes():
+    """docs/formats.md "Plausible inputs" through Python: depth units, shape, intrinsics — refused with the fix."""
+    ref, query = os.path.join(S3, "seq0", "frame_00000.png"), os.path.join(S3, "seq1", "frame_00000.png")
+    reloc = freeloc.Relocalizer("sift-essential")
+    good = reloc.relocalize(ref, query, K_TUM, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"))
+    assert good.status == "ok" and good.inputs == []
+    mm_ref = np.round(freeloc.read_depth(depth(S3, "seq0")) * 1000).astype(np.uint16)
+    mm_query = np.round(freeloc.read_depth(depth(S3, "seq1")) * 1000).astype(np.uint16)
+    # Float depth in millimetres where metres are meant.
+    with pytest.raises(freeloc.Error, match="divide them by 1000"):
+        reloc.relocalize(ref, query, K_TUM, K_TUM, mm_ref.astype(np.float32), mm_query.astype(np.float32))
+    # uint16 in centimetres: refused naming the keyword's value; with depth_unit='cm' right.
+    cm_ref, cm_query = np.round(mm_ref / 10).astype(np.uint16), np.round(mm_query / 10).astype(np.uint16)
+    with pytest.raises(freeloc.Error, match="set depth_unit=cm"):
+        reloc.relocalize(ref, query, K_TUM, K_TUM, cm_ref, cm_query)
+    cm = freeloc.Relocalizer("sift-essential", depth_unit="cm").relocalize(ref, query, K_TUM, K_TUM, cm_ref, cm_query)
+    assert cm.status == "ok"
+    assert np.linalg.norm(cm.t - good.t) < 0.05 * np.linalg.norm(good.t)
+    # Transposed: refused; a quarter of the resolution: resampled and noted.
+    with pytest.raises(freeloc.Error, match="transposed"):
+        reloc.relocalize(ref, query, K_TUM, K_TUM, mm_ref, np.ascontiguousarray(mm_query.T))
+    small = reloc.relocalize(ref, query, K_TUM, K_TUM, mm_ref, mm_query[1::4, 1::4])
+    assert small.status == "ok" and "resampled from 160x120" in small.inputs[0]
+    assert small.confidence < good.confidence
+    # Normalised intrinsics, with the pose solver too.
+    kn = np.array([[0.836, 0, 0.5], [0, 0.842, 0.5], [0, 0, 1]])
+    with pytest.raises(freeloc.Error, match="look normalised"):
+        reloc.relocalize(ref, query, kn, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"))
+    m = np.loadtxt(MATCHES)
+    with pytest.raises(freeloc.Error, match="look normalised"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], kn, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"))
+    with pytest.raises(freeloc.Error, match="metres stored as integers"):
+        freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, np.round(mm_ref / 1000).astype(np.uint16),
+                                       np.round(mm_query / 1000).astype(np.uint16))
+

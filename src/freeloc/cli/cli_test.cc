@@ -1171,11 +1171,13 @@ TEST(Cli, IntrinsicsFromFlagsAreCheckedAgainstTheImage) {
   const std::string k = "535.4,539.2,320.1,247.6";
   Result r = RunFreeloc(pair + "--ref-intrinsics 1e308,1e308,320,240 --query-intrinsics " + k);
   EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_TRUE(Contains(r.out, "reference intrinsics: focal length")) << r.out;
-  EXPECT_TRUE(Contains(r.out, "exceeds 100 image widths")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "reference intrinsics 1e+308,1e+308,320,240")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "is above 20 × the long side")) << r.out;
   r = RunFreeloc(pair + "--ref-intrinsics " + k + " --query-intrinsics 535,539,5000,247");
   EXPECT_EQ(r.code, 1) << r.out;
-  EXPECT_TRUE(Contains(r.out, "query intrinsics: principal point (5000, 247) is far outside the 640x480 image"))
+  EXPECT_TRUE(Contains(r.out,
+                       "query intrinsics 535,539,5000,247 (fx,fy,cx,cy) do not fit the 640x480 photo: the "
+                       "principal point (5000, 247) is outside the image"))
       << r.out;
   // depth --intrinsics: refused before any model is read (no weights needed to see it).
   freeloc::testing::TempDir tmp;

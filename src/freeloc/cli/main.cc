@@ -131,6 +131,11 @@ int main(int argc, char** argv) {
   } catch (const OptionError& e) {  // an option's error names its flag here (the library names the field)
     std::fprintf(stderr, "freeloc: error: %s\n", SafeText(cli::FlagMessage(e), 4000).c_str());
     return 1;
+  } catch (const InputFixError& e) {  // the library names the option; here also its flag
+    const std::string flag = cli::FlagOf(e.field());
+    std::fprintf(stderr, "freeloc: error: %s [%s]\n", SafeText(e.what(), 4000).c_str(),
+                 (flag == e.field() ? "--set " + e.field() + "=" + e.value() : flag + " " + e.value()).c_str());
+    return 1;
   } catch (const Error& e) {
     std::fprintf(stderr, "freeloc: error: %s\n", SafeText(e.what(), 4000).c_str());
     return 1;

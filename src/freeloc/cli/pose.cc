@@ -48,6 +48,7 @@ void PrintText(const pipeline::QueryResult& q, const pipeline::PipelineOptions& 
                           : "(unit norm: no depth given, translation direction only)");
   std::printf("inliers:     %d of %d (%d agree on the scale)\n", q.inliers, q.matches, q.scale_inliers);
   std::printf("confidence:  %.6g\n", q.confidence);
+  for (const std::string& note : q.input_notes) std::printf("inputs:      %s\n", note.c_str());
 }
 
 int RunPose(const PoseArgs& a, const GlobalOptions& g) {
@@ -58,9 +59,7 @@ int RunPose(const PoseArgs& a, const GlobalOptions& g) {
   DepthMap dr, dq;
   if (!a.ref_depth.empty()) dr = io::ReadDepthPng(a.ref_depth);
   if (!a.query_depth.empty()) dq = io::ReadDepthPng(a.query_depth);
-  pipeline::QueryResult q;
-  pipeline::MakePoseSolver(o)->Solve(c, kr, kq, dr, dq, &q);
-  pipeline::AnswerUnsolved(o, &q);
+  const pipeline::QueryResult q = pipeline::SolveCorrespondences(c, kr, kq, std::move(dr), std::move(dq), o);
   if (a.json) {
     std::printf("%s\n", pipeline::QueryRecordJson("", q, &o, 2).c_str());
   } else {

@@ -121,6 +121,7 @@ void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, b
       q.confidence, q.matches, q.inliers, q.instances_used, q.instances, q.timings.depth_ms, q.timings.match_ms,
       q.timings.instance_ms, q.timings.solve_ms, IntrinsicsText(q.ref_intrinsics).c_str(),
       IntrinsicsText(q.query_intrinsics).c_str());
+  for (const std::string& note : q.input_notes) std::printf("inputs:      %s\n", note.c_str());
 }
 
 int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {

@@ -29,6 +29,19 @@ class OptionError : public Error {
   std::string field_, detail_;
 };
 
+// An input that means something else than it is read as (pipeline/input_checks.h), whose fix is an option's value:
+// the message names the option as `field=value` ("set depth_unit=m"); the CLI adds the flag that sets it.
+class InputFixError : public Error {
+ public:
+  InputFixError(const std::string& message, std::string field, std::string value)
+      : Error(message), field_(std::move(field)), value_(std::move(value)) {}
+  const std::string& field() const { return field_; }
+  const std::string& value() const { return value_; }
+
+ private:
+  std::string field_, value_;
+};
+
 // Formats "<input>: <what is wrong>; <what to do>" — the shape every user-facing error takes.
 std::string FormatError(const std::string& input, const std::string& what, const std::string& todo = "");
 

@@ -52,13 +52,8 @@ DepthMap MapfreeScene::LoadDepth(const MapfreeFrame& f, const std::string& suffi
   std::error_code ec;
   FREELOC_CHECK(fs::exists(path, ec), path << ": provided depth '" << suffix << "' not found for " << f.name
                                            << " in scene " << name << "; check the depth suffix");
-  DepthMap d = ReadDepthPng(path);
-  if (f.camera.width > 0) {
-    FREELOC_CHECK(d.width == f.camera.width && d.height == f.camera.height,
-                  path << ": depth is " << d.width << "x" << d.height << " but the image is " << f.camera.width << "x"
-                       << f.camera.height << "; depth maps must have the image's resolution");
-  }
-  return d;
+  // Its size against the photo's is the pipeline's rule (pipeline/input_checks.h): resampled or refused there.
+  return ReadDepthPng(path);
 }
 
 std::vector<std::vector<Eigen::Vector4d>> MapfreeScene::LoadCorrespondences(const std::string& cname) const {
@@ -296,6 +291,8 @@ DepthMap DecodeDepthPng(const std::vector<uint8_t>& bytes, const std::string& pa
                                     "(the map-free convention)");
   DepthMap d(w, h);
   for (size_t i = 0; i < mm.size(); ++i) d.data[i] = mm[i] / 1000.0f;
+  d.storage = DepthStorage::kInteger;
+  d.source = path;
   return d;
 }
 

@@ -44,7 +44,8 @@ struct MapfreeScene {
   // `frame_XXXXX.<suffix>.png` next to the frame's image.
   std::string DepthPath(const MapfreeFrame& f, const std::string& suffix) const;
   Image LoadImage(const MapfreeFrame& f) const;
-  // Provided depth in metres (mm / 1000), 0 = invalid. Throws naming the file when absent or of the wrong size.
+  // Provided depth as stored (integers read as mm / 1000, DepthStorage::kInteger), 0 = invalid. Throws naming the file
+  // when absent or damaged; its unit and size are the pipeline's rule (pipeline/input_checks.h).
   DepthMap LoadDepth(const MapfreeFrame& f, const std::string& suffix) const;
   // Precomputed correspondences (x_ref, y_ref, x_query, y_query) per query, rows in `queries` order, NaN padding
   // dropped. `name` is SIFT, SG, LoFTR or any other suffix of correspondences_<name>.npz.
@@ -80,7 +81,8 @@ std::vector<QueryWindow> MultiFrameWindows(const MapfreeScene& scene, int frames
 // quaternion, a frame named twice).
 std::map<std::string, Rigid3d> ReadDevicePoses(const std::string& path);
 
-// Provided-depth PNG I/O in the map-free convention (uint16 millimetres, 0 invalid).
+// Provided-depth PNG I/O in the map-free convention (uint16 millimetres, 0 invalid); read maps are
+// DepthStorage::kInteger with `source` set, so that the pipeline can apply another unit (`depth_unit`).
 DepthMap ReadDepthPng(const std::string& path);
 // The same from the PNG's bytes (an upload); `what` names it in errors.
 DepthMap DecodeDepthPng(const std::vector<uint8_t>& bytes, const std::string& what);

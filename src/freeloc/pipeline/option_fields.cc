@@ -161,7 +161,10 @@ std::string EscapeCell(const std::string& text) {  // a Markdown table cell: "|"
 // The shortest text that reads back as `v` (0.3, not 0.29999999999999999): for people, not for the records.
 std::string ShortestReal(double v) {
   char buf[32];
-  for (int digits = 1; digits <= 17; ++digits) {
+  // At least the integer digits, so that 100 is "100", not "1e+02".
+  const int first =
+      std::abs(v) >= 1 && std::abs(v) < 1e15 ? static_cast<int>(std::floor(std::log10(std::abs(v)))) + 1 : 1;
+  for (int digits = first; digits <= 17; ++digits) {
     std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
     if (std::strtod(buf, nullptr) == v) break;
   }

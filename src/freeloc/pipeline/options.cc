@@ -108,6 +108,17 @@ void MultiFrameOptions::Validate() const {
                        ": " << frames << " is not in 1..9 (a window holds 9 frames)");
 }
 
+void InputOptions::Validate() const {
+  FREELOC_OPTION_CHECK(
+      "depth_median_min_m", depth_median_min_m > 0 && depth_median_min_m < depth_median_max_m,
+      ": " << depth_median_min_m << " must be > 0 and below depth_median_max_m (" << depth_median_max_m << ")");
+  FREELOC_OPTION_CHECK("focal_min", focal_min > 0 && focal_min < focal_max,
+                       ": " << focal_min << " must be > 0 and below focal_max (" << focal_max << ")");
+  FREELOC_OPTION_CHECK("focal_aspect_max", focal_aspect_max >= 1, ": " << focal_aspect_max << " must be >= 1");
+  FREELOC_OPTION_CHECK("principal_point_margin", principal_point_margin >= 0,
+                       ": " << principal_point_margin << " must be >= 0");
+}
+
 void ModelFiles::Validate(const PipelineOptions& o) const {
   const auto dirs = ModelDirs(models_dir);
   FREELOC_CHECK(!o.UsesDust3r() || !dust3r_model.empty(), MissingModelMessage(Network::kDust3r, o.preset, dirs));
@@ -131,6 +142,7 @@ void PipelineOptions::Validate() const {
   pointmap.Validate();
   instances.Validate();
   multi_frame.Validate();
+  inputs.Validate();
   runtime.Validate();
   models.Validate(*this);
 }

@@ -35,6 +35,9 @@ enum class SolverKind { kEssential, kPnp, kProcrustes, kHybrid };
 enum class InstanceSource { kPropagate, kGiven };
 // The benchmark track (io/mapfree.h): multi-frame answers each evaluated frame from its window (multi_frame.h).
 using freeloc::io::Track;
+// The unit of integer depth maps handed in (16-bit PNGs, uint16 arrays): mm (the map-free convention), cm or m.
+// Float maps are metres whatever this says.
+enum class DepthUnit { kMillimetre, kCentimetre, kMetre };
 // Multi-frame: the phone's tracking poses (poses_device.txt). auto — used where they agree with the images, per
 // window; use — trusted in the documented convention; ignore — never read.
 enum class DevicePoseUse { kAuto, kUse, kIgnore };
@@ -126,6 +129,21 @@ struct InstanceOptions {
   void Validate() const;
 };
 
+// What inputs handed in must look like to be taken as they say (pipeline/input_checks.h, docs/formats.md "Plausible
+// inputs"): the unit of integer depth maps and the bounds that refuse a well-formed file meaning something else —
+// depth in the wrong unit, intrinsics normalised or in another order. Loosening a bound is recorded with the answer
+// and lowers its confidence where the input needed it.
+struct InputOptions {
+  DepthUnit depth_unit = DepthUnit::kMillimetre;
+  double depth_median_min_m = 0.4;  // the valid depths' median, metres: below it the map is refused
+  double depth_median_max_m = 100;  // … and above it
+  double focal_min = 0.1;           // given focal lengths, in multiples of the image's long side
+  double focal_max = 20;
+  double focal_aspect_max = 1.1;      // max(fx, fy) / min(fx, fy)
+  double principal_point_margin = 0;  // how far outside the image the principal point may lie, fraction of its size
+  void Validate() const;
+};
+
 // The Multi Frame track's windows (multi_frame.h).
 struct MultiFrameOptions {
   int frames = 9;  // the last `frames` (1–9) frames of each window
@@ -144,6 +162,7 @@ struct PipelineOptions {
   PointmapMatchOptions pointmap;
   InstanceOptions instances;
   MultiFrameOptions multi_frame;
+  InputOptions inputs;
   nn::RuntimeOptions runtime;  // device, precision, threads of every network stage
 
   bool UsesDust3r() const {
@@ -201,6 +220,13 @@ struct EnumTable<pipeline::InstanceSource> {
   static constexpr const char* kField = "instance_source";
   static constexpr EnumEntry<pipeline::InstanceSource> kEntries[] = {
       {pipeline::InstanceSource::kPropagate, "propagate"}, {pipeline::InstanceSource::kGiven, "given"}};
+};
+template <>
+struct EnumTable<pipeline::DepthUnit> {
+  static constexpr const char* kField = "depth_unit";
+  static constexpr EnumEntry<pipeline::DepthUnit> kEntries[] = {{pipeline::DepthUnit::kMillimetre, "mm"},
+                                                                {pipeline::DepthUnit::kCentimetre, "cm"},
+                                                                {pipeline::DepthUnit::kMetre, "m"}};
 };
 template <>
 struct EnumTable<pipeline::DevicePoseUse> {

@@ -99,6 +99,9 @@ struct QueryResult {
   QueryTimings timings;
   FrameIntrinsics ref_intrinsics, query_intrinsics;  // what the solver used, and where it came from
   WindowSummary window;                              // multi-frame only: how the window voted
+  // What the plausible-input checks did to this query's inputs (input_checks.h): a resampled depth map, a bound
+  // loosened from its default that the input needed; the confidence is lowered for each.
+  std::vector<std::string> input_notes;
 };
 
 // What the per-scene caches did (for logs and tests).

@@ -128,6 +128,7 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["instance_pairs"] = r.timings.instance_pairs;
   if (r.ref_intrinsics.known() || r.query_intrinsics.known())
     j["intrinsics"] = {{"ref", IntrinsicsObject(r.ref_intrinsics)}, {"query", IntrinsicsObject(r.query_intrinsics)}};
+  if (!r.input_notes.empty()) j["inputs"] = r.input_notes;
   if (!r.window.empty()) {
     const WindowSummary& w = r.window;
     Json votes = Json::array();
@@ -182,6 +183,7 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.timings.segment_ms = j.value("segment_ms", 0.0);
     r.timings.instance_pass_ms = j.value("instance_pass_ms", 0.0);
     r.timings.instance_pairs = j.value("instance_pairs", 0);
+    if (j.contains("inputs")) r.input_notes = j.at("inputs").get<std::vector<std::string>>();
     if (j.contains("window")) {
       const Json& w = j.at("window");
       r.window.frames = w.at("frames").get<int>();

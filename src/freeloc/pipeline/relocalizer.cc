@@ -8,6 +8,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/core/timing.h"
+#include "freeloc/pipeline/input_checks.h"
 #include "freeloc/pipeline/model_files.h"
 #include "freeloc/pipeline/multi_frame.h"
 
@@ -51,6 +52,8 @@ struct Relocalizer::Impl {
   CacheStats stats;
   Camera k_ref;
   FrameIntrinsics ref_intrinsics;
+  InputNotes ref_notes;        // what the input checks did to the reference's inputs
+  std::string ref_depth_name;  // the reference's depth source (or the file expected), for messages
   DepthMap d_ref, d_query;
   bool have_ref = false;
   void UpdateStats() {
@@ -84,12 +87,44 @@ const DepthMap& Relocalizer::last_query_depth() const { return impl_->d_query; }
 
 namespace {
 
-// Intrinsics handed in (flags, Python, an intrinsics file) meet the map-free reader's bounds once the image's size
-// is known: a focal length of 1e308 or a principal point far outside the image is a typo, not a camera.
-void CheckCameraFitsImage(const Camera& camera, const Image& image, const char* what) {
+// Intrinsics handed in (flags, Python, an intrinsics file) must fit the image (input_checks.h): a focal length of
+// 1e308, normalised or reordered values are mistakes, not a camera. EXIF and pointmap intrinsics are checked where
+// they are made.
+void CheckCameraFitsImage(const Camera& camera, const FrameInputs& in, const Image& image, const InputOptions& o,
+                          const char* what, InputNotes* notes) {
   // No image, or no intrinsics at all (a default Camera: `freeloc match`, whose matchers need none).
   if (image.empty() || (camera.fx == 0 && camera.fy == 0 && camera.cx == 0 && camera.cy == 0)) return;
-  camera.ValidateForImage(image.width, image.height, what);
+  if (in.intrinsics_source != IntrinsicsSource::kGiven && in.intrinsics_source != IntrinsicsSource::kFile) return;
+  CheckIntrinsics(camera, image.width, image.height, o, what, notes);
+}
+
+// The frame's provided depth through the input rule when the depth stage reads it (a map the stages ignore is not
+// judged).
+DepthMap CheckedDepth(DepthMap d, const Image& image, const PipelineOptions& o, const char* frame, InputNotes* notes) {
+  if (!o.UsesProvidedDepth()) return d;
+  return CheckProvidedDepth(std::move(d), image.width, image.height, o.inputs, frame, notes);
+}
+
+// A kNoDepth query's message: which map is missing and where it was looked for.
+std::string NoDepthMessage(bool ref_missing, const std::string& ref_source, bool query_missing,
+                           const std::string& query_source, const PipelineOptions& o) {
+  std::string m;
+  const auto one = [&](const char* frame, const std::string& source) {
+    m += (m.empty() ? "" : "; ") + std::string("no depth map for the ") + frame +
+         (source.empty() ? "" : " (looked for " + source + ")");
+  };
+  if (ref_missing) one("reference", ref_source);
+  if (query_missing) one("query", query_source);
+  return m + "; depth " + o.depth.ToString() + " needs one for each frame (or use depth none for a unit translation)";
+}
+
+// The input checks' notes onto an answer: listed with it, its confidence (and predicted error) scaled.
+void ApplyInputNotes(const InputNotes& notes, QueryResult* r) {
+  r->input_notes = notes.notes;
+  if (notes.confidence_factor == 1 || r->confidence <= 0) return;
+  r->confidence *= notes.confidence_factor;
+  r->predicted_translation_m /= notes.confidence_factor;
+  r->predicted_rotation_deg /= notes.confidence_factor;
 }
 
 bool IsZero(const Camera& c) { return c.fx == 0 && c.fy == 0 && c.cx == 0 && c.cy == 0; }
@@ -125,7 +160,6 @@ FrameIntrinsics ResolveIntrinsics(const Camera& camera, const FrameInputs& in, c
     fi.pointmap_focal = f;
     return fi;
   }
-  CheckCameraFitsImage(camera, image, (std::string(frame) + " intrinsics").c_str());
   if (o.pointmap.check_intrinsics && o.UsesPointmapModel() && !IsZero(camera)) {
     fi.pointmap_focal = focal();
     const double given = std::sqrt(camera.fx * camera.fy);
@@ -145,7 +179,10 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameIn
   Impl& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   m.have_ref = false;
-  if (in.intrinsics_source != IntrinsicsSource::kPointmap) CheckCameraFitsImage(camera, image, "reference intrinsics");
+  m.ref_notes = InputNotes();
+  m.ref_depth_name = in.depth.source;
+  CheckCameraFitsImage(camera, in, image, m.o.inputs, "reference intrinsics", &m.ref_notes);
+  in.depth = CheckedDepth(std::move(in.depth), image, m.o, "reference depth", &m.ref_notes);
   m.matcher->SetReference(image, camera, in.instance_labels);
   m.ref_intrinsics = ResolveIntrinsics(
       camera, in, image, m.o, [&] { return m.matcher->ReferenceFocal(); }, "reference");
@@ -184,14 +221,23 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
                                matching::Correspondences* matches) {
   Impl& m = *impl_;
   FREELOC_CHECK(m.have_ref, "Relocalizer::Relocalize before SetReference");
-  if (in.intrinsics_source != IntrinsicsSource::kPointmap) CheckCameraFitsImage(camera, image, "query intrinsics");
   QueryResult r;
+  InputNotes notes = m.ref_notes;
+  CheckCameraFitsImage(camera, in, image, m.o.inputs, "query intrinsics", &notes);
   m.d_query = DepthMap();
   r.ref_intrinsics = m.ref_intrinsics;
   if (m.depth->needs_provided() && (m.d_ref.empty() || in.depth.empty())) {
+    // Which map is missing, the given intrinsics kept as given (nothing was estimated).
     r.status = QueryStatus::kNoDepth;
+    r.message = NoDepthMessage(m.d_ref.empty(), m.ref_depth_name, in.depth.empty(), in.depth.source, m.o);
+    r.query_intrinsics.camera = in.intrinsics_source == IntrinsicsSource::kPointmap ? Camera() : camera;
+    r.query_intrinsics.source =
+        in.intrinsics_source == IntrinsicsSource::kPointmap ? IntrinsicsSource::kNone : in.intrinsics_source;
+    r.query_intrinsics.orientation = in.orientation;
+    r.input_notes = notes.notes;
     return r;
   }
+  in.depth = CheckedDepth(std::move(in.depth), image, m.o, "query depth", &notes);
   // Matching first: a focal estimated from the query's pointmap comes from it, and the depth stage needs the focal.
   DepthMap provided = std::move(in.depth);
   const matching::Correspondences c = m.matcher->Match(image, camera, in, &r);
@@ -218,6 +264,9 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   r.timings.depth_ms = std::max(0.0, r.timings.depth_ms - own_in_depth);
   r.timings.match_ms += own_in_depth;
   m.solver->Solve(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
+  if (m.o.UsesProvidedDepth() && m.o.solver != SolverKind::kPnp)
+    CheckDepthAgreement(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
+  ApplyInputNotes(notes, &r);
   if (matches) *matches = c;
   m.UpdateStats();
   return r;
@@ -229,6 +278,33 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
   Relocalizer r(o);
   r.SetReference(ref, k_ref, d_ref);
   return r.Relocalize(query, k_query, d_query, pre, matches);
+}
+
+QueryResult SolveCorrespondences(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query,
+                                 DepthMap d_ref, DepthMap d_query, const PipelineOptions& o) {
+  // No photo here: a depth map's size stands for its image's where the frame's correspondences lie inside it (one
+  // that does not cover them is the solver's error, stages.cc CheckDepthCovers).
+  const auto size_of = [](const DepthMap& d, const std::vector<Eigen::Vector2d>& px, int* w, int* h) {
+    size_t inside = 0;
+    for (const auto& p : px) inside += p.x() >= -0.5 && p.y() >= -0.5 && p.x() < d.width && p.y() < d.height;
+    const bool covers = !d.empty() && inside * 5 >= px.size() * 4;
+    *w = covers ? d.width : 0;
+    *h = covers ? d.height : 0;
+  };
+  int wr, hr, wq, hq;
+  size_of(d_ref, c.ref, &wr, &hr);
+  size_of(d_query, c.query, &wq, &hq);
+  InputNotes notes;
+  CheckIntrinsics(k_ref, wr, hr, o.inputs, "reference intrinsics", &notes);
+  CheckIntrinsics(k_query, wq, hq, o.inputs, "query intrinsics", &notes);
+  d_ref = CheckProvidedDepth(std::move(d_ref), 0, 0, o.inputs, "reference depth", &notes);
+  d_query = CheckProvidedDepth(std::move(d_query), 0, 0, o.inputs, "query depth", &notes);
+  QueryResult r;
+  MakePoseSolver(o)->Solve(c, k_ref, k_query, d_ref, d_query, &r);
+  if (o.solver != SolverKind::kPnp) CheckDepthAgreement(c, k_ref, k_query, d_ref, d_query, &r);
+  ApplyInputNotes(notes, &r);
+  AnswerUnsolved(o, &r);
+  return r;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -252,12 +328,17 @@ std::vector<QueryResult> FailScene(const io::MapfreeScene& scene, const Pipeline
   return out;
 }
 
-// The scene's provided depth of `f` when the depth stage reads it and the file exists; empty otherwise.
+// The scene's provided depth of `f` when the depth stage reads it and the file exists; empty otherwise (naming the
+// file it looked for).
 DepthMap ProvidedDepthOf(const io::MapfreeScene& scene, const io::MapfreeFrame& f, const PipelineOptions& o) {
   if (!o.UsesProvidedDepth()) return {};
   const std::string path = scene.DepthPath(f, o.depth.suffix);
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return {};
+  if (!std::filesystem::exists(path, ec)) {
+    DepthMap none;
+    none.source = path;  // named in the query's no-depth message
+    return none;
+  }
   return scene.LoadDepth(f, o.depth.suffix);
 }
 

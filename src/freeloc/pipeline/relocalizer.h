@@ -86,6 +86,12 @@ QueryResult RelocalizePair(const Image& ref, const Image& query, const Camera& k
                            const std::vector<Eigen::Vector4d>* precomputed = nullptr,
                            matching::Correspondences* matches = nullptr);
 
+// A pose from correspondences handed in (`freeloc pose`, Python's estimate_relative_pose) by `options`' solver: the
+// depth maps (either may be empty) and the intrinsics through the input checks (input_checks.h; a depth map's size
+// stands for its image's), then the solver and the always-answer rule.
+QueryResult SolveCorrespondences(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query,
+                                 DepthMap d_ref, DepthMap d_query, const PipelineOptions& options);
+
 // Loads (and keeps for the process) the networks `options` names, so that a missing or damaged weights file is
 // one error before any work starts rather than a failure of every query. Throws freeloc::Error naming the file.
 void LoadModels(const PipelineOptions& options);

@@ -1,8 +1,12 @@
 #include "freeloc/pipeline/stages.h"
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <future>
+#include <iomanip>
+#include <sstream>
 #include <thread>
 
 #include "freeloc/core/error.h"
@@ -13,6 +17,7 @@
 #include "freeloc/geometry/hybrid_pose.h"
 #include "freeloc/geometry/metric_scale.h"
 #include "freeloc/geometry/relative_pose.h"
+#include "freeloc/geometry/rotation_only.h"
 #include "freeloc/matching/instance.h"
 #include "freeloc/matching/sift.h"
 #include "freeloc/pipeline/confidence.h"
@@ -181,11 +186,31 @@ class EssentialSolver : public PoseSolver {
     r->timings.solve_ms = MsSince(t0);
     r->status = StatusOf(rel.status.outcome);
     const bool weak = r->weak();
-    if (!rel.status.success() && !weak) return;
+    if (!rel.status.success() && !weak) {
+      const geometry::RotationOnlyResult rot =
+          geometry::EstimateRotationOnly(c.ref, c.query, k_ref, k_query, ro.threshold_px);
+      if (rot.found && rot.num_inliers >= 15 && 2 * static_cast<size_t>(rot.num_inliers) >= c.size())
+        NoParallax(c, rot, k_ref, k_query, d_ref, d_query, r);
+      r->timings.solve_ms = MsSince(t0);
+      return;
+    }
     r->query_from_ref = rel.query_from_ref;
     r->confidence = rel.status.num_inliers;
     if (d_ref.empty() || d_query.empty()) {
       r->status = QueryStatus::kOkUnitTranslation;  // weak or not: mapped below
+      // Without depth a camera turned in place fits any translation direction: the model found is arbitrary. A
+      // rotation that explains the essential inliers as well (its 2D residual within 2.2 × their 1D Sampson error —
+      // 1.4–1.8 for noise alone, 3 and more with the parallax of a 1 cm baseline at 3 m) says so instead.
+      const geometry::RotationOnlyResult rot =
+          geometry::EstimateRotationOnly(c.ref, c.query, k_ref, k_query, ro.threshold_px);
+      const double sampson_px = EssentialEvidence(c, rel, geometry::ScaleResult(), k_ref, k_query).residual_px;
+      if (!weak && rot.found && rot.num_inliers >= 0.9 * rel.status.num_inliers &&
+          rot.residual_px <= 2.2 * std::max(sampson_px, 0.05)) {
+        NoParallax(c, rot, k_ref, k_query, d_ref, d_query, r);
+        r->confidence = 0;
+        r->timings.solve_ms = MsSince(t0);
+        return;
+      }
     } else {
       Scale(c, rel, k_ref, k_query, d_ref, d_query, r);
     }
@@ -222,6 +247,76 @@ class EssentialSolver : public PoseSolver {
       r->confidence = ConfidenceFromPredictedError(pe);
     }
     r->status = QueryStatus::kOk;
+  }
+
+  // No parallax — the same photo twice, a camera turned in place: every translation direction fits, so the essential
+  // search finds no model (or, without depth, an arbitrary one). A rotation explaining at least half of the matches
+  // (and 15) is then the answer: with both depths a metric pose, its translation the median of X_query − R·X_ref over
+  // the rotation's inliers; without, the status says why (the translation cannot be seen) and keeps the rotation.
+  static void NoParallax(const matching::Correspondences& c, const geometry::RotationOnlyResult& rot,
+                         const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref, const DepthMap& d_query,
+                         QueryResult* r) {
+    const double angle = Eigen::AngleAxisd(rot.query_from_ref).angle() * 180 / M_PI;
+    r->route = "rotation";
+    r->inliers = rot.num_inliers;
+    r->inlier_mask = rot.inliers;
+    r->query_from_ref = Rigid3d(rot.query_from_ref, Eigen::Vector3d::Zero());
+    std::ostringstream what;
+    what << "no parallax: " << rot.num_inliers << " of " << c.size() << " matches fit a rotation of " << std::fixed
+         << std::setprecision(2) << angle << " degrees alone (the same viewpoint, or a camera turned in place";
+    if (d_ref.empty() || d_query.empty()) {
+      r->status = QueryStatus::kDegenerate;
+      r->message = what.str() + "); without depth maps the translation cannot be seen: give both depth maps";
+      return;
+    }
+    std::vector<Eigen::Vector3d> diff;
+    double depth_sum = 0;
+    for (size_t i = 0; i < c.size(); ++i) {
+      if (!rot.inliers[i]) continue;
+      const double zr = geometry::BilinearDepth(d_ref, c.ref[i].x(), c.ref[i].y());
+      const double zq = geometry::BilinearDepth(d_query, c.query[i].x(), c.query[i].y());
+      if (!(zr > 0) || !(zq > 0)) continue;
+      diff.push_back(zq * k_query.Unproject(c.query[i].x(), c.query[i].y()) -
+                     rot.query_from_ref * (zr * k_ref.Unproject(c.ref[i].x(), c.ref[i].y())));
+      depth_sum += zr;
+    }
+    if (diff.size() < 5) {
+      r->status = QueryStatus::kScaleNoValidDepth;
+      r->message = what.str() + "); too few of its matches have depth in both maps for the translation";
+      return;
+    }
+    Eigen::Vector3d t;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<double> v;
+      for (const auto& d : diff) v.push_back(d[k]);
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      t[k] = v[v.size() / 2];
+    }
+    std::vector<double> dev;
+    for (const auto& d : diff) dev.push_back((d - t).norm());
+    std::vector<double> sorted = dev;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double mad = sorted[sorted.size() / 2];
+    const double mean_depth = depth_sum / static_cast<double>(diff.size());
+    int agree = 0;
+    for (double d : dev) agree += d <= std::max(3 * 1.4826 * mad, 0.01 * mean_depth);
+    r->query_from_ref.translation = t;
+    r->scale_inliers = agree;
+    PoseEvidence ev;
+    ev.matches = static_cast<int>(c.size());
+    ev.inliers = rot.num_inliers;
+    ev.residual_px = rot.residual_px;
+    ev.focal_px = 0.25 * (k_ref.fx + k_ref.fy + k_query.fx + k_query.fy);
+    ev.mean_depth_m = mean_depth;
+    ev.scale_candidates = static_cast<int>(diff.size());
+    ev.scale_inliers = agree;
+    ev.scale_std_error_m = 1.4826 * mad / std::sqrt(std::max(1, agree));
+    const PredictedError pe = PredictPoseError(ev);
+    r->predicted_translation_m = pe.translation_m;
+    r->predicted_rotation_deg = pe.rotation_deg;
+    r->confidence = ConfidenceFromPredictedError(pe);
+    r->status = QueryStatus::kOk;
+    r->message = what.str() + "): the translation is from the depth maps";
   }
 
   double threshold_px_;

@@ -12,6 +12,7 @@
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
+#include "freeloc/pipeline/input_checks.h"
 
 namespace freeloc::service {
 
@@ -35,10 +36,16 @@ DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOpti
   p.camera = pipeline::ApplyIntrinsics(c, &p.inputs);
   if (!upload.depth.empty()) {
     p.inputs.depth = io::DecodeDepthPng(upload.depth, frame + " depth");
-    FREELOC_CHECK(p.inputs.depth.width == p.image.width && p.inputs.depth.height == p.image.height,
-                  frame << " depth: " << p.inputs.depth.width << "x" << p.inputs.depth.height << " for a "
-                        << p.image.width << "x" << p.image.height
-                        << " photo; send the depth map at the photo's displayed size");
+    p.inputs.depth.source.clear();  // the messages say "<frame> depth" already
+    // A unit sent with the map applies to it; otherwise the Relocalizer applies the server's (its size, unit and
+    // plausibility are the pipeline's one rule, pipeline/input_checks.h).
+    if (!upload.depth_unit.empty()) {
+      pipeline::DepthUnit unit;
+      FREELOC_CHECK(TryParseEnum(upload.depth_unit, &unit), frame << " depth_unit: '" << SafeText(upload.depth_unit, 20)
+                                                                  << "' is not one of "
+                                                                  << EnumNames<pipeline::DepthUnit>());
+      pipeline::ApplyDepthUnit(unit, &p.inputs.depth);
+    }
   }
   return p;
 }
@@ -80,6 +87,7 @@ AnchorStore::AnchorStore(const pipeline::PipelineOptions& options, int max_ancho
       u.image = io::ReadFileBytes((entry.path() / "image").string());
       if (meta.value("depth", false)) u.depth = io::ReadFileBytes((entry.path() / "depth.png").string());
       u.intrinsics = meta.value("intrinsics", std::string());
+      u.depth_unit = meta.value("depth_unit", std::string());
       if (static_cast<int>(anchors_.size()) >= max_anchors_) break;
       anchors_[id] = Make(id, std::move(u));
     } catch (const std::exception& e) {
@@ -115,7 +123,8 @@ void AnchorStore::Persist(const Anchor& a) const {
   io::WriteFileAtomic((d / "image").string(), a.upload.image.data(), a.upload.image.size());
   if (a.has_depth) io::WriteFileAtomic((d / "depth.png").string(), a.upload.depth.data(), a.upload.depth.size());
   const std::string meta =
-      nlohmann::json{{"intrinsics", a.upload.intrinsics}, {"depth", a.has_depth}}.dump();  // last: marks it complete
+      nlohmann::json{{"intrinsics", a.upload.intrinsics}, {"depth", a.has_depth}, {"depth_unit", a.upload.depth_unit}}
+          .dump();  // last: marks it complete
   io::WriteFileAtomic((d / "meta.json").string(), meta.data(), meta.size());
 }
 

@@ -24,6 +24,7 @@ struct PhotoUpload {
   std::vector<uint8_t> image;
   std::vector<uint8_t> depth;
   std::string intrinsics;
+  std::string depth_unit;  // the unit of `depth`'s integers (mm, cm, m); empty: the server's depth_unit
 };
 
 // A photo decoded for the pipeline: upright image, intrinsics by freeloc's order (given > EXIF > pointmap), depth.

@@ -192,7 +192,7 @@ void SendError(httplib::Response& res, int status, const std::string& message) {
 PhotoUpload UploadOf(const httplib::Request& req) {
   FREELOC_CHECK(req.is_multipart_form_data(),
                 "request: expected multipart/form-data with the fields 'image' (the photo), optional 'depth' "
-                "(16-bit PNG, millimetres) and 'intrinsics' (fx,fy,cx,cy); got "
+                "(16-bit PNG, millimetres unless 'depth_unit' says cm or m) and 'intrinsics' (fx,fy,cx,cy); got "
                     << (req.get_header_value("Content-Type").empty()
                             ? "no Content-Type"
                             : "'" + SafeText(req.get_header_value("Content-Type"), 80) + "'"));
@@ -206,6 +206,8 @@ PhotoUpload UploadOf(const httplib::Request& req) {
   }
   if (req.has_file("intrinsics")) u.intrinsics = req.get_file_value("intrinsics").content;
   FREELOC_CHECK(u.intrinsics.size() <= 200, "intrinsics: " << u.intrinsics.size() << " bytes; expected fx,fy,cx,cy");
+  if (req.has_file("depth_unit")) u.depth_unit = req.get_file_value("depth_unit").content;
+  FREELOC_CHECK(u.depth_unit.size() <= 8, "depth_unit: " << u.depth_unit.size() << " bytes; expected mm, cm or m");
   return u;
 }
 

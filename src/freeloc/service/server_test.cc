@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "freeloc/io/file_util.h"
+#include "freeloc/io/mapfree.h"
 #include "freeloc/pipeline/options.h"
 #include "testing/testing.h"
 
@@ -243,6 +244,57 @@ TEST(Service, BadInputIsAClearClientError) {
   const auto r = c.Post(reloc.c_str(), Photo(t.query, t.query_depth));
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
+}
+
+// The plausible-input rule (pipeline/input_checks.h) through the service: depth in another unit and a transposed
+// depth map refused naming the fix, a `depth_unit` field taken with its map, normalised intrinsics refused.
+TEST(Service, PlausibleInputsAreRefusedWithTheFixOrTakenAsSaid) {
+  const Tum t;
+  const Running s(Sift());
+  httplib::Client c = s.Client();
+  const std::string id = AddAnchor(c, t);
+  const std::string reloc = "/v1/anchors/" + id + "/relocalize";
+  const auto good = c.Post(reloc.c_str(), Photo(t.query, t.query_depth));
+  ASSERT_TRUE(good);
+  ASSERT_EQ(good->status, 200) << good->body;
+  const Json want = Json::parse(good->body);
+  testing::TempDir tmp;
+  const DepthMap q = io::ReadDepthPng(testing::DemoPath("val/s00003/seq1/frame_00000.sensor.png"));
+  const auto png = [&](const DepthMap& d) {
+    io::WriteDepthPng(tmp.File("d.png"), d);
+    return Bytes(tmp.File("d.png"));
+  };
+  DepthMap cm = q, tr(q.height, q.width);
+  for (float& v : cm.data) v = std::round(v * 100) / 1000;  // centimetres as integers
+  for (int y = 0; y < q.height; ++y)
+    for (int x = 0; x < q.width; ++x) tr.at(y, x) = q.at(x, y);
+  auto r = c.Post(reloc.c_str(), Photo(t.query, png(cm)));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body;
+  EXPECT_NE(r->body.find("set depth_unit=cm"), std::string::npos) << r->body;
+  auto items = Photo(t.query, png(cm));
+  items.push_back({"depth_unit", "cm", "", ""});
+  r = c.Post(reloc.c_str(), items);
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json j = Json::parse(r->body);
+  EXPECT_EQ(j["status"], "ok");
+  const Eigen::Vector3d tg(j["tvec"][0], j["tvec"][1], j["tvec"][2]),
+      tw(want["tvec"][0], want["tvec"][1], want["tvec"][2]);
+  EXPECT_LT((tg - tw).norm(), 0.05 * tw.norm()) << r->body;
+  items.back() = {"depth_unit", "furlong", "", ""};
+  r = c.Post(reloc.c_str(), items);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body;
+  EXPECT_NE(r->body.find("not one of mm, cm, m"), std::string::npos) << r->body;
+  r = c.Post(reloc.c_str(), Photo(t.query, png(tr)));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body;
+  EXPECT_NE(r->body.find("transposed"), std::string::npos) << r->body;
+  r = c.Post(reloc.c_str(), Photo(t.query, t.query_depth, "0.8139,0.8141,0.508,0.52"));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body;
+  EXPECT_NE(r->body.find("look normalised"), std::string::npos) << r->body;
 }
 
 TEST(Service, TokenIsRequiredWhenSet) {
