@@ -2,10 +2,12 @@
 # `mpirun -np N freeloc run`: the bundled TUM scenes plus copies of them (6 scenes) run with 3 and 2 ranks
 # write the single-process submission and sidecar byte for byte and nothing else; a rank killed at start makes the
 # run exit non-zero naming its scenes, and --resume (2 ranks) completes the same bytes. Exit 77 (skipped) when
-# mpirun is absent. Usage: mpi_run_test.sh FREELOC_BINARY DEMO_DIR FAULT_RUN_BINARY (tests/mpi/fault_run.cc: the same run,
-# with the rank named by FREELOC_TEST_KILL_RANK killing itself once it has its scenes)
+# mpirun is absent. Then synthetic scenes whose queries are rolled 80–126° (where a pose read back from its record
+# and written again once moved its last bit): 2 and 3 ranks, and every scene alone, write the one-process bytes.
+# Usage: mpi_run_test.sh FREELOC_BINARY DEMO_DIR FAULT_RUN_BINARY MAKE_ROLLED_SCENES (tests/mpi/fault_run.cc: the same
+# run, with the rank named by FREELOC_TEST_KILL_RANK killing itself once it has its scenes; make_rolled_scenes.cc)
 set -uo pipefail
-bin="$1"; demo="$2"; fault="$3"
+bin="$1"; demo="$2"; fault="$3"; rolled="$4"
 if ! command -v mpirun >/dev/null 2>&1; then echo "skipped: mpirun is absent (install openmpi-bin)"; exit 77; fi
 # Root in containers and CI; no CMA single-copy in containers; loopback only.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl_vader_single_copy_mechanism=none
@@ -41,4 +43,21 @@ out="$("${mpi[@]}" -np 2 "$bin" "${run[@]}" --resume --out "$work/kill/sub.zip" 
 cmp "$work/one/sub.zip" "$work/kill/sub.zip" || fail "resumed run differs from one process"
 [ ! -e "$work/kill/sub.zip.progress.jsonl" ] || fail "the journal was left behind"
 echo "ok: killed rank → exit $code naming its scenes; --resume -np 2 completes the same bytes"
-echo "3 passed, 0 failed"
+# Large rotations: 2 and 3 ranks, a --resume and each scene run alone write the one-process bytes.
+"$rolled" "$work/rolled" 12 || fail "writing the rolled scenes"
+rrun=(run --data "$work/rolled" --preset precomputed:SIFT-essential --depth provided:gt)
+mkdir -p "$work/r1" "$work/r2" "$work/r3" "$work/ralone"
+"$bin" -q "${rrun[@]}" --out "$work/r1/sub.zip" || fail "rolled: single-process run"
+for n in 2 3; do
+  out="$("${mpi[@]}" -np "$n" "$bin" -q "${rrun[@]}" --out "$work/r$n/sub.zip" 2>&1)" || fail "rolled -np $n: $out"
+  cmp "$work/r1/sub.zip" "$work/r$n/sub.zip" || fail "rolled -np $n: the submission differs from one process"
+done
+one="$(unzip -p "$work/r1/sub.zip" | sort)"
+alone=""
+for s in $(ls "$work/rolled/val"); do
+  "$bin" -q "${rrun[@]}" --scenes "$s" --out "$work/ralone/$s.zip" || fail "rolled: $s alone"
+  alone+="$(unzip -p "$work/ralone/$s.zip")"$'\n'
+done
+[ "$one" = "$(printf '%s' "$alone" | grep -v '^$' | sort)" ] || fail "rolled: a scene run alone differs from the full run"
+echo "ok: rolled scenes — mpirun -np 2 and 3 and each scene alone write the one-process bytes"
+echo "4 passed, 0 failed"

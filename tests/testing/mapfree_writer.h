@@ -29,6 +29,9 @@ struct SyntheticMapfreeOptions {
   double noise_px = 0.7;
   double outliers = 0.3;
   bool degrade_depth = true;  // monocular-like depth (global scale, smooth field, blobs, holes) for variety
+  // The queries' camera roll about the optical axis: 0 — small rotations (±6° about any axis); r > 0 — a roll of
+  // r to r + 0.8 radians either way (a phone held sideways), where unit quaternions' last bits are at stake.
+  double roll_rad = 0;
 };
 
 namespace internal {
@@ -90,7 +93,14 @@ inline void WriteSyntheticMapfreeScene(const std::string& dir, uint32_t seed, co
     // Another query pose in the same room.
     SyntheticScene s = base;
     const Eigen::Vector3d axis = Eigen::Vector3d(u01(rng) - 0.5, u01(rng) - 0.5, u01(rng) - 0.5).normalized();
-    const Eigen::Quaterniond q(Eigen::AngleAxisd(0.2 * (u01(rng) - 0.5), axis));
+    Eigen::Quaterniond q;
+    if (o.roll_rad > 0) {  // (draws only then: the small-rotation scenes keep their seeds' numbers)
+      const double sign = u01(rng) < 0.5 ? -1 : 1;
+      q = Eigen::AngleAxisd(sign * (o.roll_rad + 0.8 * u01(rng)),
+                            (0.15 * axis + Eigen::Vector3d::UnitZ()).normalized());
+    } else {
+      q = Eigen::AngleAxisd(0.2 * (u01(rng) - 0.5), axis);
+    }
     const Eigen::Vector3d c =
         Eigen::Vector3d(u01(rng) - 0.5, 0.3 * (u01(rng) - 0.5), u01(rng) - 0.5).normalized() * (0.2 + 1.2 * u01(rng));
     s.query_from_ref = Rigid3d(q, -(q * c));

@@ -30,7 +30,8 @@ struct Rigid3d {
   Eigen::Vector3d Center() const { return -(rotation.conjugate() * translation); }
 
   // w-first quaternion (qw, qx, qy, qz), unit norm, sign-canonical (qw ≥ 0; if qw == 0 the first non-zero
-  // component is positive) so that equal rotations always write equal numbers.
+  // component is positive) so that equal rotations always write equal numbers; a pose built from these numbers
+  // gives them back exactly (what a record read back writes is what was written).
   std::array<double, 4> QuaternionWxyz() const;
   // From a w-first quaternion; normalises it. Throws freeloc::Error on zero norm or non-finite values.
   static Rigid3d FromWxyz(const std::array<double, 4>& qwxyz, const Eigen::Vector3d& t);

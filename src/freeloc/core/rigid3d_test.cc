@@ -56,6 +56,24 @@ TEST(Rigid3d, QuaternionWxyzIsNormalisedAndSignStable) {
   EXPECT_EQ(q[2], 1.0);
 }
 
+// The numbers written are a fixed point: a pose read back from them (a record from another MPI rank, a --resume
+// journal) writes the same digits. Large rotations (|qw| far from 1) are where normalising twice moves a last bit.
+TEST(Rigid3d, QuaternionWxyzReadBackWritesTheSameNumbers) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n(0, 1);
+  int changed = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+    const Rigid3d p(q.normalized().toRotationMatrix(), Eigen::Vector3d::Zero());  // as the solvers build theirs
+    const auto written = p.QuaternionWxyz();
+    Rigid3d back;  // as QueryResultFromJson keeps a unit quaternion's coefficients
+    back.rotation = Eigen::Quaterniond(written[0], written[1], written[2], written[3]);
+    changed += back.QuaternionWxyz() != written;
+    EXPECT_EQ(CanonicalQuaternion(CanonicalQuaternion(q)).coeffs(), CanonicalQuaternion(q).coeffs());
+  }
+  EXPECT_EQ(changed, 0);
+}
+
 TEST(Rigid3d, FromWxyzNormalisesAndRejectsBadInput) {
   const Rigid3d r = Rigid3d::FromWxyz({2, 0, 0, 0}, Eigen::Vector3d(1, 2, 3));
   EXPECT_DOUBLE_EQ(r.rotation.w(), 1.0);
