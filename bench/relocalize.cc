@@ -16,9 +16,11 @@
 //   vit_small|vit_large|vit_giant2]
 //              [--precision fp32|bf16|fp32,bf16] [--set NAME=VALUE …]   (an option for every preset, e.g.
 //              sprt_min_matches=0)
+//   relocalize --phone   phone photos (12 and 48 MP JPEGs, 256×192 depth) against the VGA pair: phone_photos.h
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <random>
@@ -31,6 +33,7 @@
 #include "freeloc/nn/metric3d.h"
 #include "freeloc/nn/seggpt.h"
 #include "freeloc/pipeline/relocalizer.h"
+#include "phone_photos.h"
 
 using freeloc::bench::Fmt;
 using freeloc::bench::NowSeconds;
@@ -105,6 +108,11 @@ struct Row {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc > 1 && !std::strcmp(argv[1], "--phone")) {
+    const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+    return phone::Main(std::filesystem::path(self).parent_path().parent_path() / "freeloc", FREELOC_SOURCE_DIR,
+                       FREELOC_TINY_MODELS_DIR);
+  }
   int threads = 2, queries = 1, instances = 4;
   std::string presets = "seed,seed-no-instance,dust3r,mast3r,mast3r-metric3d,seed-mast3r,sift-essential";
   std::string m3d_variant = "vit_large", precision = "fp32";

@@ -3,12 +3,14 @@
 // with the EXIF a camera writes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "cli_testing.h"
 #include "freeloc/core/rigid3d.h"
+#include "freeloc/io/correspondence_file.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
 #include "testing/exif_writer.h"
@@ -238,3 +240,63 @@ TEST(CliIntrinsics, PointmapEstimatesAndChecks) {
 }
 
 }  // namespace
+
+namespace {
+
+// `im` ×`k` (bilinear, pixel centres as freeloc maps them): a "phone photo" of the bundled pair.
+Image Upscaled(const Image& im, int k) {
+  Image out(im.width * k, im.height * k);
+  for (int y = 0; y < out.height; ++y) {
+    const double v = std::clamp((y + 0.5) / k - 0.5, 0.0, im.height - 1.0);
+    const int y0 = static_cast<int>(v), y1 = std::min(y0 + 1, im.height - 1);
+    for (int x = 0; x < out.width; ++x) {
+      const double u = std::clamp((x + 0.5) / k - 0.5, 0.0, im.width - 1.0);
+      const int x0 = static_cast<int>(u), x1 = std::min(x0 + 1, im.width - 1);
+      for (int c = 0; c < 3; ++c) {
+        const double top = im.at(x0, y0, c) + (u - x0) * (im.at(x1, y0, c) - im.at(x0, y0, c));
+        const double bottom = im.at(x0, y1, c) + (u - x0) * (im.at(x1, y1, c) - im.at(x0, y1, c));
+        out.pixel(x, y)[c] = static_cast<uint8_t>(std::lround(top + (v - y0) * (bottom - top)));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+// A working resolution (docs/pipeline.md "Phone photos"): the pair ×4 (2560×1920, stored turned with EXIF
+// orientation 6) with the 640×480 sensor depth, worked on at 800×600, gives the VGA pair's pose (5 %, 1°); the answer
+// stays in the photo's pixels — the intrinsics as given, the saved matches across the whole photo — and says what it
+// resampled; --verbose names the working size and each stage.
+TEST(CliIntrinsics, PhonePhotosAreWorkedOnAtTheWorkingResolution) {
+  freeloc::testing::TempDir tmp;
+  const std::string s = freeloc::testing::DemoPath("val/s00003/");
+  Pair p;
+  p.ref = WriteJpeg(tmp, "ref4.jpg", Upscaled(freeloc::io::ReadImage(s + "seq0/frame_00000.png"), 4), 6);
+  p.query = WriteJpeg(tmp, "query4.jpg", Upscaled(freeloc::io::ReadImage(s + "seq1/frame_00000.png"), 4), 6);
+  p.ref_depth = s + "seq0/frame_00000.sensor.png";
+  p.query_depth = s + "seq1/frame_00000.sensor.png";
+  const std::string k1 = "535.4,539.2,320.1,247.6", k4 = "2141.6,2156.8,1281.9,991.9";
+  const Pair vga{s + "seq0/frame_00000.png", s + "seq1/frame_00000.png", p.ref_depth, p.query_depth};
+  const nlohmann::json want = Relocalize(vga, "--ref-intrinsics " + k1 + " --query-intrinsics " + k1);
+  const nlohmann::json got = Relocalize(p, "--ref-intrinsics " + k4 + " --query-intrinsics " + k4 +
+                                               " --max-side 800 --save-matches " + tmp.File("m.txt"));
+  ASSERT_EQ(got["status"], "ok") << got.dump();
+  const freeloc::Rigid3d a = PoseOf(got), b = PoseOf(want);
+  EXPECT_LT((a.translation - b.translation).norm(), 0.05 * b.translation.norm());
+  EXPECT_LT(RotationDeg(a, b), 1.0);
+  EXPECT_DOUBLE_EQ(got["intrinsics"]["query"]["fx"].get<double>(), 2141.6);
+  EXPECT_EQ(got["intrinsics"]["query"]["source"], "given");
+  EXPECT_GT(got["decode_ms"].get<double>(), 0);
+  EXPECT_GT(got["prepare_ms"].get<double>(), 0);
+  ASSERT_EQ(got["inputs"].size(), 2u) << got.dump();
+  EXPECT_EQ(got["inputs"][1], "query depth: resampled from 640x480 to 2560x1920");
+  // The saved matches are photo pixels: they reach past the working size.
+  double max_x = 0;
+  for (const auto& row : freeloc::io::ReadCorrespondenceFile(tmp.File("m.txt"))) max_x = std::max(max_x, row(2));
+  EXPECT_GT(max_x, 1600);
+  EXPECT_LT(max_x, 2560);
+  const Result v = RunFreeloc("-v relocalize --ref " + p.ref + " --query " + p.query + " --ref-intrinsics " + k4 +
+                              " --query-intrinsics " + k4 + " --max-side 800");
+  ExpectMentions(v.out, {"working at 800x600 for a 2560x1920 photo", "stage: query: matching", "times:       decode"});
+}

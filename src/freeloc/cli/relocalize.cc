@@ -1,11 +1,14 @@
 // `freeloc relocalize`: the pose of one query image relative to one reference image, through the pipeline's
 // Relocalizer (the same stages as `freeloc run`).
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
+#include "freeloc/core/progress.h"
+#include "freeloc/core/timing.h"
 #include "freeloc/io/correspondence_file.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
@@ -63,7 +66,7 @@ Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref
   const bool have = !flag_value.empty() || !a.intrinsics.empty();
   Photo p;
   io::ExifInfo exif;
-  p.image = io::ReadImage(path, &exif);
+  p.image = io::ReadImage(path, &exif, o.WorkingMaxSide());
   p.intrinsics =
       pipeline::ChooseIntrinsics(have ? &given : nullptr, source, exif, p.image, o.UsesPointmapModel(), path);
   FREELOC_CHECK(p.intrinsics.source != pipeline::IntrinsicsSource::kNone,
@@ -111,16 +114,16 @@ void Print(const pipeline::QueryResult& q, const pipeline::PipelineOptions& o, b
   std::printf(
       "%s\nstatus:      %s\nqvec (wxyz): %.9f %.9f %.9f %.9f\ntvec:        %.6f %.6f %.6f %s\n"
       "confidence:  %.6g\nmatches:     %d (%d inliers)\ninstances:   %d of %d used\n"
-      "times:       depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n"
+      "times:       decode %.0f ms, prepare %.0f ms, depth %.0f ms, match %.0f ms, instances %.0f ms, solve %.0f ms\n"
       "intrinsics:  ref %s\n             query %s\n",
       o.Summary().c_str(), q.StatusText().c_str(), qv[0], qv[1], qv[2], qv[3], t.x(), t.y(), t.z(),
       q.metric()  ? "(metres)"
       : q.prior() ? "(the prior pose, submitted with confidence 0: not solved)"
       : q.weak()  ? "(weak support: a low-confidence answer, ranked below every ok one)"
                   : "(unit norm: no depth)",
-      q.confidence, q.matches, q.inliers, q.instances_used, q.instances, q.timings.depth_ms, q.timings.match_ms,
-      q.timings.instance_ms, q.timings.solve_ms, IntrinsicsText(q.ref_intrinsics).c_str(),
-      IntrinsicsText(q.query_intrinsics).c_str());
+      q.confidence, q.matches, q.inliers, q.instances_used, q.instances, q.timings.decode_ms, q.timings.prepare_ms,
+      q.timings.depth_ms, q.timings.match_ms, q.timings.instance_ms, q.timings.solve_ms,
+      IntrinsicsText(q.ref_intrinsics).c_str(), IntrinsicsText(q.query_intrinsics).c_str());
   for (const std::string& note : q.input_notes) std::printf("inputs:      %s\n", note.c_str());
 }
 
@@ -128,6 +131,10 @@ int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   const pipeline::PipelineOptions o = Options(a, g);
   FREELOC_CHECK(a.intrinsics.empty() || (a.ref_k.empty() && a.query_k.empty()),
                 "give --ref-intrinsics/--query-intrinsics (fx,fy,cx,cy) or --intrinsics FILE, not both");
+  // A terminal shows what runs for a query over 2 s; --verbose logs each stage as it starts.
+  StageTicker ticker("relocalize");
+  const auto t0 = std::chrono::steady_clock::now();
+  SetStage("decoding the photos");
   const Photo ref_photo = LoadPhoto(a, o, true), query_photo = LoadPhoto(a, o, false);
   const Image &ref = ref_photo.image, &query = query_photo.image;
   std::vector<uint16_t> ref_labels, query_labels;
@@ -136,13 +143,22 @@ int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   const Camera kq = pipeline::ApplyIntrinsics(query_photo.intrinsics, &in_query);
   if (!a.ref_depth.empty()) in_ref.depth = io::ReadDepthPng(a.ref_depth);
   if (!a.query_depth.empty()) in_query.depth = io::ReadDepthPng(a.query_depth);
-  if (!a.ref_masks.empty()) in_ref.instance_labels = &(ref_labels = ReadLabels(a.ref_masks, ref.width, ref.height));
+  if (!a.ref_masks.empty())
+    in_ref.instance_labels = &(ref_labels = ReadLabels(a.ref_masks, ref.PhotoWidth(), ref.PhotoHeight()));
   if (!a.query_masks.empty())
-    in_query.instance_labels = &(query_labels = ReadLabels(a.query_masks, query.width, query.height));
+    in_query.instance_labels = &(query_labels = ReadLabels(a.query_masks, query.PhotoWidth(), query.PhotoHeight()));
+  const double decode_ms = MsSince(t0);
+  const auto t1 = std::chrono::steady_clock::now();
   pipeline::Relocalizer reloc(o, pipeline::Relocalizer::kOptionsValidated);  // Options() validated them
   reloc.SetReference(ref, kr, std::move(in_ref));
+  const double reference_ms = MsSince(t1);
   matching::Correspondences c;
-  const pipeline::QueryResult q = reloc.Relocalize(query, kq, std::move(in_query), &c);
+  pipeline::QueryResult q = reloc.Relocalize(query, kq, std::move(in_query), &c);
+  ticker.Stop();
+  // The record accounts for the whole command: the decoding, and with the preparation the start-up, the stages'
+  // set-up and the reference's own work.
+  q.timings.decode_ms = decode_ms;
+  q.timings.prepare_ms += reference_ms + std::chrono::duration<double, std::milli>(t0 - ProcessStart()).count();
   if (!a.save_matches.empty()) io::WriteCorrespondenceFile(a.save_matches, c.Rows());
   Print(q, o, a.json);
   return q.ok() ? 0 : 1;

@@ -11,6 +11,11 @@ struct Image {
   int width = 0;
   int height = 0;
   std::vector<uint8_t> data;  // height * width * 3, row-major, RGB
+  // A photo held at a working resolution (a reduced decode, io/image_io.h) keeps its own displayed size here: its
+  // intrinsics, depth maps and correspondences refer to that size. 0: this image is the photo's own size.
+  int photo_width = 0, photo_height = 0;
+  int PhotoWidth() const { return photo_width > 0 ? photo_width : width; }
+  int PhotoHeight() const { return photo_height > 0 ? photo_height : height; }
 
   Image() = default;
   Image(int w, int h) : width(w), height(h), data(static_cast<size_t>(w) * h * 3, 0) {}

@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <ctime>
 
 #include "freeloc/core/logging.h"
+#include "freeloc/core/timing.h"
 
 namespace freeloc {
 
@@ -77,5 +80,73 @@ void ProgressBar::Finish() {
   }
   finished_ = true;
 }
+
+namespace {
+std::atomic<const char*> g_stage{""};
+// The process's start from /proc/self/stat (field 22, clock ticks after boot) on the steady clock — the exec and the
+// dynamic loading before any library code ran included; the moment this library was loaded where that is unreadable.
+std::chrono::steady_clock::time_point StartOfProcess() {
+  const auto loaded = std::chrono::steady_clock::now();
+  std::FILE* f = std::fopen("/proc/self/stat", "r");
+  if (!f) return loaded;
+  char buf[1024];
+  const size_t n = std::fread(buf, 1, sizeof(buf) - 1, f);
+  std::fclose(f);
+  buf[n] = 0;
+  const char* p = std::strrchr(buf, ')');  // the command name may hold spaces; the fields follow its ')'
+  unsigned long long ticks = 0;
+  for (int field = 2; p && *p && field < 22; ++p)
+    if (*p == ' ') ++field;
+  timespec boot{};
+  if (!p || std::sscanf(p, "%llu", &ticks) != 1 || clock_gettime(CLOCK_BOOTTIME, &boot) != 0) return loaded;
+  const double since_boot = boot.tv_sec + boot.tv_nsec * 1e-9, started = ticks / double(sysconf(_SC_CLK_TCK));
+  const double age = since_boot - started;
+  if (!(age >= 0 && age < 60)) return loaded;  // not a fresh process (a long-lived one loading us late): no claim
+  return loaded - std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(age));
+}
+const std::chrono::steady_clock::time_point g_process_start = StartOfProcess();
+}  // namespace
+
+std::chrono::steady_clock::time_point ProcessStart() { return g_process_start; }
+
+void SetStage(const char* stage) {
+  g_stage.store(stage ? stage : "");
+  FREELOC_LOG(DEBUG) << "stage: " << (stage ? stage : "");
+}
+
+const char* CurrentStage() { return g_stage.load(); }
+
+StageTicker::StageTicker(std::string label, int enabled) : label_(std::move(label)) {
+  const bool on = enabled < 0 ? ::isatty(STDERR_FILENO) && LogEnabled(LogLevel::kInfo) : enabled > 0;
+  if (!on) return;
+  thread_ = std::thread([this] {
+    const auto start = std::chrono::steady_clock::now();
+    std::unique_lock<std::mutex> lock(mu_);
+    if (cv_.wait_for(lock, std::chrono::seconds(2), [this] { return stop_; })) return;
+    while (!stop_) {
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::fprintf(stderr, "\r\033[K%s: %s… %.1f s", label_.c_str(), CurrentStage(), s);
+      std::fflush(stderr);
+      drawn_ = true;
+      cv_.wait_for(lock, std::chrono::milliseconds(250), [this] { return stop_; });
+    }
+  });
+}
+
+void StageTicker::Stop() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  if (drawn_) {
+    std::fprintf(stderr, "\r\033[K");
+    std::fflush(stderr);
+    drawn_ = false;
+  }
+}
+
+StageTicker::~StageTicker() { Stop(); }
 
 }  // namespace freeloc

@@ -2,9 +2,13 @@
 // Silent when stderr is not a terminal or the log level is below info (--quiet).
 #pragma once
 
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <string>
+#include <thread>
 
 namespace freeloc {
 
@@ -32,6 +36,29 @@ class ProgressBar {
   bool finished_ = false;
   std::chrono::steady_clock::time_point start_;
   std::chrono::steady_clock::time_point last_draw_;
+};
+
+// The stage a command is in ("query: matching"), set by the Relocalizer as each stage starts (a string literal: it
+// is kept by pointer). Logged at debug level (--verbose) as it is set; shown by a StageTicker. Process-wide.
+void SetStage(const char* stage);
+const char* CurrentStage();
+
+// A one-line progress for a single long piece of work: from 2 s on, "label: <stage>… 3.4 s" redrawn on stderr every
+// quarter second (a terminal at info level only), cleared when stopped or destroyed.
+class StageTicker {
+ public:
+  explicit StageTicker(std::string label, int enabled = -1);
+  ~StageTicker();
+  void Stop();
+  StageTicker(const StageTicker&) = delete;
+  StageTicker& operator=(const StageTicker&) = delete;
+
+ private:
+  std::string label_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stop_ = false, drawn_ = false;
+  std::thread thread_;
 };
 
 }  // namespace freeloc

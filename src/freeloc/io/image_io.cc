@@ -1,6 +1,7 @@
 #include "freeloc/io/image_io.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -196,7 +197,75 @@ void CheckPixelLimit(ImageFormat f, const std::vector<uint8_t>& b, const std::st
                                                                  << LimitHint("max_image_pixels"));
 }
 
+// The codecs module's decode at 1/`reduce` of the size; throws naming `what` when the data cannot be decoded.
+void DecodeWith(ImageFormat f, const std::vector<uint8_t>& bytes, const std::string& what, int reduce, Image* img) {
+  std::string error;
+  if (!internal::Codecs().decode_rgb_reduced(bytes.data(), bytes.size(), reduce, img, &error)) {
+    FREELOC_THROW(what << ": cannot decode the " << ImageFormatName(f) << " data"
+                       << (error.empty() ? "" : " (" + SafeText(error, 300) + ")") << "; the file is damaged");
+  }
+}
+
 }  // namespace
+
+void WorkingSize(int width, int height, int max_side, int* w, int* h) {
+  *w = width;
+  *h = height;
+  const int side = std::max(width, height);
+  if (max_side <= 0 || side <= max_side) return;
+  const double s = static_cast<double>(max_side) / side;
+  *w = std::max(1, static_cast<int>(std::lround(width * s)));
+  *h = std::max(1, static_cast<int>(std::lround(height * s)));
+}
+
+Image ShrinkImage(const Image& image, int width, int height) {
+  FREELOC_CHECK(
+      width > 0 && height > 0 && width <= image.width && height <= image.height,
+      "ShrinkImage: " << width << "x" << height << " is not a reduction of " << image.width << "x" << image.height);
+  Image out;
+  std::string error;
+  FREELOC_CHECK(internal::Codecs().resize_area(image, width, height, &out, &error),
+                "resizing a photo: " << SafeText(error, 300));
+  out.photo_width = image.PhotoWidth();
+  out.photo_height = image.PhotoHeight();
+  return out;
+}
+
+Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what, int max_side) {
+  const ImageFormat f = bytes.empty() ? ImageFormat::kUnknown : SniffImageFormat(bytes.data(), bytes.size());
+  uint64_t sw = 0, sh = 0;
+  if (max_side > 0 && f == ImageFormat::kJpeg && HeaderDimensions(f, bytes, &sw, &sh) &&
+      std::max(sw, sh) > static_cast<uint64_t>(max_side)) {
+    // JPEG's scaled decoding: the largest of 1/8, 1/4, 1/2 that keeps the long side at least max_side, then an area
+    // resize to the working size. The photo's displayed size (its EXIF orientation turns the stored one) is kept.
+    CheckComplete(f, bytes, what);
+    CheckPixelLimit(f, bytes, what);
+    const int orientation = ReadExif(bytes).orientation;
+    const bool turned = orientation >= 5 && orientation <= 8;
+    const int photo_w = static_cast<int>(turned ? sh : sw), photo_h = static_cast<int>(turned ? sw : sh);
+    const int side = std::max(photo_w, photo_h);
+    int reduce = 1;
+    for (int k : {8, 4, 2})
+      if ((side + k - 1) / k >= max_side) {
+        reduce = k;
+        break;
+      }
+    Image img;
+    DecodeWith(f, bytes, what, reduce, &img);
+    // libjpeg rounds each reduced side up: anything else (an orientation not applied as read) decodes in full below.
+    if (img.width == (photo_w + reduce - 1) / reduce && img.height == (photo_h + reduce - 1) / reduce) {
+      img.photo_width = photo_w;
+      img.photo_height = photo_h;
+      int w, h;
+      WorkingSize(photo_w, photo_h, max_side, &w, &h);
+      return img.width == w && img.height == h ? img : ShrinkImage(img, w, h);
+    }
+  }
+  Image full = DecodeImage(bytes, what);
+  int w, h;
+  WorkingSize(full.width, full.height, max_side, &w, &h);
+  return w == full.width && h == full.height ? full : ShrinkImage(full, w, h);
+}
 
 Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
   FREELOC_CHECK(!bytes.empty(), what << ": file is empty; expected a JPEG or PNG image");
@@ -220,17 +289,15 @@ Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what) {
     }
     return img;
   }
-  std::string error;
-  if (!internal::Codecs().decode_rgb(bytes.data(), bytes.size(), &img, &error)) {
-    FREELOC_THROW(what << ": cannot decode the " << ImageFormatName(f) << " data"
-                       << (error.empty() ? "" : " (" + SafeText(error, 300) + ")") << "; the file is damaged");
-  }
+  DecodeWith(f, bytes, what, 1, &img);
   return img;
 }
 
 Image ReadImage(const std::string& path) { return ReadImage(path, nullptr); }
 
-Image ReadImage(const std::string& path, ExifInfo* exif) {
+Image ReadImage(const std::string& path, ExifInfo* exif) { return ReadImage(path, exif, 0); }
+
+Image ReadImage(const std::string& path, ExifInfo* exif, int max_side) {
   const std::vector<uint8_t> bytes = ReadFileBytes(path);
   if (!bytes.empty()) {
     const ImageFormat content = SniffImageFormat(bytes.data(), bytes.size());
@@ -240,7 +307,7 @@ Image ReadImage(const std::string& path, ExifInfo* exif) {
                            << ImageFormatName(content) << "; decoding it as " << ImageFormatName(content);
     }
   }
-  Image image = DecodeImage(bytes, path);
+  Image image = DecodeImage(bytes, path, max_side);
   if (exif) *exif = ReadExif(bytes);
   return image;
 }

@@ -24,6 +24,17 @@ Image ReadImage(const std::string& path);
 // from it describe the image as returned (displayed orientation).
 Image ReadImage(const std::string& path, ExifInfo* exif);
 
+// A working resolution (PipelineOptions inputs.max_side): with `max_side` > 0 a photo whose long side is larger is
+// decoded at that size — JPEG's scaled decoding (1/2, 1/4, 1/8) where it reaches, then an area resize — never
+// holding the full-resolution pixels of a JPEG it can scale; the photo's own displayed size stays in
+// Image::photo_width/photo_height, which intrinsics, depth maps and correspondences refer to.
+Image DecodeImage(const std::vector<uint8_t>& bytes, const std::string& what, int max_side);
+Image ReadImage(const std::string& path, ExifInfo* exif, int max_side);
+// The working size of a width × height photo: its long side at most `max_side` (0: no limit), the aspect kept.
+void WorkingSize(int width, int height, int max_side, int* w, int* h);
+// An area-averaging reduction of `image` to width × height (each at most the image's), keeping its photo size.
+Image ShrinkImage(const Image& image, int width, int height);
+
 // Lossless PNG, written atomically.
 void WriteImagePng(const std::string& path, const Image& image);
 

@@ -95,6 +95,45 @@ TEST(ImageIo, HonoursExifOrientation) {
   }
 }
 
+// A working resolution (image_io.h): a large JPEG decodes reduced — JPEG's scaled decoding, then an area resize —
+// at the size asked, in its displayed orientation, keeping the photo's own size; its pixels are those of the full
+// decode reduced. A PNG (no scaled decoding) and a photo already small enough decode as before.
+TEST(ImageIo, ReducedDecodeKeepsThePhotoSizeAndOrientation) {
+  // 2400×1200 stored: a red left half, a blue right half, a green square near the top left (seeded noise on top).
+  cv::Mat m(1200, 2400, CV_8UC3, cv::Scalar(0, 0, 255));
+  m(cv::Rect(1200, 0, 1200, 1200)).setTo(cv::Scalar(255, 0, 0));
+  m(cv::Rect(200, 200, 400, 400)).setTo(cv::Scalar(0, 255, 0));
+  cv::Mat noise(m.size(), CV_8UC3);
+  cv::randu(noise, 0, 20);
+  m += noise;
+  for (int orientation : {1, 6}) {
+    SCOPED_TRACE(orientation);
+    const std::string jpeg = WithExifOrientation(Encode(m, ".jpg"), orientation);
+    const std::vector<uint8_t> bytes(jpeg.begin(), jpeg.end());
+    const Image full = DecodeImage(bytes, "mem");
+    const Image reduced = DecodeImage(bytes, "mem", 700);
+    const bool turned = orientation == 6;
+    ASSERT_EQ(reduced.width, turned ? 350 : 700);
+    ASSERT_EQ(reduced.height, turned ? 700 : 350);
+    EXPECT_EQ(reduced.PhotoWidth(), full.width);
+    EXPECT_EQ(reduced.PhotoHeight(), full.height);
+    const Image shrunk = ShrinkImage(full, reduced.width, reduced.height);
+    double diff = 0;
+    for (size_t i = 0; i < reduced.data.size(); ++i) diff += std::abs(reduced.data[i] - shrunk.data[i]);
+    EXPECT_LT(diff / reduced.data.size(), 3.0);
+    // The green square where the full decode has it, scaled.
+    const int gx = turned ? 350 - 1 - 80 : 80, gy = 80;
+    EXPECT_GT(reduced.at(gx, gy, 1), 200) << reduced.at(gx, gy, 0) << " " << reduced.at(gx, gy, 2);
+  }
+  const std::string png = Encode(m, ".png");
+  const Image p = DecodeImage(std::vector<uint8_t>(png.begin(), png.end()), "mem", 700);
+  EXPECT_EQ(p.width, 700);
+  EXPECT_EQ(p.PhotoWidth(), 2400);
+  const Image small = DecodeImage(std::vector<uint8_t>(png.begin(), png.end()), "mem", 4000);
+  EXPECT_EQ(small.width, 2400);
+  EXPECT_EQ(small.photo_width, 0);
+}
+
 TEST(ImageIo, TruncatedFilesAreErrors) {
   const std::string png = Encode(TwoColourBgr(), ".png");
   const std::string jpg = Encode(TwoColourBgr(), ".jpg");

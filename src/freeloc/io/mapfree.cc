@@ -45,7 +45,9 @@ std::string MapfreeScene::DepthPath(const MapfreeFrame& f, const std::string& su
   return (p.parent_path() / (p.stem().string() + "." + suffix + ".png")).string();
 }
 
-Image MapfreeScene::LoadImage(const MapfreeFrame& f) const { return ReadImage(FramePath(f)); }
+Image MapfreeScene::LoadImage(const MapfreeFrame& f, int max_side) const {
+  return ReadImage(FramePath(f), nullptr, max_side);
+}
 
 DepthMap MapfreeScene::LoadDepth(const MapfreeFrame& f, const std::string& suffix) const {
   const std::string path = DepthPath(f, suffix);

@@ -43,7 +43,8 @@ struct MapfreeScene {
   std::string FramePath(const MapfreeFrame& f) const { return dir + "/" + f.name; }
   // `frame_XXXXX.<suffix>.png` next to the frame's image.
   std::string DepthPath(const MapfreeFrame& f, const std::string& suffix) const;
-  Image LoadImage(const MapfreeFrame& f) const;
+  // `max_side` > 0: at that working resolution (image_io.h).
+  Image LoadImage(const MapfreeFrame& f, int max_side = 0) const;
   // Provided depth as stored (integers read as mm / 1000, DepthStorage::kInteger), 0 = invalid. Throws naming the file
   // when absent or damaged; its unit and size are the pipeline's rule (pipeline/input_checks.h).
   DepthMap LoadDepth(const MapfreeFrame& f, const std::string& suffix) const;

@@ -197,13 +197,13 @@ void ApplyDepthUnit(DepthUnit unit, DepthMap* d) {
   d->storage = DepthStorage::kMetres;
 }
 
-DepthMap CheckProvidedDepth(DepthMap d, int image_width, int image_height, const InputOptions& o,
-                            const std::string& frame, InputNotes* notes) {
+DepthMap CheckProvidedDepth(DepthMap d, int image_width, int image_height, int work_width, int work_height,
+                            const InputOptions& o, const std::string& frame, InputNotes* notes) {
   if (d.empty()) return d;
   const bool integer = d.storage == DepthStorage::kInteger;
   ApplyDepthUnit(o.depth_unit, &d);
   const std::string name = Named(frame, d);
-  if (image_width > 0 && image_height > 0 && (d.width != image_width || d.height != image_height)) {
+  if (image_width > 0 && image_height > 0 && (d.width != work_width || d.height != work_height)) {
     // Same aspect ratio within 1 %: another resolution of the same view. Products in 64 bits: sizes come from files.
     const double cross = static_cast<double>(d.width) * image_height,
                  other = static_cast<double>(image_width) * d.height;
@@ -218,8 +218,9 @@ DepthMap CheckProvidedDepth(DepthMap d, int image_width, int image_height, const
              << "; give the depth map in the photo's displayed orientation, at its size or any size of "
                 "the same aspect ratio");
     const std::string from = std::to_string(d.width) + "x" + std::to_string(d.height);
-    d = Resample(d, image_width, image_height);
-    if (notes)
+    const bool photo_size = d.width == image_width && d.height == image_height;
+    d = Resample(d, work_width, work_height);
+    if (notes && !photo_size)
       notes->Add(frame + ": resampled from " + from + " to " + std::to_string(image_width) + "x" +
                      std::to_string(image_height),
                  kResampledDepthFactor);

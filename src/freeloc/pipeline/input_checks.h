@@ -40,13 +40,14 @@ inline constexpr double kLoosenedBoundFactor = 0.5;
 // Integer maps (DepthStorage::kInteger, read as millimetres) in `unit` → metres; float maps are left as they are.
 void ApplyDepthUnit(DepthUnit unit, DepthMap* depth);
 
-// The provided-depth rule for a frame whose photo is `image_width` × `image_height` (0 × 0: unknown — `freeloc pose`):
-// the unit applied; another resolution of the same aspect ratio (within 1 %) resampled to the photo's (bilinear where
-// the four neighbours are valid and agree within 10 %, else the nearest pixel); another aspect ratio refused; the
-// valid depths' median within [depth_median_min_m, depth_median_max_m]. `frame` names it in messages ("query
-// depth"), with the map's source. Throws freeloc::Error; an empty map is returned as it is.
-DepthMap CheckProvidedDepth(DepthMap depth, int image_width, int image_height, const InputOptions& o,
-                            const std::string& frame, InputNotes* notes);
+// The provided-depth rule for a frame whose photo is `photo_width` × `photo_height` (0 × 0: unknown — `freeloc pose`)
+// and is worked on at `work_width` × `work_height` (working_frame.h; the photo's size when not reduced): the unit
+// applied; a map of the photo's aspect ratio (within 1 %) resampled to the working size (bilinear where the four
+// neighbours are valid and agree within 10 %, else the nearest pixel) — noted when its size is not the photo's;
+// another aspect ratio refused; the valid depths' median within [depth_median_min_m, depth_median_max_m]. `frame`
+// names it in messages ("query depth"), with the map's source. Throws freeloc::Error; an empty map is returned as is.
+DepthMap CheckProvidedDepth(DepthMap depth, int photo_width, int photo_height, int work_width, int work_height,
+                            const InputOptions& o, const std::string& frame, InputNotes* notes);
 
 // Intrinsics handed in (flags, a file, Python, the service) against an image of `width` × `height` (0 × 0: unknown —
 // only finiteness and sign): focal lengths within [focal_min, focal_max] image long sides, fx/fy within

@@ -99,7 +99,7 @@ DepthMap StoredDepth(double unit_per_m, uint32_t seed = 7) {
 std::string DepthError(DepthMap d, int w, int h, const InputOptions& o = {}, InputNotes* notes = nullptr,
                        DepthMap* out = nullptr) {
   try {
-    DepthMap r = CheckProvidedDepth(std::move(d), w, h, o, "query depth", notes);
+    DepthMap r = CheckProvidedDepth(std::move(d), w, h, w, h, o, "query depth", notes);
     if (out) *out = std::move(r);
   } catch (const Error& e) {
     return e.what();

@@ -16,7 +16,7 @@ IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_so
   }
   Camera k;
   std::string refused;
-  if (io::CameraFromExif(exif, image.width, image.height, &k, &c.why, &refused)) {
+  if (io::CameraFromExif(exif, image.PhotoWidth(), image.PhotoHeight(), &k, &c.why, &refused)) {
     c.camera = k;
     c.source = IntrinsicsSource::kExif;
     if (warn && !refused.empty())

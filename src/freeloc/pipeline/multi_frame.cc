@@ -9,6 +9,7 @@
 #include "freeloc/geometry/window_scale.h"
 #include "freeloc/pipeline/confidence.h"
 #include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/working_frame.h"
 
 namespace freeloc::pipeline {
 
@@ -557,7 +558,15 @@ geometry::ScaleAnchors AnchorInliers(const matching::Correspondences& c, const Q
   std::vector<Eigen::Vector2d> pr, pq;
   for (size_t i = 0; i < c.size(); ++i)
     if (r.inlier_mask[i]) pr.push_back(c.ref[i]), pq.push_back(c.query[i]);
-  return geometry::AnchorScales(pr, pq, r.query_from_ref, depth_ref, depth_query, ref, query);
+  // The depth maps are at the working resolution (working_frame.h): points and cameras into their pixels.
+  const auto to_depth = [](const DepthMap& d, const Camera& k, std::vector<Eigen::Vector2d>* p) {
+    if (k.width <= 0 || k.height <= 0 || d.empty() || (d.width == k.width && d.height == k.height)) return k;
+    const PixelScale s{static_cast<double>(k.width) / d.width, static_cast<double>(k.height) / d.height};
+    for (auto& x : *p) x = s.ToWorking(x);
+    return k.Scaled(d.width, d.height);
+  };
+  const Camera kr = to_depth(depth_ref, ref, &pr), kq = to_depth(depth_query, query, &pq);
+  return geometry::AnchorScales(pr, pq, r.query_from_ref, depth_ref, depth_query, kr, kq);
 }
 
 }  // namespace

@@ -134,6 +134,12 @@ struct InstanceOptions {
 // depth in the wrong unit, intrinsics normalised or in another order. Loosening a bound is recorded with the answer
 // and lowers its confidence where the input needed it.
 struct InputOptions {
+  // The working resolution: photos are decoded and matched at most this many pixels on their long side (JPEG's
+  // scaled decoding where it reaches); intrinsics, depth maps, matches and answers stay in the photo's own pixels.
+  // 0: full resolution. max_side for SIFT, network_max_side for the DUSt3R/MASt3R matchers (their networks see 512
+  // px; Metric3D's ViT about 1064). Chosen by measurement (docs/pipeline.md "Phone photos").
+  int max_side = 1600;
+  int network_max_side = 1024;
   DepthUnit depth_unit = DepthUnit::kMillimetre;
   double depth_median_min_m = 0.4;  // the valid depths' median, metres: below it the map is refused
   double depth_median_max_m = 100;  // … and above it
@@ -180,6 +186,8 @@ struct PipelineOptions {
   bool UsesProvidedDepth() const { return depth.kind == DepthKind::kProvided; }
   bool UsesMast3rDepth() const { return depth.kind == DepthKind::kMast3r; }
   bool UsesPrecomputed() const { return matcher.kind == MatcherKind::kPrecomputed; }
+  // The working resolution's long side for this matcher (InputOptions), 0: full resolution.
+  int WorkingMaxSide() const { return UsesPointmapModel() ? inputs.network_max_side : inputs.max_side; }
   // Throws freeloc::Error naming the option field and the allowed values (or the missing weights file).
   void Validate() const;
   std::string Summary() const;  // one line for people: "preset …: matcher …, depth …, solver …"

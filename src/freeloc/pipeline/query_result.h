@@ -63,6 +63,9 @@ struct WindowSummary {
 
 // What a query's stages cost, milliseconds (the log, the records, the report and bench/relocalize).
 struct QueryTimings {
+  // decode: reading the photos and depth files (the caller's; `relocalize` both frames'); prepare: the inputs brought
+  // to the working resolution and checked (input_checks.h) — `relocalize` adds the reference's own work here.
+  double decode_ms = 0, prepare_ms = 0;
   double depth_ms = 0, match_ms = 0, instance_ms = 0, solve_ms = 0;
   // Inside match_ms / instance_ms (network matchers): the global pair's network pass, the query's own-pointmap pass
   // (the pair swapped, run for the focal check or MASt3R's query depth; 0 when nothing asked for it), SegGPT's

@@ -117,6 +117,8 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["scale_inliers"] = r.scale_inliers;
   j["predicted_translation_m"] = r.predicted_translation_m;
   j["predicted_rotation_deg"] = r.predicted_rotation_deg;
+  j["decode_ms"] = r.timings.decode_ms;
+  j["prepare_ms"] = r.timings.prepare_ms;
   j["depth_ms"] = r.timings.depth_ms;
   j["match_ms"] = r.timings.match_ms;
   j["instance_ms"] = r.timings.instance_ms;
@@ -170,6 +172,8 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.route = j.value("route", std::string());
     r.predicted_translation_m = j.value("predicted_translation_m", 0.0);
     r.predicted_rotation_deg = j.value("predicted_rotation_deg", 0.0);
+    r.timings.decode_ms = j.value("decode_ms", 0.0);
+    r.timings.prepare_ms = j.value("prepare_ms", 0.0);
     r.timings.depth_ms = j.value("depth_ms", 0.0);
     r.timings.match_ms = j.value("match_ms", 0.0);
     r.timings.instance_ms = j.value("instance_ms", 0.0);

@@ -7,10 +7,12 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
+#include "freeloc/core/progress.h"
 #include "freeloc/core/timing.h"
 #include "freeloc/pipeline/input_checks.h"
 #include "freeloc/pipeline/model_files.h"
 #include "freeloc/pipeline/multi_frame.h"
+#include "freeloc/pipeline/working_frame.h"
 
 namespace freeloc::pipeline {
 
@@ -53,6 +55,7 @@ struct Relocalizer::Impl {
   Camera k_ref;
   FrameIntrinsics ref_intrinsics;
   InputNotes ref_notes;        // what the input checks did to the reference's inputs
+  PixelScale ref_scale;        // the reference's photo pixels per working pixel
   std::string ref_depth_name;  // the reference's depth source (or the file expected), for messages
   DepthMap d_ref, d_query;
   bool have_ref = false;
@@ -90,19 +93,37 @@ namespace {
 // Intrinsics handed in (flags, Python, an intrinsics file) must fit the image (input_checks.h): a focal length of
 // 1e308, normalised or reordered values are mistakes, not a camera. EXIF and pointmap intrinsics are checked where
 // they are made.
-void CheckCameraFitsImage(const Camera& camera, const FrameInputs& in, const Image& image, const InputOptions& o,
+void CheckCameraFitsImage(const Camera& camera, const FrameInputs& in, const WorkingFrame& wf, const InputOptions& o,
                           const char* what, InputNotes* notes) {
   // No image, or no intrinsics at all (a default Camera: `freeloc match`, whose matchers need none).
-  if (image.empty() || (camera.fx == 0 && camera.fy == 0 && camera.cx == 0 && camera.cy == 0)) return;
+  if (wf.image().empty() || (camera.fx == 0 && camera.fy == 0 && camera.cx == 0 && camera.cy == 0)) return;
   if (in.intrinsics_source != IntrinsicsSource::kGiven && in.intrinsics_source != IntrinsicsSource::kFile) return;
-  CheckIntrinsics(camera, image.width, image.height, o, what, notes);
+  CheckIntrinsics(camera, wf.photo_width(), wf.photo_height(), o, what, notes);
 }
 
 // The frame's provided depth through the input rule when the depth stage reads it (a map the stages ignore is not
-// judged).
-DepthMap CheckedDepth(DepthMap d, const Image& image, const PipelineOptions& o, const char* frame, InputNotes* notes) {
+// judged), at the working size.
+DepthMap CheckedDepth(DepthMap d, const WorkingFrame& wf, const PipelineOptions& o, const char* frame,
+                      InputNotes* notes) {
   if (!o.UsesProvidedDepth()) return d;
-  return CheckProvidedDepth(std::move(d), image.width, image.height, o.inputs, frame, notes);
+  return CheckProvidedDepth(std::move(d), wf.photo_width(), wf.photo_height(), wf.image().width, wf.image().height,
+                            o.inputs, frame, notes);
+}
+
+// Intrinsics resolved in working pixels, as reported: in the photo's own pixels (the camera handed in as it was).
+FrameIntrinsics InPhotoPixels(FrameIntrinsics fi, const Camera& given, const WorkingFrame& wf) {
+  if (!wf.scaled()) return fi;
+  fi.camera = fi.source == IntrinsicsSource::kPointmap ? wf.ToPhoto(fi.camera) : given;
+  fi.pointmap_focal *= wf.scale().sx;
+  return fi;
+}
+
+// The frame's inputs in working pixels: its labels and handed-in correspondences (kept alive in `labels`, `rows`).
+void InputsToWorking(const WorkingFrame& wf, const PixelScale* ref, FrameInputs* in, std::vector<uint16_t>* labels,
+                     std::vector<Eigen::Vector4d>* rows) {
+  if (in->instance_labels && wf.scaled()) in->instance_labels = &(*labels = wf.ToWorking(*in->instance_labels));
+  if (ref && in->correspondences && (wf.scaled() || ref->scaled()))
+    in->correspondences = &(*rows = wf.ToWorking(*in->correspondences, *ref));
 }
 
 // A kNoDepth query's message: which map is missing and where it was looked for.
@@ -181,13 +202,22 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameIn
   m.have_ref = false;
   m.ref_notes = InputNotes();
   m.ref_depth_name = in.depth.source;
-  CheckCameraFitsImage(camera, in, image, m.o.inputs, "reference intrinsics", &m.ref_notes);
-  in.depth = CheckedDepth(std::move(in.depth), image, m.o, "reference depth", &m.ref_notes);
-  m.matcher->SetReference(image, camera, in.instance_labels);
-  m.ref_intrinsics = ResolveIntrinsics(
-      camera, in, image, m.o, [&] { return m.matcher->ReferenceFocal(); }, "reference");
-  m.k_ref = m.ref_intrinsics.camera;
-  m.d_ref = m.depth->Depth(image, m.k_ref, std::move(in.depth));
+  SetStage("reference: preparing");
+  const WorkingFrame wf(image, m.o.WorkingMaxSide());  // the stages keep what they need of the reference
+  m.ref_scale = wf.scale();
+  CheckCameraFitsImage(camera, in, wf, m.o.inputs, "reference intrinsics", &m.ref_notes);
+  in.depth = CheckedDepth(std::move(in.depth), wf, m.o, "reference depth", &m.ref_notes);
+  std::vector<uint16_t> labels;
+  InputsToWorking(wf, nullptr, &in, &labels, nullptr);
+  const Camera k_work = wf.ToWorking(camera);
+  SetStage("reference: features or encoding");
+  m.matcher->SetReference(wf.image(), k_work, in.instance_labels);
+  const FrameIntrinsics fi = ResolveIntrinsics(
+      k_work, in, wf.image(), m.o, [&] { return m.matcher->ReferenceFocal(); }, "reference");
+  m.k_ref = fi.camera;
+  m.ref_intrinsics = InPhotoPixels(fi, camera, wf);
+  SetStage("reference: depth");
+  m.d_ref = m.depth->Depth(wf.image(), m.k_ref, std::move(in.depth));
   m.stats.reference_ms = MsSince(t0);
   m.UpdateStats();
   m.have_ref = true;
@@ -196,7 +226,13 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameIn
 matching::Correspondences Relocalizer::Match(const Image& image, const Camera& camera, const FrameInputs& in,
                                              QueryResult* r) {
   FREELOC_CHECK(impl_->have_ref, "Relocalizer::Match before SetReference");
-  matching::Correspondences c = impl_->matcher->Match(image, camera, in, r);
+  const WorkingFrame wf(image, impl_->o.WorkingMaxSide());
+  FrameInputs work = in;
+  std::vector<uint16_t> labels;
+  std::vector<Eigen::Vector4d> rows;
+  InputsToWorking(wf, &impl_->ref_scale, &work, &labels, &rows);
+  matching::Correspondences c = impl_->matcher->Match(wf.image(), wf.ToWorking(camera), work, r);
+  wf.ToPhoto(&c, impl_->ref_scale);
   impl_->UpdateStats();
   return c;
 }
@@ -222,8 +258,11 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   Impl& m = *impl_;
   FREELOC_CHECK(m.have_ref, "Relocalizer::Relocalize before SetReference");
   QueryResult r;
+  const auto tp = std::chrono::steady_clock::now();
+  SetStage("query: preparing");
   InputNotes notes = m.ref_notes;
-  CheckCameraFitsImage(camera, in, image, m.o.inputs, "query intrinsics", &notes);
+  const WorkingFrame wf(image, m.o.WorkingMaxSide());
+  CheckCameraFitsImage(camera, in, wf, m.o.inputs, "query intrinsics", &notes);
   m.d_query = DepthMap();
   r.ref_intrinsics = m.ref_intrinsics;
   if (m.depth->needs_provided() && (m.d_ref.empty() || in.depth.empty())) {
@@ -237,18 +276,26 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
     r.input_notes = notes.notes;
     return r;
   }
-  in.depth = CheckedDepth(std::move(in.depth), image, m.o, "query depth", &notes);
+  in.depth = CheckedDepth(std::move(in.depth), wf, m.o, "query depth", &notes);
+  std::vector<uint16_t> labels;
+  std::vector<Eigen::Vector4d> rows;
+  InputsToWorking(wf, &m.ref_scale, &in, &labels, &rows);
+  const Camera k_work = wf.ToWorking(camera);
+  r.timings.prepare_ms = MsSince(tp);
   // Matching first: a focal estimated from the query's pointmap comes from it, and the depth stage needs the focal.
   DepthMap provided = std::move(in.depth);
-  const matching::Correspondences c = m.matcher->Match(image, camera, in, &r);
+  SetStage("query: matching");
+  matching::Correspondences c = m.matcher->Match(wf.image(), k_work, in, &r);
   const auto tf = std::chrono::steady_clock::now();
-  r.query_intrinsics = ResolveIntrinsics(
-      camera, in, image, m.o, [&] { return m.matcher->QueryFocal(); }, "query");
+  const FrameIntrinsics fi = ResolveIntrinsics(
+      k_work, in, wf.image(), m.o, [&] { return m.matcher->QueryFocal(); }, "query");
+  r.query_intrinsics = InPhotoPixels(fi, camera, wf);
   r.timings.match_ms += MsSince(tf);
   const double own_before_depth = m.matcher->own_pass_ms();
-  const Camera& k_query = r.query_intrinsics.camera;
+  const Camera& k_query = fi.camera;
   const auto t0 = std::chrono::steady_clock::now();
-  m.d_query = m.depth->Depth(image, k_query, std::move(provided));
+  SetStage("query: depth");
+  m.d_query = m.depth->Depth(wf.image(), k_query, std::move(provided));
   r.timings.depth_ms = m.depth->needs_provided() ? 0.0 : MsSince(t0);
   if (m.o.UsesMast3rDepth()) {
     // MASt3R's own metric depth of this pair (the reference's changes with the query: pointmaps are per pair).
@@ -263,11 +310,15 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   const double own_in_depth = r.timings.own_pass_ms - own_before_depth;
   r.timings.depth_ms = std::max(0.0, r.timings.depth_ms - own_in_depth);
   r.timings.match_ms += own_in_depth;
+  SetStage("query: solving");
   m.solver->Solve(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
   if (m.o.UsesProvidedDepth() && m.o.solver != SolverKind::kPnp)
     CheckDepthAgreement(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
   ApplyInputNotes(notes, &r);
-  if (matches) *matches = c;
+  if (matches) {
+    wf.ToPhoto(&c, m.ref_scale);
+    *matches = std::move(c);
+  }
   m.UpdateStats();
   return r;
 }
@@ -297,8 +348,8 @@ QueryResult SolveCorrespondences(const matching::Correspondences& c, const Camer
   InputNotes notes;
   CheckIntrinsics(k_ref, wr, hr, o.inputs, "reference intrinsics", &notes);
   CheckIntrinsics(k_query, wq, hq, o.inputs, "query intrinsics", &notes);
-  d_ref = CheckProvidedDepth(std::move(d_ref), 0, 0, o.inputs, "reference depth", &notes);
-  d_query = CheckProvidedDepth(std::move(d_query), 0, 0, o.inputs, "query depth", &notes);
+  d_ref = CheckProvidedDepth(std::move(d_ref), 0, 0, 0, 0, o.inputs, "reference depth", &notes);
+  d_query = CheckProvidedDepth(std::move(d_query), 0, 0, 0, 0, o.inputs, "query depth", &notes);
   QueryResult r;
   MakePoseSolver(o)->Solve(c, k_ref, k_query, d_ref, d_query, &r);
   if (o.solver != SolverKind::kPnp) CheckDepthAgreement(c, k_ref, k_query, d_ref, d_query, &r);
@@ -397,7 +448,7 @@ std::vector<QueryResult> RelocalizeWindows(const io::MapfreeScene& scene, Reloca
         wf.device_from_query = it->second;
       }
       try {
-        wf.image = scene.LoadImage(f);
+        wf.image = scene.LoadImage(f, o.WorkingMaxSide());
         wf.inputs.depth = ProvidedDepthOf(scene, f, o);
       } catch (const std::exception& e) {
         // A damaged window frame loses its vote; a damaged evaluated frame is the query's error.
@@ -459,7 +510,7 @@ std::vector<QueryResult> RelocalizeScene(const io::MapfreeScene& scene, Relocali
       FREELOC_LOG(WARNING) << scene.name << ": no '" << o.depth.suffix << "' depth for the reference ("
                            << scene.DepthPath(scene.reference, o.depth.suffix) << "); no query gets a metric pose"
                            << (o.solve.always_answer ? " (each is submitted with the prior pose, confidence 0)" : "");
-    reloc.SetReference(scene.LoadImage(scene.reference), scene.reference.camera, std::move(ref));
+    reloc.SetReference(scene.LoadImage(scene.reference, o.WorkingMaxSide()), scene.reference.camera, std::move(ref));
     if (o.UsesPrecomputed()) pre = scene.LoadCorrespondences(o.matcher.correspondences);
   } catch (const std::exception& e) {
     // A missing or damaged reference (or correspondence file) fails the scene's queries; the run goes on.
@@ -476,7 +527,7 @@ std::vector<QueryResult> RelocalizeScene(const io::MapfreeScene& scene, Relocali
       in.intrinsics_source = IntrinsicsSource::kFile;
       in.depth = ProvidedDepthOf(scene, q, o);
       in.correspondences = pre.empty() ? nullptr : &pre[i];
-      r = reloc.Relocalize(scene.LoadImage(q), q.camera, std::move(in), on_matches ? &c : nullptr);
+      r = reloc.Relocalize(scene.LoadImage(q, o.WorkingMaxSide()), q.camera, std::move(in), on_matches ? &c : nullptr);
     } catch (const std::exception& e) {
       r = FailedQuery(scene, q, e, o);  // a bad query fails alone; the run goes on
     }

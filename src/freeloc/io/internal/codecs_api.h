@@ -18,8 +18,12 @@ struct CodecsApi {
   bool (*decode_rgb)(const uint8_t* bytes, size_t size, Image* out, std::string* error);
   // Baseline JPEG of an RGB8 image at `quality` (0–100).
   bool (*encode_jpeg)(const Image& rgb, int quality, std::vector<uint8_t>* out, std::string* error);
+  // As decode_rgb, a JPEG decoded at 1/`reduce` of its size (2, 4, 8: libjpeg's scaled IDCT; 1: full size).
+  bool (*decode_rgb_reduced)(const uint8_t* bytes, size_t size, int reduce, Image* out, std::string* error);
+  // An area-averaging resize of an RGB8 image to width × height (OpenCV's INTER_AREA).
+  bool (*resize_area)(const Image& in, int width, int height, Image* out, std::string* error);
 };
-constexpr int kCodecsAbi = 1;
+constexpr int kCodecsAbi = 2;
 constexpr const char* kCodecsLibrary = "libfreeloc_codecs.so";
 constexpr const char* kCodecsEntry = "freeloc_codecs_v1";
 

@@ -7,11 +7,14 @@
 
 namespace {
 
-bool DecodeRgb(const uint8_t* bytes, size_t size, freeloc::Image* out, std::string* error) {
+bool DecodeRgbReduced(const uint8_t* bytes, size_t size, int reduce, freeloc::Image* out, std::string* error) {
   try {
-    // IMREAD_COLOR applies the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
-    const cv::Mat m =
-        cv::imdecode(cv::Mat(1, static_cast<int>(size), CV_8UC1, const_cast<uint8_t*>(bytes)), cv::IMREAD_COLOR);
+    // IMREAD_COLOR and IMREAD_REDUCED_COLOR_* apply the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
+    const int flag = reduce == 8   ? cv::IMREAD_REDUCED_COLOR_8
+                     : reduce == 4 ? cv::IMREAD_REDUCED_COLOR_4
+                     : reduce == 2 ? cv::IMREAD_REDUCED_COLOR_2
+                                   : cv::IMREAD_COLOR;
+    const cv::Mat m = cv::imdecode(cv::Mat(1, static_cast<int>(size), CV_8UC1, const_cast<uint8_t*>(bytes)), flag);
     if (m.empty() || m.cols <= 0 || m.rows <= 0 || m.type() != CV_8UC3) {
       *error = m.empty() ? "" : "unexpected decoded pixel type";
       return false;
@@ -19,6 +22,23 @@ bool DecodeRgb(const uint8_t* bytes, size_t size, freeloc::Image* out, std::stri
     *out = freeloc::Image(m.cols, m.rows);
     cv::Mat rgb(m.rows, m.cols, CV_8UC3, out->data.data());
     cv::cvtColor(m, rgb, cv::COLOR_BGR2RGB);
+    return true;
+  } catch (const cv::Exception& e) {
+    *error = e.what();
+    return false;
+  }
+}
+
+bool DecodeRgb(const uint8_t* bytes, size_t size, freeloc::Image* out, std::string* error) {
+  return DecodeRgbReduced(bytes, size, 1, out, error);
+}
+
+bool ResizeArea(const freeloc::Image& in, int width, int height, freeloc::Image* out, std::string* error) {
+  try {
+    const cv::Mat src(in.height, in.width, CV_8UC3, const_cast<uint8_t*>(in.data.data()));
+    *out = freeloc::Image(width, height);
+    cv::Mat dst(height, width, CV_8UC3, out->data.data());
+    cv::resize(src, dst, dst.size(), 0, 0, cv::INTER_AREA);
     return true;
   } catch (const cv::Exception& e) {
     *error = e.what();
@@ -39,7 +59,8 @@ bool EncodeJpeg(const freeloc::Image& rgb, int quality, std::vector<uint8_t>* ou
   return false;
 }
 
-const freeloc::io::internal::CodecsApi kApi = {freeloc::io::internal::kCodecsAbi, DecodeRgb, EncodeJpeg};
+const freeloc::io::internal::CodecsApi kApi = {freeloc::io::internal::kCodecsAbi, DecodeRgb, EncodeJpeg,
+                                               DecodeRgbReduced, ResizeArea};
 
 }  // namespace
 
