@@ -785,9 +785,11 @@ TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
   EXPECT_EQ(RunFreeloc("merge " + tmp.File("junk.zip") + " --out " + tmp.File("x.zip")).code, 1);
   EXPECT_EQ(RunFreeloc("run --data " + data + " --shard 3/2 --out " + tmp.File("x.zip")).code, 2);
   EXPECT_EQ(RunFreeloc("run --data " + data + " --shard 0/2 --out " + tmp.File("x.zip")).code, 2);
-  for (const char* t : {"0", "-1", "nan", "inf", "3px"})  // not silently replaced by the default any more
+  for (const char* t : {"0", "-2", "nan", "inf", "3px"})  // not silently replaced by the default any more
     EXPECT_EQ(RunFreeloc("run --data " + data + " --threshold " + t + " --out " + tmp.File("x.zip")).code, 2) << t;
   EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
+  // -1 is the solver's own threshold, as --help says.
+  EXPECT_EQ(RunFreeloc("run --data " + data + " --threshold -1 --out " + tmp.File("x.zip")).code, 0);
 }
 
 }  // namespace
@@ -1223,4 +1225,39 @@ TEST(Cli, EvalJsonAndTableAgreeOnExtremeEstimates) {
       }
     }
   }
+}
+
+// A typo names itself and the nearest real command or flag (exit 2), not a missing subcommand or a required flag.
+TEST(Cli, TyposAreNamedWithTheNearestName) {
+  Result r = RunFreeloc("relocalise --ref a.png --query b.png");
+  EXPECT_EQ(r.code, 2) << r.out;
+  ExpectMentions(r.out, {"unknown command 'relocalise'; did you mean 'relocalize'?"});
+  r = RunFreeloc("--threads 2 relocalize --ref a.png --querry b.png");
+  EXPECT_EQ(r.code, 2) << r.out;
+  ExpectMentions(r.out, {"unknown flag '--querry' for relocalize; did you mean '--query'?"});
+  r = RunFreeloc("run --data x --out y.zip --presett sift-essential");
+  EXPECT_EQ(r.code, 2) << r.out;
+  ExpectMentions(r.out, {"unknown flag '--presett' for run; did you mean '--preset'?"});
+  r = RunFreeloc("frobnicate");
+  EXPECT_EQ(r.code, 2) << r.out;
+  ExpectMentions(r.out, {"unknown command 'frobnicate'"});
+  EXPECT_FALSE(Contains(r.out, "did you mean")) << r.out;
+}
+
+// A flag's documented sentinel is taken (--threshold -1), a value outside a flag's fixed choices is a usage error
+// (exit 2, as the README's table says) — --check-args sees it too.
+TEST(Cli, SentinelsAndChoicesAreCheckedAsTheFlagIsParsed) {
+  const std::string k = "535.4,539.2,320.1,247.6";
+  const std::string pose = "pose --matches " + freeloc::testing::SourceDir() +
+                           "/tests/data/tum_sift/s00003_sift_matches.txt --ref-intrinsics " + k +
+                           " --query-intrinsics " + k;
+  EXPECT_EQ(RunFreeloc(pose + " --threshold -1").code, 0);
+  Result r = RunFreeloc(pose + " --threshold -2");
+  EXPECT_EQ(r.code, 2) << r.out;
+  ExpectMentions(r.out, {"must be a positive number (or -1)"});
+  r = RunFreeloc(pose + " --solver fast");
+  EXPECT_EQ(r.code, 2) << r.out;
+  ExpectMentions(r.out, {"fast"});
+  EXPECT_EQ(RunFreeloc("--check-args " + pose + " --solver fast").code, 2);
+  EXPECT_EQ(RunFreeloc("--check-args " + pose + " --solver pnp").code, 0);
 }

@@ -57,11 +57,13 @@ CLI::Validator FileNameParts() {
       "NAME");
 }
 
-// Numbers given as flags are counts and sizes: positive, checked as parsed (a usage error, exit 2); each field's
-// own range is the registry's validation.
-CLI::Validator Positive(pipeline::OptionType type) {
+// Numbers given as flags are counts and sizes: positive — or `own`, the field's default when it is a negative
+// sentinel that --help documents (--threshold -1: the solver's own) — checked as parsed (a usage error, exit 2); each
+// field's own range is the registry's validation.
+CLI::Validator Positive(pipeline::OptionType type, const std::string& own) {
   return CLI::Validator(
-      [type](std::string& v) {
+      [type, own](std::string& v) {
+        if (v == own && own.rfind("-", 0) == 0) return std::string();  // a negative default is a sentinel
         char* end = nullptr;
         errno = 0;
         const double x = type == pipeline::OptionType::kInt ? static_cast<double>(std::strtol(v.c_str(), &end, 10))
@@ -69,7 +71,8 @@ CLI::Validator Positive(pipeline::OptionType type) {
         const bool ok = end && end != v.c_str() && *end == 0 && errno == 0 && std::isfinite(x) && x > 0;
         return ok ? std::string()
                   : std::string(type == pipeline::OptionType::kInt ? "must be a positive integer"
-                                                                   : "must be a positive number");
+                                                                   : "must be a positive number") +
+                        (own.rfind("-", 0) == 0 ? " (or " + own + ")" : "");
       },
       type == pipeline::OptionType::kInt ? "N" : "X");
 }
@@ -87,10 +90,12 @@ void AddOptionFlag(CLI::App* app, const pipeline::OptionField& f, std::string* v
     if (!d.empty() && d != "-1") help += " (default " + d + ")";
   }
   CLI::Option* opt = app->add_option(names, *value, help);
-  if (f.type != pipeline::OptionType::kText) opt->check(Positive(f.type));
+  if (f.type != pipeline::OptionType::kText)
+    opt->check(Positive(f.type, pipeline::GetOption(pipeline::PipelineOptions(), f.name)));
   if (std::string(f.name) == "preset" || std::string(f.name) == "matcher" || std::string(f.name) == "depth")
     opt->check(FileNameParts());
-  if (f.scope == pipeline::FlagScope::kGlobal && !f.choices.empty()) {  // before any command: checked as parsed
+  // A fixed set of choices (not matcher/depth, which take a name after a colon) is checked as parsed: a usage error.
+  if (!f.choices.empty() && f.choices.find('<') == std::string::npos) {
     std::vector<std::string> choices;
     std::stringstream ss(f.choices);
     for (std::string c; std::getline(ss, c, ',');) choices.push_back(c.substr(c.find_first_not_of(' ')));

@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -40,6 +41,73 @@ void SelectBlasKernels(char** argv) {
   setenv("OPENBLAS_CORETYPE", pick.c_str(), 1);
   setenv("FREELOC_BLAS_SELECTED", (reported + " -> " + pick).c_str(), 1);
   execv("/proc/self/exe", argv);  // returns only on failure
+}
+
+// Levenshtein distance, for "did you mean": a typo of a command or a flag.
+size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// The nearest of `names` to `typo` (within a third of its length, at least 2 edits), or "".
+std::string Nearest(const std::string& typo, const std::vector<std::string>& names) {
+  std::string best;
+  size_t best_d = std::max<size_t>(2, typo.size() / 3) + 1;
+  for (const auto& n : names)
+    if (const size_t d = EditDistance(typo, n); d < best_d) {
+      best_d = d;
+      best = n;
+    }
+  return best;
+}
+
+// A usage error that names the unknown command or flag the user typed, with the nearest real one — CLI11 would say
+// "A subcommand is required" for `freeloc relocalise` and "--query is required" for `--querry`. Empty: none found.
+std::string UnknownNameMessage(CLI::App& app, int argc, char** argv) {
+  std::vector<std::string> commands;
+  for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) commands.push_back(sub->get_name());
+  CLI::App* sub = nullptr;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("-", 0) == 0) {
+      // A global option's value follows it (--threads 2): skip it.
+      const CLI::Option* o = app.get_option_no_throw(a.substr(0, a.find('=')));
+      if (o && o->get_type_size() != 0 && a.find('=') == std::string::npos) ++i;
+      continue;
+    }
+    for (CLI::App* c : app.get_subcommands([](CLI::App*) { return true; }))
+      if (c->get_name() == a) sub = c;
+    if (!sub) {
+      const std::string near = Nearest(a, commands);
+      return "unknown command '" + freeloc::SafeText(a, 60) + "'" +
+             (near.empty() ? "" : "; did you mean '" + near + "'?");
+    }
+    // Its flags: the first unknown one, with the nearest of this command's (and the global) flags.
+    std::vector<std::string> flags;
+    for (const CLI::App* owner : {static_cast<const CLI::App*>(sub), static_cast<const CLI::App*>(&app)})
+      for (const CLI::Option* o : owner->get_options())
+        for (const std::string& n : o->get_lnames()) flags.push_back("--" + n);
+    for (int j = i + 1; j < argc; ++j) {
+      const std::string f = std::string(argv[j]).substr(0, std::string(argv[j]).find('='));
+      if (f.rfind("--", 0) != 0 || f == "--") continue;
+      if (std::find(flags.begin(), flags.end(), f) != flags.end()) continue;
+      const std::string near = Nearest(f, flags);
+      return "unknown flag '" + freeloc::SafeText(f, 60) + "' for " + a +
+             (near.empty() ? "" : "; did you mean '" + near + "'?");
+    }
+    return "";
+  }
+  return "";
 }
 
 }  // namespace
@@ -94,8 +162,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
+    const std::string unknown = UnknownNameMessage(app, argc, argv);
     std::fprintf(stderr, "freeloc: usage error: %s\nRun 'freeloc --help' for the commands and their options.\n",
-                 e.what());
+                 unknown.empty() ? e.what() : unknown.c_str());
     return 2;
   }
 

@@ -139,15 +139,6 @@ std::string Misfit(const Camera& k, int width, int height, const Bounds& b, std:
 
 std::string Values(const Camera& k) { return Num(k.fx) + "," + Num(k.fy) + "," + Num(k.cx) + "," + Num(k.cy); }
 
-Camera Make(double fx, double fy, double cx, double cy) {
-  Camera k;
-  k.fx = fx;
-  k.fy = fy;
-  k.cx = cx;
-  k.cy = cy;
-  return k;
-}
-
 // The likely mistake behind intrinsics that do not fit: the first reading of the four numbers that does fit, said
 // as the fix ("they look normalised: …"); empty when none does.
 std::string LikelyMistake(const Camera& k, int width, int height, const Bounds& b) {
@@ -160,17 +151,17 @@ std::string LikelyMistake(const Camera& k, int width, int height, const Bounds& 
     // Normalised by the width and height, or the focal lengths by the long side (square pixels either way).
     const double side = std::max(width, height);
     readings.push_back({"they look normalised: multiply fx and cx by the width and fy and cy by the height",
-                        Make(k.fx * width, k.fy * height, k.cx * width - 0.5, k.cy * height - 0.5)});
+                        Camera{k.fx * width, k.fy * height, k.cx * width - 0.5, k.cy * height - 0.5}});
     readings.push_back(
         {"they look normalised: multiply fx and fy by the long side, cx by the width and cy by the height",
-         Make(k.fx * side, k.fy * side, k.cx * width - 0.5, k.cy * height - 0.5)});
+         Camera{k.fx * side, k.fy * side, k.cx * width - 0.5, k.cy * height - 0.5}});
   }
-  readings.push_back({"they look like cx,cy,fx,fy: give fx,fy,cx,cy", Make(k.cx, k.cy, k.fx, k.fy)});
-  readings.push_back({"they look like fx,cx,fy,cy: give fx,fy,cx,cy", Make(k.fx, k.cx, k.fy, k.cy)});
+  readings.push_back({"they look like cx,cy,fx,fy: give fx,fy,cx,cy", Camera{k.cx, k.cy, k.fx, k.fy}});
+  readings.push_back({"they look like fx,cx,fy,cy: give fx,fy,cx,cy", Camera{k.fx, k.cx, k.fy, k.cy}});
   readings.push_back(
       {"they look like the intrinsics of the photo turned by 90 degrees (its stored orientation, before "
        "the EXIF rotation?): swap fx with fy and cx with cy",
-       Make(k.fy, k.fx, k.cy, k.cx)});
+       Camera{k.fy, k.fx, k.cy, k.cx}});
   // The principal point at the centre of an image s times this one's size: intrinsics of another resolution.
   const double s = ((k.cx + 0.5) / (0.5 * width) + (k.cy + 0.5) / (0.5 * height)) / 2;
   std::string other_size;
@@ -178,7 +169,8 @@ std::string LikelyMistake(const Camera& k, int width, int height, const Bounds& 
     other_size = "they look like the intrinsics of a " + std::to_string(std::lround(width * s)) + "x" +
                  std::to_string(std::lround(height * s)) +
                  " image (a resized photo keeps its old intrinsics): scale them by " + Num(1 / s);
-    readings.push_back({other_size.c_str(), Make(k.fx / s, k.fy / s, (k.cx + 0.5) / s - 0.5, (k.cy + 0.5) / s - 0.5)});
+    readings.push_back(
+        {other_size.c_str(), Camera{k.fx / s, k.fy / s, (k.cx + 0.5) / s - 0.5, (k.cy + 0.5) / s - 0.5}});
   }
   for (const Reading& r : readings) {
     std::string unused;

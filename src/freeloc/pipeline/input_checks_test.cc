@@ -16,14 +16,7 @@
 namespace freeloc::pipeline {
 namespace {
 
-Camera K(double fx, double fy, double cx, double cy) {
-  Camera k;
-  k.fx = fx;
-  k.fy = fy;
-  k.cx = cx;
-  k.cy = cy;
-  return k;
-}
+Camera K(double fx, double fy, double cx, double cy) { return Camera{fx, fy, cx, cy}; }
 
 // The message CheckIntrinsics throws for `k` on a 640×480 photo ("" when it passes).
 std::string IntrinsicsError(const Camera& k, const InputOptions& o = {}, InputNotes* notes = nullptr) {
@@ -185,10 +178,7 @@ TEST(InputChecks, TheSamePhotoTwiceIsTheIdentity) {
 // A camera turned in place, without depth: every translation direction fits the matches, so no direction is given —
 // a status that says why; with a baseline the direction stands. Seeded synthetic points 1.5–5 m away, 0.3 px noise.
 TEST(InputChecks, ACameraTurnedInPlaceWithoutDepthHasNoTranslationDirection) {
-  const Camera k = [] {
-    Camera c = K(500, 500, 319.5, 239.5);
-    return c;
-  }();
+  const Camera k = K(500, 500, 319.5, 239.5);
   for (const double baseline : {0.0, 0.05}) {
     std::mt19937 rng(17);
     std::uniform_real_distribution<double> u(-1, 1);

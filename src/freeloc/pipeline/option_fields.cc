@@ -13,13 +13,23 @@
 
 namespace freeloc::pipeline {
 
-namespace {
-
-std::string Real(double v) {
+// The shortest text that reads back as `v` exactly (0.3, not 0.29999999999999999; 100, not 1e+02): for people and
+// for the records alike.
+std::string NumberText(double v) {
   char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  // At least the integer digits, so that 100 is "100", not "1e+02".
+  const int first =
+      std::abs(v) >= 1 && std::abs(v) < 1e15 ? static_cast<int>(std::floor(std::log10(std::abs(v)))) + 1 : 1;
+  for (int digits = first; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
   return buf;
 }
+
+namespace {
+
+std::string Real(double v) { return NumberText(v); }
 
 double ParseReal(const std::string& name, const std::string& text) {
   errno = 0;
@@ -158,19 +168,6 @@ std::string EscapeCell(const std::string& text) {  // a Markdown table cell: "|"
   return out;
 }
 
-// The shortest text that reads back as `v` (0.3, not 0.29999999999999999): for people, not for the records.
-std::string ShortestReal(double v) {
-  char buf[32];
-  // At least the integer digits, so that 100 is "100", not "1e+02".
-  const int first =
-      std::abs(v) >= 1 && std::abs(v) < 1e15 ? static_cast<int>(std::floor(std::log10(std::abs(v)))) + 1 : 1;
-  for (int digits = first; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
 }  // namespace
 
 std::string OptionTableMarkdown() {
@@ -180,7 +177,7 @@ std::string OptionTableMarkdown() {
       "|---|---|---|---|---|\n";
   for (const Row& r : Rows()) {
     std::string value = r.get(defaults);
-    if (r.field.type == OptionType::kReal) value = ShortestReal(std::strtod(value.c_str(), nullptr));
+    if (r.field.type == OptionType::kReal) value = NumberText(std::strtod(value.c_str(), nullptr));
     const char* type = r.field.type == OptionType::kInt    ? "integer"
                        : r.field.type == OptionType::kReal ? "number"
                                                            : "text";

@@ -155,10 +155,10 @@ void PipelineOptions::Validate() const {
 std::string PipelineOptions::Summary() const {
   std::string s = "preset " + preset + ": matcher " + matcher.ToString() + ", depth " + depth.ToString() + ", solver " +
                   ToString(solver) + (solver == SolverKind::kEssential ? ", scale " + ToString(solve.scale) : "") +
-                  (solver == SolverKind::kHybrid ? ", reprojection " + std::to_string(solve.reprojection_px) + " px" +
+                  (solver == SolverKind::kHybrid ? ", reprojection " + NumberText(solve.reprojection_px) + " px" +
                                                        (solve.depth_shifts ? ", depth shifts" : "")
                                                  : "") +
-                  (solve.threshold_px > 0 ? ", threshold " + std::to_string(solve.threshold_px) + " px" : "");
+                  (solve.threshold_px > 0 ? ", threshold " + NumberText(solve.threshold_px) + " px" : "");
   if (UsesDust3r()) s += ", dust3r " + models.dust3r_model + " at " + std::to_string(pointmap.dust3r_size);
   if (UsesMast3r())
     s += ", mast3r " + models.mast3r_model + " at " + std::to_string(pointmap.dust3r_size) + " (subsample " +

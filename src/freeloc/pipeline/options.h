@@ -269,6 +269,8 @@ struct OptionField {
   std::string choices;  // "a, b, c" for the fields with a fixed set of values (from their enum tables), else empty
 };
 const std::vector<OptionField>& OptionFields();
+// A number as the options and records write it: the shortest text that reads back as exactly `v` (0.3, 100).
+std::string NumberText(double v);
 void SetOption(PipelineOptions* options, const std::string& name, const std::string& value);
 std::string GetOption(const PipelineOptions& options, const std::string& name);
 const OptionField& FindOptionField(const std::string& name);  // throws naming the options when unknown
