@@ -24,9 +24,15 @@ loaded=$(grep -o '<img[^>]*data-loaded="1"[^>]*>' "$work/dom.html" | wc -l)
 [ "$loaded" -eq "$imgs" ] || fail "$((imgs - loaded)) of $imgs images did not load: $(grep -o '<img[^>]*data-broken[^>]*>' "$work/dom.html")"
 ! grep -qiE '(src|href)="https?:' "$work/dom.html" || fail "the report references the network"
 grep -q 's00003 / seq1/frame_00000.png' "$work/dom.html" || fail "no detail view of s00003"
+# Every sortable column of every table clicked (up, then down) and its order checked by the page itself.
+timeout 120 "$browser" "${flags[@]}" --dump-dom "file://$work/report/index.html#check-sorting" > "$work/sorted.html" \
+  2>>"$work/chromium.log" || fail "chromium --dump-dom #check-sorting"
+sorting=$(grep -o 'data-sorting="[^"]*"' "$work/sorted.html")
+echo "$sorting" | grep -q 'data-sorting="ok [0-9]*"' || fail "sorting: ${sorting:-the check did not run}"
+headers=$(grep -o '<table class="sortable"' "$work/dom.html" | wc -l)
 mkdir -p "$out"
 timeout 120 "$browser" "${flags[@]}" --window-size=1280,2400 --screenshot="$out/report_screenshot.png" \
   "file://$work/report/index.html" >/dev/null 2>&1 || fail "chromium --screenshot"
 [ -s "$out/report_screenshot.png" ] || fail "no screenshot"
-echo "ok: $rows query rows, $loaded of $imgs images loaded, screenshot $out/report_screenshot.png"
+echo "ok: $rows query rows, $loaded of $imgs images loaded, $headers sortable tables sorted by every column ($sorting), screenshot $out/report_screenshot.png"
 echo "1 passed, 0 failed"

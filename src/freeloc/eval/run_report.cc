@@ -68,30 +68,32 @@ std::string TopDownSvg(const ReportQuery& q) {
   std::string s =
       "<svg class=\"top\" width=\"200\" height=\"200\" viewBox=\"0 0 200 200\" "
       "xmlns=\"http://www.w3.org/2000/svg\"><rect width=\"200\" height=\"200\" fill=\"#fafafa\" "
-      "stroke=\"#ccc\"/><circle cx=\"100\" cy=\"100\" r=\"4\" fill=\"#333\"/>"
-      "<line x1=\"100\" y1=\"100\" x2=\"100\" y2=\"88\" stroke=\"#333\"/>";
+      "stroke=\"#ccc\"/><circle cx=\"100\" cy=\"100\" r=\"4\" fill=\"#33dd66\"/>"
+      "<line x1=\"100\" y1=\"100\" x2=\"100\" y2=\"88\" stroke=\"#33dd66\"/>";
   if (q.has_gt)
     s += "<circle cx=\"" + px(q.gt_centre.x()) + "\" cy=\"" + pz(q.gt_centre.z()) +
-         "\" r=\"5\" fill=\"none\" stroke=\"#2e7d32\" stroke-width=\"2\"><title>ground truth</title></circle>";
+         "\" r=\"5\" fill=\"none\" stroke=\"#3399ff\" stroke-width=\"2\"><title>ground truth</title></circle>";
   if (q.has_pose)
     s += "<circle cx=\"" + px(q.centre.x()) + "\" cy=\"" + pz(q.centre.z()) +
-         "\" r=\"3.5\" fill=\"#c62828\"><title>predicted</title></circle>";
+         "\" r=\"3.5\" fill=\"#ff9922\"><title>predicted</title></circle>";
   s += "<text x=\"4\" y=\"182\" font-size=\"10\" fill=\"#666\">top view (x, z), ±" + Num(r, "%.2f") +
-       " m</text><text x=\"4\" y=\"195\" font-size=\"10\" fill=\"#666\">● reference  ○ truth  "
-       "<tspan fill=\"#c62828\">●</tspan> predicted</text></svg>";
+       " m</text><text x=\"4\" y=\"195\" font-size=\"10\" fill=\"#666\"><tspan fill=\"#33dd66\">●</tspan> "
+       "reference  <tspan fill=\"#3399ff\">○</tspan> truth  <tspan fill=\"#ff9922\">●</tspan> predicted</text></svg>";
   return s;
 }
 
 // The official metrics (names and values as `freeloc eval`), estimates as a percentage.
 std::string MetricsTable(const EvalRun& e) {
   const auto v = MetricValues(e.overall);
-  std::string s = "<table class=\"metrics\"><tr><th>metric</th><th>value</th></tr>";
+  // The units of the eight metrics in kMetricNames' order: metres, degrees, pixels, four fractions, a percentage.
+  static const char* const kUnits[8] = {"m", "°", "px", "fraction", "fraction", "fraction", "fraction", "%"};
+  std::string s = "<table class=\"metrics\"><tr><th>metric</th><th>value</th><th>unit</th></tr>";
   for (int k = 0; k < 8; ++k)
     s += std::string("<tr><td>") + kMetricNames[k] + "</td><td>" +
-         Num(k == 7 ? 100 * v[k] : v[k], k == 7   ? "%.1f %%"
+         Num(k == 7 ? 100 * v[k] : v[k], k == 7   ? "%.1f"
                                          : k == 2 ? "%.2f"
                                                   : "%.4f") +
-         "</td></tr>";
+         "</td><td>" + kUnits[k] + "</td></tr>";
   return s + "</table>";
 }
 
@@ -166,8 +168,12 @@ std::string Details(const std::string& dir, const std::vector<ReportQuery>& quer
   std::vector<const ReportQuery*> shown;
   for (const auto& q : queries)
     if (!q.visual.empty()) shown.push_back(&q);
-  std::stable_sort(shown.begin(), shown.end(),
-                   [](const ReportQuery* a, const ReportQuery* b) { return ReportBadness(*a) > ReportBadness(*b); });
+  // The answers with a pose of their own first, worst first — what there is to learn from; then the unsolved ones
+  // (their views are the prior's, alike), worst first among themselves.
+  std::stable_sort(shown.begin(), shown.end(), [](const ReportQuery* a, const ReportQuery* b) {
+    if (a->has_pose != b->has_pose) return a->has_pose;
+    return ReportBadness(*a) > ReportBadness(*b);
+  });
   std::string s;
   for (const ReportQuery* q : shown) {
     s += "<div class=\"detail\" id=\"" + Anchor(*q) + "\"><h3>" + Escape(q->scene + " / " + q->frame) + " — " +
@@ -199,10 +205,12 @@ const char kStyle[] =
     ".legend span{display:inline-block;width:12px;height:12px;margin:0 4px 0 12px;vertical-align:middle}"
     "img.cdf{width:420px;margin-right:8px}";
 
-// Click a header to sort (numbers numerically, empty cells last); no external script.
+// Click a header to sort its own table by its column (numbers numerically, empty cells last); no external script.
+// With #check-sorting in the address, the page clicks every sortable header twice once loaded and checks each order
+// (ascending, then descending) cell by cell, saying the outcome on <body data-sorting> — the browser test's hook.
 const char kScript[] =
-    "document.querySelectorAll('table.sortable th').forEach(function(th,i){th.addEventListener('click',function(){"
-    "var t=th.closest('table'),b=t.tBodies[0],rows=Array.from(b.rows),asc=th.dataset.asc!=='1';"
+    "document.querySelectorAll('table.sortable th').forEach(function(th){th.addEventListener('click',function(){"
+    "var i=th.cellIndex,t=th.closest('table'),b=t.tBodies[0],rows=Array.from(b.rows),asc=th.dataset.asc!=='1';"
     "rows.sort(function(a,c){var x=a.cells[i].textContent,y=c.cells[i].textContent,"
     "nx=parseFloat(x),ny=parseFloat(y);if(x===''&&y!=='')return 1;if(y===''&&x!=='')return -1;"
     "var r=(!isNaN(nx)&&!isNaN(ny))?nx-ny:x.localeCompare(y);return asc?r:-r;});"
@@ -210,7 +218,15 @@ const char kScript[] =
     // Once everything loaded, mark each image loaded or broken (a missing file shows up in the DOM, and in red).
     "window.addEventListener('load',function(){document.querySelectorAll('img').forEach(function(im){"
     "if(im.complete&&im.naturalWidth>0){im.dataset.loaded='1';}else{im.dataset.broken='1';"
-    "im.style.outline='3px solid red';}});document.body.dataset.images='checked';});";
+    "im.style.outline='3px solid red';}});document.body.dataset.images='checked';"
+    "if(location.hash!=='#check-sorting')return;var bad=[],n=0;"
+    "document.querySelectorAll('table.sortable').forEach(function(t,ti){Array.from(t.tHead.rows[0].cells)"
+    ".forEach(function(th,ci){[1,-1].forEach(function(dir){th.click();n++;var v=Array.from(t.tBodies[0].rows)"
+    ".map(function(r){return r.cells[ci].textContent;});for(var k=1;k<v.length;k++){var a=v[k-1],c=v[k];"
+    "if(a===''||c===''){if(a===''&&c!=='')bad.push(ti+':'+th.textContent+' empty first');continue;}"
+    "var x=parseFloat(a),y=parseFloat(c),o=(!isNaN(x)&&!isNaN(y))?x-y:a.localeCompare(c);"
+    "if(o*dir>0){bad.push(ti+':'+th.textContent+(dir>0?' up':' down'));break;}}});});});"
+    "document.body.dataset.sorting=bad.length?'failed: '+bad.join(', '):'ok '+n;});";
 
 }  // namespace
 
@@ -274,7 +290,11 @@ const char kScript3d[] =
     "window.freelocViews=window.freelocViews||{};if(!freelocViews[name])await freelocLoad(name+'.3d.js');"
     "if(freelocLive){freelocLive.view&&freelocLive.view.dispose();freelocLive.box.innerHTML='';"
     "freelocLive.box.style.height='';}"
-    "freelocLive={box:box,view:freelocView3d(box,freelocViews[name])};}catch(e){box.textContent=e.message;}}";
+    "freelocLive={box:box,view:freelocView3d(box,freelocViews[name])};"
+    // No depth map for the reference: the view has the cameras alone, and says so.
+    "if(!(freelocViews[name].points||[]).length){var n=document.createElement('p');n.className='note';"
+    "n.textContent='No depth map for the reference: the cameras alone, no points.';box.prepend(n);}"
+    "}catch(e){box.textContent=e.message;}}";
 
 void WriteRunReport(const std::string& dir, const std::string& title, const std::vector<ReportQuery>& queries,
                     const EvalRun* eval) {
@@ -311,7 +331,9 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
           QueryTable(queries) + "<h2>Failures by status</h2>" + Failures(queries) +
           "<h2>Details (worst first)</h2><p class=\"legend\">lines:<span style=\"background:#1eaa3c\"></span>inlier"
           "<span style=\"background:#dc2828\"></span>outlier<span style=\"background:#4287f5\"></span>instance "
-          "matches (one colour per instance); depth maps below the photos (turbo: near blue, far red; grey: none)"
+          "matches (one colour per instance); depth maps below the photos (turbo: near blue, far red; grey: none); "
+          "cameras in the top view and the 3D view:<span style=\"background:#33dd66\"></span>reference"
+          "<span style=\"background:#3399ff\"></span>truth<span style=\"background:#ff9922\"></span>predicted"
           "</p>" +
           Details(dir, queries) + "<script>" + kScript + kScript3d + "</script></body></html>\n";
   io::WriteFileAtomic(dir + "/index.html", html.data(), html.size());
