@@ -154,6 +154,18 @@ TEST(Service, RoutesAndTheAnswerOfRelocalize) {
   EXPECT_EQ(r->body.find("https://"), std::string::npos);
   if (std::filesystem::exists("/usr/share/javascript/three/build/three.min.js")) {
     EXPECT_EQ(c.Get("/static/three.min.js")->status, 200);
+    // Compressed once at start, cached by the browser: gzip where asked (the client unpacks it to the file's
+    // bytes), an ETag, Cache-Control, and 304 for a matching If-None-Match.
+    const auto js = c.Get("/static/three.min.js", {{"Accept-Encoding", "gzip"}});
+    ASSERT_TRUE(js);
+    EXPECT_EQ(js->get_header_value("Content-Encoding"), "gzip");
+    EXPECT_EQ(js->body, Bytes("/usr/share/javascript/three/build/three.min.js"));
+    EXPECT_EQ(js->get_header_value("Cache-Control"), "public, max-age=86400");
+    const std::string etag = js->get_header_value("ETag");
+    ASSERT_FALSE(etag.empty());
+    const auto again = c.Get("/static/three.min.js", {{"If-None-Match", etag}});
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->status, 304);
   }
 
   r = c.Delete(("/v1/anchors/" + id).c_str());
