@@ -455,7 +455,7 @@ TEST(Cli, RunRecordsItsProvenance) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["options"]["matcher"], "sift");
   // Bad option values name the flag and the choices; unknown --set fields list the options.
   r = RunFreeloc("run --data " + data + " --solver ransac --out " + tmp.File("x.zip"));
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.code, 2);  // a value outside the flag's own choices: a usage error
   EXPECT_TRUE(Contains(r.out, "--solver: 'ransac' is not one of essential, pnp, procrustes")) << r.out;
   r = RunFreeloc("run --data " + data + " --set colour=red --out " + tmp.File("x.zip"));
   EXPECT_EQ(r.code, 1);

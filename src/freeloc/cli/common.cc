@@ -1,5 +1,6 @@
 // Helpers shared by the subcommands: the option registry's rows as flags, flags in option errors, scene lists.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -99,7 +100,14 @@ void AddOptionFlag(CLI::App* app, const pipeline::OptionField& f, std::string* v
     std::vector<std::string> choices;
     std::stringstream ss(f.choices);
     for (std::string c; std::getline(ss, c, ',');) choices.push_back(c.substr(c.find_first_not_of(' ')));
-    opt->check(CLI::IsMember(choices));
+    const std::string listed = f.choices;
+    opt->check(CLI::Validator(
+        [choices, listed](std::string& v) {
+          return std::find(choices.begin(), choices.end(), v) != choices.end()
+                     ? std::string()
+                     : "'" + SafeText(v, 40) + "' is not one of " + listed;
+        },
+        "CHOICE"));
   }
 }
 
