@@ -1261,3 +1261,14 @@ TEST(Cli, SentinelsAndChoicesAreCheckedAsTheFlagIsParsed) {
   EXPECT_EQ(RunFreeloc("--check-args " + pose + " --solver fast").code, 2);
   EXPECT_EQ(RunFreeloc("--check-args " + pose + " --solver pnp").code, 0);
 }
+
+// The Multi Frame track on scenes too short for it says so before any work (not "0 of 0 queries", exit 0).
+TEST(Cli, MultiFrameOnShortScenesSaysWhy) {
+  freeloc::testing::TempDir tmp;
+  const Result r =
+      RunFreeloc("run --data " + freeloc::testing::DemoPath() + " --track multi-frame --out " + tmp.File("mf.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  ExpectMentions(r.out, {"--track: multi-frame, but no scene of", "has the 10 or more query frames",
+                         "use single-frame for these scenes"});
+  EXPECT_FALSE(std::filesystem::exists(tmp.File("mf.zip")));
+}

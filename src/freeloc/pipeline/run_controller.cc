@@ -215,6 +215,17 @@ RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const 
   if (!spec.shard.whole() && root)
     FREELOC_LOG(INFO) << "shard " << spec.shard.ToString() << ": " << res.scenes.size() << " scenes";
   res.loaded = LoadScenes(res.split_dir, res.scenes, options);
+  if (options.track == io::Track::kMultiFrame && spec.shard.whole() && !res.loaded.empty()) {
+    // A whole run with nothing to answer is a mistake to say now, not "0 of 0 queries" after loading the networks.
+    size_t evaluated = 0;
+    for (const auto& [name, scene] : res.loaded) evaluated += AnsweredQueries(scene, options).size();
+    FREELOC_OPTION_CHECK("track", evaluated > 0,
+                         ": multi-frame, but no scene of "
+                             << spec.data
+                             << " has the 10 or more query frames the "
+                                "Multi Frame track evaluates (linear positions 9, 19, … of seq1); use single-frame for "
+                                "these scenes");
+  }
   // The networks are loaded here, before the journal and the first scene: a bad weights file is one error.
   std::unique_ptr<Relocalizer> reloc =
       factory ? factory(options) : std::make_unique<Relocalizer>(options, Relocalizer::kOptionsValidated);
