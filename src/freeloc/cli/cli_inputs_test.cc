@@ -151,6 +151,19 @@ TEST(CliInputs, TheSamePhotoTwiceIsTheIdentityAndAMissingDepthIsNamed) {
   EXPECT_EQ(j["status"], "ok");
   EXPECT_LT(PoseOf(j).translation.norm(), 1e-3) << r.out;
   EXPECT_NE(j["message"].get<std::string>().find("no parallax"), std::string::npos);
+  // The record also gives the pose as COLMAP and hloc users read it (checked on the correct run's answer).
+  const Json& c = Correct();
+  const freeloc::Rigid3d p = PoseOf(c);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(c["centre"][k].get<double>(), p.Center()[k], 1e-12);
+    EXPECT_NEAR(c["query_from_ref"][k][3].get<double>(), p.translation[k], 1e-12);
+    EXPECT_NEAR(c["ref_from_query"][k][3].get<double>(), p.Center()[k], 1e-12);
+    for (int l = 0; l < 3; ++l) {
+      EXPECT_NEAR(c["query_from_ref"][k][l].get<double>(), p.R()(k, l), 1e-12);
+      EXPECT_NEAR(c["ref_from_query"][k][l].get<double>(), p.R()(l, k), 1e-12);
+    }
+  }
+  EXPECT_EQ(c["query_from_ref"][3], Json::array({0.0, 0.0, 0.0, 1.0}));
   // Without depth: a status and a message that says why.
   r = RunFreeloc("relocalize --ref " + RefImage() + " --query " + RefImage() + " --ref-intrinsics " + kK +
                  " --query-intrinsics " + kK);

@@ -108,6 +108,20 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   if (!r.route.empty()) j["route"] = r.route;
   j["qvec"] = {q[0], q[1], q[2], q[3]};
   j["tvec"] = {t.x(), t.y(), t.z()};
+  // The same pose as COLMAP and hloc users read it: the query camera's centre in the reference frame (metres, or a
+  // unit direction) and both 4×4 matrices, row by row.
+  const Rigid3d ref_from_query = r.query_from_ref.Inverse();
+  const Eigen::Vector3d centre = ref_from_query.translation;
+  j["centre"] = {centre.x(), centre.y(), centre.z()};
+  const auto matrix = [](const Rigid3d& p) {
+    const Eigen::Matrix3d R = p.R();
+    Json m = Json::array();
+    for (int i = 0; i < 3; ++i) m.push_back({R(i, 0), R(i, 1), R(i, 2), p.translation[i]});
+    m.push_back({0.0, 0.0, 0.0, 1.0});
+    return m;
+  };
+  j["query_from_ref"] = matrix(r.query_from_ref);
+  j["ref_from_query"] = matrix(ref_from_query);
   j["confidence"] = r.confidence;
   j["matches"] = r.matches;
   j["inliers"] = r.inliers;
