@@ -1272,3 +1272,16 @@ TEST(Cli, MultiFrameOnShortScenesSaysWhy) {
                          "use single-frame for these scenes"});
   EXPECT_FALSE(std::filesystem::exists(tmp.File("mf.zip")));
 }
+
+// Every command's --help ends with examples.
+TEST(Cli, EveryCommandsHelpHasExamples) {
+  for (const char* command : {"relocalize", "pose", "run", "eval", "demo", "serve", "intrinsics", "options", "merge",
+                              "inspect", "pointmap", "match", "segment", "depth"}) {
+    const Result r = RunFreeloc(std::string(command) + " --help");
+    EXPECT_EQ(r.code, 0) << command;
+    EXPECT_TRUE(Contains(r.out, "Examples:\n  freeloc " + std::string(command)) ||
+                Contains(r.out, "Examples:\n  mpirun"))
+        << command << "\n"
+        << r.out;
+  }
+}

@@ -43,6 +43,49 @@ void SelectBlasKernels(char** argv) {
   execv("/proc/self/exe", argv);  // returns only on failure
 }
 
+// Each command's --help ends with examples a user can adapt (the README's, docs/ for more).
+void AddExamples(CLI::App& app) {
+  static const std::pair<const char*, const char*> kExamples[] = {
+      {"relocalize",
+       "  freeloc relocalize --ref ref.jpg --query q.jpg --ref-intrinsics 535.4,539.2,320.1,247.6 \\\n"
+       "      --query-intrinsics 535.4,539.2,320.1,247.6 --ref-depth ref.png --query-depth q.png\n"
+       "  freeloc relocalize --ref phone_a.jpg --query phone_b.jpg --preset mast3r --models ~/models --json\n"
+       "  freeloc relocalize --ref a.jpg --query b.jpg --ref-depth a_cm.png --query-depth b_cm.png --depth-unit cm"},
+      {"pose",
+       "  freeloc pose --matches m.txt --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics "
+       "535.4,539.2,320.1,247.6\n"
+       "  freeloc pose --matches m.txt --ref-intrinsics 590,590,270,360 --query-intrinsics 590,590,270,360 \\\n"
+       "      --ref-depth r.png --query-depth q.png --solver hybrid --json"},
+      {"run",
+       "  freeloc run --data mapfree --split val --preset sift-essential --out sub.zip --report report/\n"
+       "  freeloc run --data mapfree --split test --preset seed --models ~/models --out seed.zip --resume\n"
+       "  mpirun -np 4 freeloc run --data mapfree --split test --preset seed --out seed.zip"},
+      {"eval",
+       "  freeloc eval --data mapfree --submission sub.zip\n"
+       "  freeloc eval --data mapfree --compare a.zip b.zip --report cmp/"},
+      {"demo", "  freeloc demo\n  freeloc demo --models ~/models"},
+      {"serve", "  freeloc serve --preset mast3r --models ~/models --port 8080 --store anchors/"},
+      {"intrinsics", "  freeloc intrinsics phone_a.jpg phone_b.jpg --json"},
+      {"options", "  freeloc options --preset seed\n  freeloc options --markdown"},
+      {"merge", "  freeloc merge part1.zip part2.zip part3.zip part4.zip --out submission.zip"},
+      {"inspect", "  freeloc inspect DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth --filter enc_norm"},
+      {"pointmap",
+       "  freeloc pointmap --model DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth ref.jpg q.jpg --out pm.safetensors "
+       "--matches"},
+      {"match",
+       "  freeloc match --matcher mast3r --model MASt3R_ViTLarge_BaseDecoder_512_catmlpdpt_metric.pth ref.jpg "
+       "q.jpg --out matches.txt"},
+      {"segment",
+       "  freeloc segment --model seggpt_vit_large.pth --prompt-image ref.jpg --prompt-mask cup.png --target "
+       "q.jpg --out q_cup.png"},
+      {"depth",
+       "  freeloc depth --model metric_depth_vit_large_800k.pth --image q.jpg --intrinsics 590,590,270,360 "
+       "--out q.depth.png"}};
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
+    for (const auto& [name, text] : kExamples)
+      if (sub->get_name() == name) sub->footer(std::string("\nExamples:\n") + text);
+}
+
 // Levenshtein distance, for "did you mean": a typo of a command or a flag.
 size_t EditDistance(const std::string& a, const std::string& b) {
   std::vector<size_t> row(b.size() + 1);
@@ -152,6 +195,7 @@ int main(int argc, char** argv) {
   cli::RegisterOptions(app, global, &run);
   cli::RegisterIntrinsics(app, global, &run);
   cli::RegisterServe(app, global, &run);
+  AddExamples(app);
 
   try {
     app.parse(argc, argv);
