@@ -40,11 +40,11 @@ std::string Named(const std::string& frame, const DepthMap& d) {
   return d.source.empty() ? frame : frame + " (" + d.source + ")";
 }
 
-// The valid depths' median, smallest and largest, from at most ~1 M pixels on a regular grid (exact for smaller
+// The valid depths' median, smallest and largest, from at most ~65 000 pixels on a regular grid (exact for smaller
 // maps). Returns false when no pixel is valid.
 bool DepthStatistics(const DepthMap& d, double* median, double* lo, double* hi) {
   const size_t n = d.data.size();
-  const size_t step = std::max<size_t>(1, static_cast<size_t>(std::ceil(std::sqrt(n / double(1 << 20)))));
+  const size_t step = std::max<size_t>(1, static_cast<size_t>(std::ceil(std::sqrt(n / double(1 << 16)))));
   std::vector<float> v;
   for (int y = 0; y < d.height; y += static_cast<int>(step))
     for (int x = 0; x < d.width; x += static_cast<int>(step))
