@@ -1285,3 +1285,15 @@ TEST(Cli, EveryCommandsHelpHasExamples) {
         << r.out;
   }
 }
+
+// A run that would replace an earlier run's progress says so before any work, naming --resume.
+TEST(Cli, RunWarnsBeforeReplacingAnEarlierRunsProgress) {
+  freeloc::testing::TempDir tmp;
+  freeloc::testing::WriteText(tmp.File("sub.zip.progress.jsonl"), "{}\n");
+  const Result r =
+      RunFreeloc("run --data " + freeloc::testing::DemoPath() + " --scenes s00003 --out " + tmp.File("sub.zip"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  ExpectMentions(r.out, {"sub.zip.progress.jsonl holds an earlier run's progress; this run starts over",
+                         "add --resume to continue that run instead"});
+  EXPECT_LT(r.out.find("holds an earlier run's progress"), r.out.find("queries relocalized")) << r.out;
+}

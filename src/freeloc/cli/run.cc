@@ -1,7 +1,9 @@
 // `freeloc run` and `freeloc demo`: the run controller (pipeline/run_controller.h) from the command line.
+#include <signal.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 
@@ -20,6 +22,31 @@
 namespace freeloc::cli {
 
 namespace {
+
+// Ctrl-C (or SIGTERM) during a run: say where its progress is and how to go on, then end as the signal would (the
+// journal is written scene by scene, so nothing more needs saving). The message is made before the run starts:
+// only write() and _exit() run in the handler.
+char g_interrupt_message[1024];
+size_t g_interrupt_length = 0;
+void OnInterrupt(int sig) {
+  if (g_interrupt_length > 0) {
+    const ssize_t written = ::write(STDERR_FILENO, g_interrupt_message, g_interrupt_length);
+    (void)written;
+  }
+  ::_exit(128 + sig);
+}
+void InterruptHint(const std::string& progress) {
+  const int n = std::snprintf(g_interrupt_message, sizeof(g_interrupt_message),
+                              "\nfreeloc: interrupted; the finished scenes are in %s — rerun the same command with "
+                              "--resume to continue\n",
+                              progress.c_str());
+  g_interrupt_length = n > 0 ? std::min(static_cast<size_t>(n), sizeof(g_interrupt_message) - 1) : 0;
+  struct sigaction sa {};
+  sa.sa_handler = OnInterrupt;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
 
 struct RunArgs {
   PipelineArgs pipeline;
@@ -50,6 +77,14 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     spec.report_options.per_scene = a.report_per_scene;
     spec.resume = a.resume;
     if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
+    const std::string progress = a.out + ".progress.jsonl";
+    std::error_code ec;
+    if (root && !a.resume && std::filesystem::exists(progress, ec))
+      std::fprintf(stderr,
+                   "freeloc: warning: %s holds an earlier run's progress; this run starts over and replaces it — "
+                   "stop it now (Ctrl-C) and add --resume to continue that run instead\n",
+                   SafeText(progress, 300).c_str());
+    if (root) InterruptHint(progress);
     const pipeline::RunResult r = pipeline::ExecuteRun(spec, o, nullptr, comm.get());
     if (!root) return 0;
     std::printf("%zu of %zu queries relocalized in %zu scenes; submission written to %s\n", r.relocalized, r.queries,

@@ -234,8 +234,8 @@ RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const 
   if (root && spec.resume) {
     Resume(journal, options, &res);
   } else if (root && fs::exists(journal.path())) {
-    FREELOC_LOG(WARNING) << journal.path()
-                         << " exists from an earlier run; starting over (resume the run to continue it)";
+    // The command line has warned before any work, naming its flag; here for the library's other callers.
+    FREELOC_LOG(INFO) << journal.path() << " exists from an earlier run; starting over (resume the run to continue it)";
   }
   if (root) journal.Open(spec.resume);
   std::vector<std::string> mine;
