@@ -3,7 +3,10 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
+
+#include "freeloc/geometry/metric_scale.h"
 
 namespace freeloc::geometry {
 
@@ -81,6 +84,43 @@ RotationOnlyResult EstimateRotationOnly(const std::vector<Eigen::Vector2d>& px_r
   res.residual_px = res.num_inliers ? std::sqrt(sq / res.num_inliers) * focal : 0;
   res.found = res.num_inliers >= 2;
   return res;
+}
+
+DepthTranslation TranslationFromDepths(const std::vector<Eigen::Vector2d>& px_ref,
+                                       const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,
+                                       const Camera& query, const RotationOnlyResult& rotation, const DepthMap& d_ref,
+                                       const DepthMap& d_query) {
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  DepthTranslation out;
+  std::vector<Eigen::Vector3d> diff;
+  double depth_sum = 0;
+  for (size_t i = 0; i < rotation.inliers.size() && i < px_ref.size(); ++i) {
+    if (!rotation.inliers[i]) continue;
+    const double zr = BilinearDepth(d_ref, px_ref[i].x(), px_ref[i].y());
+    const double zq = BilinearDepth(d_query, px_query[i].x(), px_query[i].y());
+    if (!(zr > 0) || !(zq > 0)) continue;
+    diff.push_back(zq * query.Unproject(px_query[i].x(), px_query[i].y()) -
+                   rotation.query_from_ref * (zr * ref.Unproject(px_ref[i].x(), px_ref[i].y())));
+    depth_sum += zr;
+  }
+  out.samples = static_cast<int>(diff.size());
+  if (diff.size() < 5) return out;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double> v;
+    for (const auto& d : diff) v.push_back(d[k]);
+    out.t[k] = median(std::move(v));
+  }
+  std::vector<double> dev;
+  for (const auto& d : diff) dev.push_back((d - out.t).norm());
+  const double mad = median(dev);
+  out.mean_depth_m = depth_sum / static_cast<double>(diff.size());
+  for (double d : dev) out.agree += d <= std::max(3 * 1.4826 * mad, 0.01 * out.mean_depth_m);
+  out.std_error_m = 1.4826 * mad / std::sqrt(std::max(1, out.agree));
+  out.found = true;
+  return out;
 }
 
 }  // namespace freeloc::geometry

@@ -90,13 +90,15 @@ const DepthMap& Relocalizer::last_query_depth() const { return impl_->d_query; }
 
 namespace {
 
+bool IsZero(const Camera& c) { return c.fx == 0 && c.fy == 0 && c.cx == 0 && c.cy == 0; }
+
 // Intrinsics handed in (flags, Python, an intrinsics file) must fit the image (input_checks.h): a focal length of
 // 1e308, normalised or reordered values are mistakes, not a camera. EXIF and pointmap intrinsics are checked where
 // they are made.
 void CheckCameraFitsImage(const Camera& camera, const FrameInputs& in, const WorkingFrame& wf, const InputOptions& o,
                           const char* what, InputNotes* notes) {
   // No image, or no intrinsics at all (a default Camera: `freeloc match`, whose matchers need none).
-  if (wf.image().empty() || (camera.fx == 0 && camera.fy == 0 && camera.cx == 0 && camera.cy == 0)) return;
+  if (wf.image().empty() || IsZero(camera)) return;
   if (in.intrinsics_source != IntrinsicsSource::kGiven && in.intrinsics_source != IntrinsicsSource::kFile) return;
   CheckIntrinsics(camera, wf.photo_width(), wf.photo_height(), o, what, notes);
 }
@@ -147,8 +149,6 @@ void ApplyInputNotes(const InputNotes& notes, QueryResult* r) {
   r->predicted_translation_m /= notes.confidence_factor;
   r->predicted_rotation_deg /= notes.confidence_factor;
 }
-
-bool IsZero(const Camera& c) { return c.fx == 0 && c.fy == 0 && c.cx == 0 && c.cy == 0; }
 
 // A camera of focal `f` with the principal point at the centre of `image` (pixel centres at integers).
 Camera CentredCamera(double f, const Image& image) {

@@ -251,8 +251,8 @@ class EssentialSolver : public PoseSolver {
 
   // No parallax — the same photo twice, a camera turned in place: every translation direction fits, so the essential
   // search finds no model (or, without depth, an arbitrary one). A rotation explaining at least half of the matches
-  // (and 15) is then the answer: with both depths a metric pose, its translation the median of X_query − R·X_ref over
-  // the rotation's inliers; without, the status says why (the translation cannot be seen) and keeps the rotation.
+  // (and 15) is then the answer: with both depths a metric pose, its translation from them
+  // (geometry::TranslationFromDepths); without, the status says why (the translation cannot be seen).
   static void NoParallax(const matching::Correspondences& c, const geometry::RotationOnlyResult& rot,
                          const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref, const DepthMap& d_query,
                          QueryResult* r) {
@@ -269,48 +269,24 @@ class EssentialSolver : public PoseSolver {
       r->message = what.str() + "); without depth maps the translation cannot be seen: give both depth maps";
       return;
     }
-    std::vector<Eigen::Vector3d> diff;
-    double depth_sum = 0;
-    for (size_t i = 0; i < c.size(); ++i) {
-      if (!rot.inliers[i]) continue;
-      const double zr = geometry::BilinearDepth(d_ref, c.ref[i].x(), c.ref[i].y());
-      const double zq = geometry::BilinearDepth(d_query, c.query[i].x(), c.query[i].y());
-      if (!(zr > 0) || !(zq > 0)) continue;
-      diff.push_back(zq * k_query.Unproject(c.query[i].x(), c.query[i].y()) -
-                     rot.query_from_ref * (zr * k_ref.Unproject(c.ref[i].x(), c.ref[i].y())));
-      depth_sum += zr;
-    }
-    if (diff.size() < 5) {
+    const geometry::DepthTranslation dt =
+        geometry::TranslationFromDepths(c.ref, c.query, k_ref, k_query, rot, d_ref, d_query);
+    if (!dt.found) {
       r->status = QueryStatus::kScaleNoValidDepth;
       r->message = what.str() + "); too few of its matches have depth in both maps for the translation";
       return;
     }
-    Eigen::Vector3d t;
-    for (int k = 0; k < 3; ++k) {
-      std::vector<double> v;
-      for (const auto& d : diff) v.push_back(d[k]);
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-      t[k] = v[v.size() / 2];
-    }
-    std::vector<double> dev;
-    for (const auto& d : diff) dev.push_back((d - t).norm());
-    std::vector<double> sorted = dev;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-    const double mad = sorted[sorted.size() / 2];
-    const double mean_depth = depth_sum / static_cast<double>(diff.size());
-    int agree = 0;
-    for (double d : dev) agree += d <= std::max(3 * 1.4826 * mad, 0.01 * mean_depth);
-    r->query_from_ref.translation = t;
-    r->scale_inliers = agree;
+    r->query_from_ref.translation = dt.t;
+    r->scale_inliers = dt.agree;
     PoseEvidence ev;
     ev.matches = static_cast<int>(c.size());
     ev.inliers = rot.num_inliers;
     ev.residual_px = rot.residual_px;
     ev.focal_px = 0.25 * (k_ref.fx + k_ref.fy + k_query.fx + k_query.fy);
-    ev.mean_depth_m = mean_depth;
-    ev.scale_candidates = static_cast<int>(diff.size());
-    ev.scale_inliers = agree;
-    ev.scale_std_error_m = 1.4826 * mad / std::sqrt(std::max(1, agree));
+    ev.mean_depth_m = dt.mean_depth_m;
+    ev.scale_candidates = dt.samples;
+    ev.scale_inliers = dt.agree;
+    ev.scale_std_error_m = dt.std_error_m;
     const PredictedError pe = PredictPoseError(ev);
     r->predicted_translation_m = pe.translation_m;
     r->predicted_rotation_deg = pe.rotation_deg;
