@@ -220,7 +220,8 @@ DepthMap CheckProvidedDepth(DepthMap d, int image_width, int image_height, int w
   double median = 0, lo = 0, hi = 0;
   if (!DepthStatistics(d, &median, &lo, &hi)) return d;  // no valid pixel: the solvers say no depth
   const InputOptions defaults;
-  const bool near = median<o.depth_median_min_m, far = median> o.depth_median_max_m;
+  const bool near = median < o.depth_median_min_m;
+  const bool far = median > o.depth_median_max_m;
   if (near || far) {
     std::ostringstream m;
     m << name << ": the valid depths' median is " << Num(median) << " m ("
