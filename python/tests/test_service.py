@@ -116,6 +116,56 @@ def test_page_shows_an_answer_and_draws_the_3d_view(server):
         shutil.copy(shot, os.path.join(tempfile.gettempdir(), "freeloc_page", "page.png"))  # for people to look at
 
 
+def test_page_used_by_hand_adds_an_anchor_and_shows_an_answer_with_its_legend(server):
+    """The page as a person uses it: wait until it says it is ready, drop the reference photo, choose its depth, type
+    the intrinsics, click "add anchor", choose the query the same way, click "relocalize", read the answer and the
+    legend. Clicks and files go through Chromium's input layer (DevTools protocol), not through page scripts."""
+    chromium = _chromium()
+    if chromium is None:
+        pytest.skip("chromium is not installed (scripts/install-deps.sh installs it)")
+    import cdp
+    k = ",".join(repr(v) for v in K)
+    with tempfile.TemporaryDirectory() as tmp:
+        import urllib.request
+        html = urllib.request.urlopen(server.url + "/").read().decode()
+        assert '<button id="go" disabled>' in html  # nothing to click until the page says it is ready
+        b = cdp.Browser(chromium, tmp)
+        try:
+            b.goto(server.url + "/")
+            ready = b.wait_for("(s => s.startsWith('ready') && s)(document.getElementById('status').innerText)",
+                               what="the page to say it is ready")
+            assert "anchor" in ready
+            assert not b.visible("#view3d") and not b.visible("#pair")  # no empty black box before an answer
+            b.drop_file("#dropA", REF)
+            assert b.js("document.getElementById('fileA').files[0].name") == os.path.basename(REF)  # the input says so
+            b.choose_file("#depthA", REF_D)
+            b.type("#kA", k)
+            b.click("#addA")
+            added = b.wait_for("(s => /^anchor \\S+ added/.test(s) && s)(document.getElementById('status').innerText)",
+                               what="the anchor to be added")
+            b.choose_file("#fileQ", QUERY)
+            b.choose_file("#depthQ", QUERY_D)
+            b.type("#kQ", k)
+            b.js("window.seen = []; new MutationObserver(() => seen.push([document.getElementById('status').innerText,"
+                 " document.getElementById('go').disabled])).observe(document.getElementById('status'),"
+                 " {childList: true, characterData: true, subtree: true})")
+            b.click("#go")
+            status = b.wait_for("document.body.dataset.answered", what="an answer")
+            assert status == "ok", b.text("#status")
+            seen = b.js("seen")
+            assert any(t.startswith("relocalizing") and disabled for t, disabled in seen), seen  # a visible busy state
+            assert b.text("#status").startswith("ok — t = ("), b.text("#status")
+            assert b.visible("#legend")
+            legend = b.text("#legend")
+            for word in ("inlier", "outlier", "reference", "predicted", "truth", "turbo"):
+                assert word in legend, legend
+            assert b.visible("#view3d") and b.js("document.getElementById('pair').width") > 100
+            lines = b.js("JSON.parse(document.getElementById('record').textContent).inliers")
+            assert lines > 0 and added
+        finally:
+            b.close()
+
+
 def test_sigterm_finishes_the_admitted_request_and_exits_zero():
     s = Serve("--workers", "1")
     c = freeloc.Client(s.url)

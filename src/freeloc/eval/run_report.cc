@@ -230,6 +230,14 @@ const char kScript[] =
 
 }  // namespace
 
+Image DepthColourImage(const DepthMap& depth, int w, int h) {
+  if (w <= 0 || h <= 0) w = depth.width, h = depth.height;
+  const cv::Mat m = DepthColours(depth, w, h);
+  Image out(w, h);
+  std::copy(m.data, m.data + out.data.size(), out.data.begin());
+  return out;
+}
+
 double ReportBadness(const ReportQuery& q) {
   if (!q.has_pose) return std::numeric_limits<double>::infinity();
   if (!q.has_errors) return 0;

@@ -47,6 +47,10 @@ struct ReportOptions {
   io::Track track = io::Track::kSingleFrame;  // which frames the metrics score
 };
 
+// A depth map as the report and the service page draw it: turbo over the valid depths' 2nd–98th percentile (near
+// blue, far red), invalid pixels dark grey; `w`×`h` RGB (0: the map's own size).
+Image DepthColourImage(const DepthMap& depth, int w = 0, int h = 0);
+
 // The score that orders queries from worst to best: failures first, then max(t/0.25 m, R/5°).
 double ReportBadness(const ReportQuery& q);
 

@@ -43,6 +43,7 @@ struct Anchor {
   pipeline::FrameIntrinsics intrinsics;  // as the Relocalizer resolved them
   bool has_depth = false;
   double reference_ms = 0;  // the reference work, once
+  int queries = 0;          // queries answered against it (under `mu`): each reused the reference work
   std::unique_ptr<pipeline::Relocalizer> reloc;
   std::mutex mu;  // one query at a time on this anchor's Relocalizer
 };

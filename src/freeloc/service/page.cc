@@ -11,7 +11,10 @@ h1{font-size:20px;margin:0 0 8px}
 section{background:#fff;border:1px solid #ddd;border-radius:6px;padding:10px;margin:8px 0}
 .drop{border:2px dashed #aaa;border-radius:6px;padding:10px;text-align:center;color:#666}
 .drop.over{border-color:#2a7;color:#2a7}
-#status{font-weight:bold} .ok{color:#2a7} .bad{color:#c33}
+#status{font-weight:bold} .ok{color:#2a7} .bad{color:#c33} .busy{color:#a60}
+button:disabled{opacity:.5}
+#result{display:none} body.has-answer #result{display:block}
+.legend span{display:inline-block;width:12px;height:12px;margin:0 4px 0 12px;vertical-align:middle}
 #pair{max-width:100%;border:1px solid #ccc} #depths img{height:160px;margin-right:8px;border:1px solid #ccc}
 #view3d{width:100%;height:420px;border:1px solid #ccc;background:#111}
 pre{font-size:11px;max-height:200px;overflow:auto;background:#f4f4f4;padding:6px}
@@ -19,22 +22,26 @@ label{margin-right:12px}
 </style></head><body>
 <h1>freeloc — map-free relocalization</h1>
 <section><b>Anchor</b>
- <select id="anchors"></select> <button id="del">delete</button>
+ <select id="anchors"></select> <button id="del" disabled>delete</button>
  <div class="drop" id="dropA">drop a reference photo here, or <input type="file" id="fileA" accept="image/*"></div>
  <label>depth PNG <input type="file" id="depthA" accept="image/png"></label>
  <label>intrinsics <input id="kA" placeholder="fx,fy,cx,cy (else EXIF / pointmap)" size="30"></label>
- <button id="addA">add anchor</button></section>
+ <button id="addA" disabled>add anchor</button></section>
 <section><b>Query</b>
  <div class="drop" id="dropQ">drop a query photo here, or <input type="file" id="fileQ" accept="image/*"></div>
  <label>depth PNG <input type="file" id="depthQ" accept="image/png"></label>
  <label>intrinsics <input id="kQ" placeholder="fx,fy,cx,cy" size="24"></label>
  <label>true pose <input id="gt" placeholder="qw qx qy qz tx ty tz (optional)" size="34"></label>
- <button id="go">relocalize</button></section>
-<section><div id="status">no answer yet</div>
+ <button id="go" disabled>relocalize</button></section>
+<section><div id="status" class="busy">loading the anchors …</div>
+ <div id="result">
+ <p class="legend" id="legend">lines:<span style="background:#1eaa3c"></span>inlier<span style="background:#dc2828"></span>outlier;
+ depth maps (turbo: near blue, far red; grey: none); cameras in the 3D view:<span style="background:#33dd66"></span>reference
+ <span style="background:#3399ff"></span>truth (the true pose, when given)<span style="background:#ff9922"></span>predicted</p>
  <canvas id="pair" width="10" height="10"></canvas>
  <div id="depths"></div>
  <div id="view3d"></div>
- <pre id="record"></pre></section>
+ <pre id="record"></pre></div></section>
 <script src="/static/three.min.js"></script>
 <script src="/static/OrbitControls.js"></script>
 <script src="/static/view3d.js"></script>
@@ -47,6 +54,14 @@ const $ = id => document.getElementById(id);
 let fileA = null, fileQ = null;
 
 function say(text, ok) { const s = $("status"); s.textContent = text; s.className = ok ? "ok" : "bad"; }
+// While a request runs: every button off and the status counting seconds, so that a click is seen to be working.
+async function busy(what, work) {
+  const buttons = [...document.querySelectorAll("button")], t0 = performance.now(), s = $("status");
+  buttons.forEach(b => b.disabled = true);
+  const tick = () => { s.textContent = what + " … " + ((performance.now() - t0) / 1000).toFixed(1) + " s"; s.className = "busy"; };
+  tick(); const timer = setInterval(tick, 200);
+  try { return await work(); } finally { clearInterval(timer); buttons.forEach(b => b.disabled = false); }
+}
 async function api(path, opts) {
   const r = await fetch(path, Object.assign({headers}, opts || {}));
   const ct = r.headers.get("Content-Type") || "";
@@ -68,13 +83,12 @@ function dropZone(zone, input, set) {
   zone.addEventListener("dragover", e => { e.preventDefault(); zone.classList.add("over"); });
   zone.addEventListener("dragleave", () => zone.classList.remove("over"));
   zone.addEventListener("drop", e => { e.preventDefault(); zone.classList.remove("over");
-    if (e.dataTransfer.files.length) { set(e.dataTransfer.files[0]); zone.firstChild.textContent = e.dataTransfer.files[0].name + " "; } });
+    if (e.dataTransfer.files.length) { input.files = e.dataTransfer.files; set(input.files[0]); } });  // the input names it
   input.addEventListener("change", () => set(input.files[0]));
 }
 dropZone($("dropA"), $("fileA"), f => fileA = f);
 dropZone($("dropQ"), $("fileQ"), f => fileQ = f);
 
-let linkDepth = null;  // the query's depth in link mode (?query_anchor=): that anchor's uploaded depth PNG
 function form(image, depthInput, kText, depthBlob) {
   const f = new FormData(); f.append("image", image);
   if (depthInput && depthInput.files && depthInput.files[0]) f.append("depth", depthInput.files[0]);
@@ -84,26 +98,27 @@ function form(image, depthInput, kText, depthBlob) {
 }
 $("addA").onclick = async () => {
   if (!fileA) return say("choose a reference photo first", false);
-  try { const a = await api("/v1/anchors", {method: "POST", body: form(fileA, $("depthA"), $("kA").value.trim())});
-        await loadAnchors(a.id); say("anchor " + a.id + " added (reference work " + a.reference_ms.toFixed(0) + " ms)", true); }
+  try { const a = await busy("adding the anchor", () => api("/v1/anchors", {method: "POST", body: form(fileA, $("depthA"), $("kA").value.trim())}));
+        await loadAnchors(a.id); say("anchor " + a.id + " added (reference work " + a.reference_ms.toFixed(0) + " ms); now choose a query photo", true); }
   catch (e) { say(e.message, false); }
 };
 $("del").onclick = async () => {
   const id = $("anchors").value; if (!id) return;
-  try { await api("/v1/anchors/" + id, {method: "DELETE"}); await loadAnchors(); say("anchor " + id + " deleted", true); }
+  try { await busy("deleting", () => api("/v1/anchors/" + id, {method: "DELETE"})); await loadAnchors(); say("anchor " + id + " deleted", true); }
   catch (e) { say(e.message, false); }
 };
 $("go").onclick = () => relocalize($("anchors").value, fileQ);
 
 function loadImage(src) { return new Promise((ok, bad) => { const i = new Image(); i.onload = () => ok(i); i.onerror = bad; i.src = src; }); }
 
-async function relocalize(id, image) {
+// `linkDepth`: link mode's query depth (the query anchor's uploaded PNG); a query chosen by hand sends its own.
+async function relocalize(id, image, linkDepth) {
   if (!id) return say("add or choose an anchor first", false);
   if (!image) return say("choose a query photo first", false);
-  say("relocalizing …", true);
   let rec;
-  try { rec = await api("/v1/anchors/" + id + "/relocalize?view=1", {method: "POST", body: form(image, $("depthQ"), $("kQ").value.trim(), linkDepth)}); }
+  try { rec = await busy("relocalizing", () => api("/v1/anchors/" + id + "/relocalize?view=1", {method: "POST", body: form(image, $("depthQ"), $("kQ").value.trim(), linkDepth)})); }
   catch (e) { return say(e.message, false); }
+  document.body.classList.add("has-answer");
   const t = rec.tvec.map(v => v.toFixed(3)).join(", ");
   say(rec.status + " — t = (" + t + ")" + (rec.metric ? " m" : " (unit)") + ", confidence " + rec.confidence.toPrecision(3) +
       ", " + rec.inliers + "/" + rec.matches + " inliers, " + rec.service.total_ms.toFixed(0) + " ms", rec.ok);
@@ -129,7 +144,7 @@ async function drawPair(id, view) {
   g.drawImage(qry, ref.width * s, 0, qry.width * s, qry.height * s);
   g.lineWidth = 1;
   for (const [xr, yr, xq, yq, inl] of view.matches) {
-    g.strokeStyle = inl ? "rgba(40,200,90,0.8)" : "rgba(220,50,50,0.5)";
+    g.strokeStyle = inl ? "rgb(30,170,60)" : "rgba(220,40,40,0.6)";  // the report's colours
     g.beginPath(); g.moveTo(xr * s, yr * s); g.lineTo((xq + ref.width) * s, yq * s); g.stroke();
   }
 }
@@ -148,16 +163,22 @@ function draw3d(view) {
 }
 
 (async () => {
-  try { await loadAnchors(params.get("anchor")); } catch (e) { say(e.message, false); }
+  try {
+    await loadAnchors(params.get("anchor"));
+    const n = $("anchors").options.length;
+    say("ready: " + n + (n === 1 ? " anchor" : " anchors") + (n ? "; choose a query photo, or add another anchor" : "; drop a reference photo to add an anchor"), true);
+    document.querySelectorAll("button").forEach(b => b.disabled = false);
+    document.body.dataset.ready = "1";
+  } catch (e) { return say(e.message, false); }
   // ?anchor=A&query_anchor=B relocalizes B's photo against A at once (a link that shows an answer; the page test).
   const qa = params.get("query_anchor");
   if (params.get("anchor") && qa) {
     try {
       const info = await api("/v1/anchors/" + qa), k = info.intrinsics;  // the photo's intrinsics come along
       if (!$("kQ").value && k.source !== "pointmap") $("kQ").value = [k.fx, k.fy, k.cx, k.cy].join(",");
-      if (info.depth) linkDepth = await api("/v1/anchors/" + qa + "/depth?raw=1");
-      const blob = await api("/v1/anchors/" + qa + "/image");
-      await relocalize(params.get("anchor"), new File([blob], "query.jpg", {type: "image/jpeg"}));
+      const depth = info.depth ? await api("/v1/anchors/" + qa + "/depth?raw=1") : null;
+      const blob = await api("/v1/anchors/" + qa + "/image?raw=1");  // the file as uploaded, not a re-encoding
+      await relocalize(params.get("anchor"), new File([blob], "query", {type: blob.type}), depth);
     }
     catch (e) { say(e.message, false); }
   }

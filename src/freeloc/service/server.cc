@@ -21,6 +21,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/core/timing.h"
+#include "freeloc/eval/run_report.h"
 #include "freeloc/eval/view3d.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
@@ -182,21 +183,35 @@ double ProcMiB(const char* key) {
 
 void SendJson(httplib::Response& res, int status, const Json& j) {
   res.status = status;
-  res.set_content(j.dump(), "application/json");
+  // Client text echoed in a message may hold bytes that are not UTF-8: replaced, never thrown (a throw here, on the
+  // error path, would end the server).
+  res.set_content(j.dump(-1, ' ', false, Json::error_handler_t::replace), "application/json");
+}
+
+const char* kMultipartExpected =
+    "request: expected multipart/form-data with the fields 'image' (the photo), optional 'depth' (16-bit PNG, "
+    "millimetres unless 'depth_unit' says cm or m) and 'intrinsics' (fx,fy,cx,cy); got ";
+
+std::string ContentTypeText(const httplib::Request& req) {
+  const std::string ct = req.get_header_value("Content-Type");
+  return ct.empty() ? "no Content-Type" : "'" + SafeText(ct, 80) + "'";
 }
 
 void SendError(httplib::Response& res, int status, const std::string& message) {
   SendJson(res, status, {{"error", message}});
 }
 
+// The one answer for an id no anchor has (any text: ids are looked up, never turned into paths).
+void SendUnknownAnchor(httplib::Response& res, const std::string& id) {
+  SendError(res, 404,
+            "anchor '" + SafeText(id, 40) +
+                "': unknown (deleted, never added, or lost at a restart of a server without a store); GET "
+                "/v1/anchors lists the anchors, POST /v1/anchors adds one");
+}
+
 // The photo fields of a multipart request; throws freeloc::Error (→ 400) naming what is wrong.
 PhotoUpload UploadOf(const httplib::Request& req) {
-  FREELOC_CHECK(req.is_multipart_form_data(),
-                "request: expected multipart/form-data with the fields 'image' (the photo), optional 'depth' "
-                "(16-bit PNG, millimetres unless 'depth_unit' says cm or m) and 'intrinsics' (fx,fy,cx,cy); got "
-                    << (req.get_header_value("Content-Type").empty()
-                            ? "no Content-Type"
-                            : "'" + SafeText(req.get_header_value("Content-Type"), 80) + "'"));
+  FREELOC_CHECK(req.is_multipart_form_data(), kMultipartExpected << ContentTypeText(req));
   FREELOC_CHECK(req.has_file("image"), "image: missing; send the photo as the multipart field 'image'");
   PhotoUpload u;
   const std::string& img = req.get_file_value("image").content;
@@ -244,23 +259,9 @@ std::string Base64(const std::vector<uint8_t>& b) {
   return out;
 }
 
-// A depth map as a grey JPEG (near bright, far dark, invalid black) for the page.
+// A depth map as a JPEG for the page, coloured as the report colours it.
 std::vector<uint8_t> DepthPicture(const DepthMap& d) {
-  std::vector<float> valid;
-  for (float v : d.data)
-    if (v > 0 && std::isfinite(v)) valid.push_back(v);
-  Image im(d.width, d.height);
-  if (!valid.empty()) {
-    std::sort(valid.begin(), valid.end());
-    const float lo = valid[valid.size() / 50], hi = std::max(lo + 1e-3f, valid[valid.size() * 49 / 50]);
-    for (size_t i = 0; i < d.data.size(); ++i) {
-      const float v = d.data[i];
-      if (!(v > 0 && std::isfinite(v))) continue;
-      const uint8_t g = static_cast<uint8_t>(std::clamp(255.0f * (1 - (v - lo) / (hi - lo)), 20.0f, 255.0f));
-      im.data[3 * i] = im.data[3 * i + 1] = im.data[3 * i + 2] = g;
-    }
-  }
-  return io::EncodeJpeg(im, 85, "depth picture");
+  return io::EncodeJpeg(eval::DepthColourImage(d), 85, "depth picture");
 }
 
 // A static file's text, "" when it is not there (three.js is optional for the API).
@@ -372,6 +373,27 @@ struct Server::Impl {
     admission.Leave();
   }
 
+  // What went wrong, for the errors cpp-httplib answers itself (before a route runs). A body it refused for its size
+  // that is not multipart at all is the client's format (415), whatever its size.
+  std::string HttpErrorText(const httplib::Request& req, httplib::Response& res) const {
+    if (res.status == 413 && !req.is_multipart_form_data()) {
+      res.status = 415;
+      return kMultipartExpected + ContentTypeText(req);
+    }
+    if (res.status == 413) {
+      const std::string length = req.get_header_value("Content-Length");
+      return "upload too large: " + (length.empty() ? std::string("the body") : SafeText(length, 20) + " bytes") +
+             " is over this server's " + "limit of " + std::to_string(o.max_upload_mb) +
+             " MB (its max_upload_mb option): send a smaller photo, or restart the server with a larger limit";
+    }
+    if (res.status == 404)
+      return "no such route: " + SafeText(req.method, 10) + " " + SafeText(req.path, 80) +
+             "; the routes: GET /, /healthz, /metrics, /v1/anchors, /v1/anchors/{id}[/image|/depth|/points]; POST "
+             "/v1/anchors, /v1/anchors/{id}/relocalize; DELETE /v1/anchors/{id} (docs/service.md)";
+    if (res.status == 400) return "bad request (malformed HTTP or multipart body)";
+    return "HTTP error " + std::to_string(res.status);
+  }
+
   void Routes() {
     http.set_payload_max_length(static_cast<size_t>(o.max_upload_mb) << 20);
     http.set_read_timeout(30, 0);
@@ -379,15 +401,12 @@ struct Server::Impl {
     http.set_keep_alive_timeout(5);
     const int threads = o.workers + o.max_queue + 8;
     http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
-    http.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request&, httplib::Response& res) {
-      if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;  // our own JSON error
-      const std::string what = res.status == 413   ? "upload too large"
-                               : res.status == 404 ? "no such route"
-                               : res.status == 400 ? "bad request (malformed HTTP or multipart body)"
-                                                   : "error";
-      SendJson(res, res.status, {{"error", what}});
-      return httplib::Server::HandlerResponse::Handled;
-    }));
+    http.set_error_handler(
+        httplib::Server::HandlerWithResponse([this](const httplib::Request& req, httplib::Response& res) {
+          if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;  // our own JSON error
+          SendJson(res, res.status, {{"error", HttpErrorText(req, res)}});
+          return httplib::Server::HandlerResponse::Handled;
+        }));
     http.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
       std::string what = "internal error";
       try {
@@ -451,23 +470,24 @@ struct Server::Impl {
       for (const auto& a : store.List()) list.push_back(AnchorJson(*a));
       SendJson(res, 200, {{"anchors", list}});
     });
-    const std::string id = "/v1/anchors/([0-9a-fA-F]{1,32})";
+    const std::string id = "/v1/anchors/([^/]{1,200})";  // any text: looked up, never a path
     http.Get(id, [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
-      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      if (!a) return SendUnknownAnchor(res, req.matches[1]);
       SendJson(res, 200, AnchorJson(*a));
     });
     http.Delete(id, [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
-      if (!store.Remove(req.matches[1]))
-        return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      if (!store.Remove(req.matches[1])) return SendUnknownAnchor(res, req.matches[1]);
       SendJson(res, 200, {{"deleted", std::string(req.matches[1])}});
     });
     http.Get(id + "/image", [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
-      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      if (!a) return SendUnknownAnchor(res, req.matches[1]);
+      if (req.has_param("raw") && req.get_param_value("raw") == "1")  // the uploaded file itself (EXIF and all)
+        return res.set_content(std::string(a->upload.image.begin(), a->upload.image.end()), "application/octet-stream");
       const std::vector<uint8_t> jpg =
           io::EncodeJpeg(a->image, 90, "anchor image");  // upright, as the pipeline sees it
       res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
@@ -475,7 +495,7 @@ struct Server::Impl {
     http.Get(id + "/depth", [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
-      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      if (!a) return SendUnknownAnchor(res, req.matches[1]);
       if (req.has_param("raw") && req.get_param_value("raw") == "1") {  // the uploaded 16-bit PNG itself
         if (!a->has_depth) return SendError(res, 404, "anchor " + a->id + ": no depth was uploaded");
         return res.set_content(std::string(a->upload.depth.begin(), a->upload.depth.end()), "image/png");
@@ -489,7 +509,7 @@ struct Server::Impl {
     http.Get(id + "/points", [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
-      if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+      if (!a) return SendUnknownAnchor(res, req.matches[1]);
       std::lock_guard<std::mutex> lock(a->mu);
       Camera k = a->intrinsics.camera;
       k.width = a->image.width;
@@ -507,7 +527,7 @@ struct Server::Impl {
 
   void Relocalize(const httplib::Request& req, httplib::Response& res, std::chrono::steady_clock::time_point t0) {
     const auto a = store.Get(req.matches[1]);
-    if (!a) return SendError(res, 404, "anchor " + std::string(req.matches[1]) + ": unknown");
+    if (!a) return SendUnknownAnchor(res, req.matches[1]);
     PhotoUpload u;
     try {
       u = UploadOf(req);
@@ -524,6 +544,7 @@ struct Server::Impl {
       const pipeline::CacheStats before = a->reloc->stats();
       const pipeline::QueryResult q = a->reloc->Relocalize(p.image, p.camera, std::move(p.inputs), &c);
       const pipeline::CacheStats& after = a->reloc->stats();
+      ++a->queries;
       Json j = Json::parse(pipeline::QueryRecordJson("", q, &a->reloc->options()));
       j["anchor"] = a->id;
       // The reference side ran when the anchor was added (its reference_ms); measured here: no reference encoder
@@ -532,12 +553,13 @@ struct Server::Impl {
                       {"decode_ms", decode_ms},
                       {"total_ms", MsSince(t0)},
                       {"reference_encodings", after.reference_encodings},
-                      {"reference_reuses", after.reference_reuses},
+                      {"reference_reuses", a->queries},
                       {"reference_reused", after.reference_encodings == before.reference_encodings &&
                                                after.reference_ms == before.reference_ms}};
       if (view) {
         Json m = Json::array();
-        const size_t n = c.size(), step = std::max<size_t>(1, n / 600);
+        constexpr size_t kLines = 150;  // as the report draws (eval::ReportOptions::max_lines)
+        const size_t n = c.size(), step = std::max<size_t>(1, (n + kLines - 1) / kLines);
         for (size_t i = 0; i < n; i += step)
           m.push_back({c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y(),
                        i < q.inlier_mask.size() && q.inlier_mask[i] ? 1 : 0});

@@ -229,6 +229,16 @@ TEST(Service, BadInputIsAClearClientError) {
   expect(c.Post(reloc.c_str(), Photo(t.query, "", "1e308,1e308,320,240")), 400, "intrinsics");
   expect(c.Post(reloc.c_str(), Photo(t.query, t.ref)), 400, "depth");  // an 8-bit RGB PNG as the depth map
   expect(c.Post("/v1/anchors/0123456789abcdef/relocalize", Photo(t.query)), 404, "unknown");
+  expect(c.Post("/v1/anchors/not-an-anchor/relocalize", Photo(t.query)), 404,
+         "anchor 'not-an-anchor': unknown (deleted, never added");
+  expect(c.Get("/v1/anchors/..%2f..%2fetc/image"), 404, "no such route");  // ids are looked up, never paths
+  expect(c.Get("/nowhere"), 404, "no such route: GET /nowhere; the routes:");
+  // A photo posted raw (curl --data-binary sends it form-urlencoded): the format is wrong, whatever its size.
+  expect(c.Post(reloc.c_str(), t.query, "application/x-www-form-urlencoded"), 415, "expected multipart/form-data");
+  expect(c.Post(reloc.c_str(), t.query, "image/png"), 400, "expected multipart/form-data");
+  // Bytes that are not UTF-8 in a field, and in the Content-Type: a clear 400, never an aborted server.
+  expect(c.Post(reloc.c_str(), Photo(t.query, "", "5\xff0,1,2,3")), 400, "intrinsics");
+  expect(c.Post(reloc.c_str(), "x", "text/\xe9t\xe9"), 400, "expected multipart/form-data");
   // A PNG that declares 100000 x 100000 pixels.
   std::string huge = t.query.substr(0, 33);
   for (int k : {16, 20}) {
@@ -239,7 +249,8 @@ TEST(Service, BadInputIsAClearClientError) {
   }
   expect(c.Post(reloc.c_str(), Photo(huge + t.query.substr(33))), 400, "pixels");
   // Bodies over --max-upload-mb, and a declared length far over it: 413 before reading them.
-  expect(c.Post(reloc.c_str(), Photo(std::string(2 << 20, 'x'))), 413, "too large");
+  expect(c.Post(reloc.c_str(), Photo(std::string(2 << 20, 'x'))), 413,
+         "is over this server's limit of 1 MB (its max_upload_mb option)");
   {
     httplib::Client raw("127.0.0.1", s.port());
     httplib::Headers h = {{"Content-Length", "1000000000000"}};
