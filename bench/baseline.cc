@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
                                        {"freeloc sift-essential --solver hybrid", "hybrid", "anchored"}};
   bench::MarkdownTable speed({"depth", "method", "queries", "median ms / query", "mean ms / query"});
   bench::MarkdownTable every({"depth", "method", "median t err (m)", "p90 t err (m)", "median R err (°)",
-                              "precision (25 cm, 5°)", "AUC (25 cm, 5°)", "failures", "answered (conf 0)"});
+                              "precision (25 cm, 5°)", "AUC (25 cm, 5°)", "failures", "submitted unsolved"});
   for (const std::string& depth : bench::SplitList(depths)) {
     const size_t nm = methods.size();
     std::map<std::string, std::vector<io::SubmissionEntry>> sub_official;
@@ -159,7 +159,7 @@ int main(int argc, char** argv) {
     std::vector<std::vector<double>> ms_freeloc(nm);
     AllQueries all_official;
     std::vector<AllQueries> all_freeloc(nm);
-    std::vector<int> answered(nm, 0);
+    std::vector<int> unsolved(nm, 0);
     for (const auto& name : scenes) {
       const io::MapfreeScene sc = io::MapfreeScene::Load(split + "/" + name);
       const Image ref = sc.LoadImage(sc.reference);
@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
           const double t0 = bench::NowSeconds();
           const pipeline::QueryResult r = relocs[m]->Relocalize(qi, q.camera, dq);
           ms_freeloc[m].push_back((bench::NowSeconds() - t0) * 1e3);
-          answered[m] += r.answered;
+          unsolved[m] += r.submitted_unsolved;
           if (r.submitted()) sub_freeloc[m][name].push_back({q.name, r.query_from_ref, r.confidence});
           if (has_gt) all_freeloc[m].Add({r.submitted(), r.query_from_ref, r.confidence, 0}, sc.gt.at(q.name));
           if (per_query && has_gt) {
@@ -224,10 +224,10 @@ int main(int argc, char** argv) {
         depth.c_str());
     for (size_t m = 0; m < nm; ++m) std::printf("%s %s", m ? "," : "", methods[m].name);
     std::printf(")\n\n%s\n", eval::MarkdownCompare(reports).c_str());
-    auto row = [&](const char* method, const AllQueries& a, int n_answered) {
+    auto row = [&](const char* method, const AllQueries& a, int n_unsolved) {
       std::vector<std::string> cells = {depth, method};
       for (auto& c : a.Cells()) cells.push_back(c);
-      cells.push_back(std::to_string(n_answered));
+      cells.push_back(std::to_string(n_unsolved));
       every.Row(cells);
     };
     auto speed_row = [&](const char* method, const std::vector<double>& ms) {
@@ -239,7 +239,7 @@ int main(int argc, char** argv) {
     row("official SIFT + Ess.Mat + D.Scale", all_official, 0);
     speed_row("official SIFT + Ess.Mat + D.Scale", ms_official);
     for (size_t m = 0; m < nm; ++m) {
-      row(methods[m].name, all_freeloc[m], answered[m]);
+      row(methods[m].name, all_freeloc[m], unsolved[m]);
       speed_row(methods[m].name, ms_freeloc[m]);
     }
   }

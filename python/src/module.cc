@@ -466,7 +466,8 @@ py::dict Run(const std::string& data, const std::string& out, const std::string&
   py::dict d;
   d["scenes"] = r.scenes;
   d["queries"] = r.queries;
-  d["relocalized"] = r.relocalized;
+  d["solved"] = r.solved;
+  d["submitted"] = r.submitted;
   d["resumed_scenes"] = r.resumed_scenes;
   d["statuses"] = r.statuses;
   d["input_errors"] = r.input_errors;  // queries that failed on a damaged or unreadable file (status error)
@@ -643,12 +644,24 @@ void BindPoses(py::module_& m) {
       .def_property_readonly(
           "inputs", [](const PoseResult& p) { return p.r.input_notes; },
           "what the plausible-input checks did (a resampled depth map, a loosened bound); each lowers the confidence")
-      .def_property_readonly("ok", [](const PoseResult& p) { return p.r.ok(); })
+      .def_property_readonly(
+          "solved", [](const PoseResult& p) { return p.r.solved(); },
+          "status ok or ok-unit-translation: freeloc stands behind the pose")
+      .def_property_readonly(
+          "submitted", [](const PoseResult& p) { return p.r.submitted(); },
+          "a pose goes into a submission: solved, or unsolved under always_answer (status weak-support with its own "
+          "pose and a confidence below 1e-3, else the prior pose, identity, with confidence 0)")
+      .def_property_readonly(
+          "ok", [](const PoseResult& p) { return p.r.ok(); }, "the same as solved (the name before 0.x)")
       .def_property_readonly("metric", [](const PoseResult& p) { return p.r.metric(); })
       .def_property_readonly(
-          "answered", [](const PoseResult& p) { return p.r.answered; },
-          "not ok but submitted (always_answer): status weak-support with its own pose and low confidence, else the "
-          "prior pose (identity) with confidence 0")
+          "answered",
+          [](const PoseResult&) -> bool {
+            throw py::attribute_error(
+                "PoseResult.answered is gone (it was True for an unsolved query): use .solved (freeloc stands behind "
+                "the pose) or .submitted (a pose goes into the submission)");
+          },
+          "gone: use solved or submitted")
       .def_property_readonly(
           "route", [](const PoseResult& p) { return p.r.route; },
           "the solver's route: essential, hybrid, hybrid>essential (fell back), pnp, procrustes")

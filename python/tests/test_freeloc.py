@@ -61,7 +61,7 @@ def test_pose_equals_cli(extra):
     m = np.loadtxt(MATCHES)
     r = freeloc.estimate_relative_pose(m[:, :2], m[:, 2:], K_TUM, K_TUM, depth(S3, "seq0"), depth(S3, "seq1"), **kw)
     same_record(r, rec)
-    assert r.metric and r.ok
+    assert r.metric and r.solved and r.submitted and r.ok  # ok: solved's older name
     assert r.inliers.dtype == bool and r.inliers.shape == (len(m),) and r.inliers.sum() == r.num_inliers
     assert r.as_dict()["options"] == rec["options"]
     assert np.allclose(r.R @ r.R.T, np.eye(3), atol=1e-12)
@@ -77,15 +77,17 @@ def test_pose_without_depth_is_a_unit_translation():
     assert abs(np.linalg.norm(r.t) - 1) < 1e-9
 
 
-def test_unsolved_pairs_are_answered_with_the_prior_unless_told_not_to():
+def test_unsolved_pairs_are_submitted_with_the_prior_unless_told_not_to():
     rng = np.random.default_rng(3)
     a, b = rng.uniform(0, 600, (40, 2)), rng.uniform(0, 400, (40, 2))  # unrelated points: no consensus
     r = freeloc.estimate_relative_pose(a, b, K_TUM, K_TUM)
-    assert not r.ok and r.answered and r.status in ("no-consensus", "too-few-matches")
+    assert not r.solved and r.submitted and r.status in ("no-consensus", "too-few-matches")
     assert r.confidence == 0 and np.allclose(r.t, 0) and np.allclose(r.R, np.eye(3))
-    assert r.as_dict()["answered"] is True
+    assert r.as_dict()["solved"] is False and r.as_dict()["submitted"] is True
     r = freeloc.estimate_relative_pose(a, b, K_TUM, K_TUM, always_answer=0)
-    assert not r.ok and not r.answered
+    assert not r.solved and not r.submitted and r.as_dict()["submitted"] is False
+    with pytest.raises(AttributeError, match=r"\.solved .*\.submitted"):
+        r.answered  # the old, inverted-looking name says what replaced it
 
 
 def test_hybrid_solver_is_metric_and_names_its_route():
@@ -173,7 +175,7 @@ def test_evaluate_and_run_equal_the_cli(tmp_path):
     seen = []
     summary = freeloc.run(DEMO, str(sub_py), progress=lambda done, total: seen.append((done, total)))
     assert sub_py.read_bytes() == sub_cli.read_bytes()
-    assert summary["queries"] == 7 and summary["relocalized"] == 2
+    assert summary["queries"] == 7 and summary["solved"] == 2 and summary["submitted"] == 7
     assert seen[-1] == (7, 7) and len(seen) == 7
     assert summary["results"]["s00001"][0]["status"] == "no-depth"
     metrics = freeloc.evaluate(DEMO, sub_py)
@@ -401,11 +403,11 @@ def test_weak_support_is_a_low_confidence_answer_not_the_prior():
         if r.status != "weak-support":
             continue
         weak += 1
-        assert not r.ok and r.answered and 0 < r.confidence < 1e-3
+        assert not r.solved and r.submitted and 0 < r.confidence < 1e-3
         assert abs(np.linalg.norm(r.t) - 1) < 1e-9 and r.inliers.sum() >= 10  # its own pose, not the prior
         assert r.as_dict()["status"] == "weak-support"
         s = freeloc.estimate_relative_pose(x[:, :2], x[:, 2:], K_TUM, K_TUM, threshold_px=2.0, always_answer=0)
-        assert s.status == "weak-support" and not s.answered
+        assert s.status == "weak-support" and not s.submitted
     assert weak >= 2
 
 

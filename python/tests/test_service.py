@@ -91,7 +91,7 @@ def test_page_shows_an_answer_and_draws_the_3d_view(server):
     with tempfile.TemporaryDirectory() as tmp:
         dom = subprocess.run(flags + ["--dump-dom", url], capture_output=True, text=True, timeout=180,
                              cwd=tmp, env={**os.environ, "HOME": tmp}).stdout
-        assert 'data-answered="ok"' in dom, dom[-2000:]
+        assert 'data-status="ok"' in dom, dom[-2000:]
         shot = os.path.join(tmp, "page.png")
         subprocess.run(flags + [f"--screenshot={shot}", url], capture_output=True, timeout=180, cwd=tmp,
                        env={**os.environ, "HOME": tmp})
@@ -150,7 +150,7 @@ def test_page_used_by_hand_adds_an_anchor_and_shows_an_answer_with_its_legend(se
                  " document.getElementById('go').disabled])).observe(document.getElementById('status'),"
                  " {childList: true, characterData: true, subtree: true})")
             b.click("#go")
-            status = b.wait_for("document.body.dataset.answered", what="an answer")
+            status = b.wait_for("document.body.dataset.status", what="an answer")
             assert status == "ok", b.text("#status")
             seen = b.js("seen")
             assert any(t.startswith("relocalizing") and disabled for t, disabled in seen), seen  # a visible busy state

@@ -130,11 +130,11 @@ TEST(CliIntrinsics, OrientationSixAndEightGiveTheUprightPose) {
   const Pair upright = S00003(tmp);
   for (bool depth : {true, false}) {
     const nlohmann::json base = Relocalize(upright, "", depth);
-    ASSERT_TRUE(base["ok"].get<bool>()) << base.dump();
+    ASSERT_TRUE(base["solved"].get<bool>()) << base.dump();
     for (auto [ro, qo] : {std::pair{1, 6}, std::pair{8, 1}, std::pair{6, 8}}) {
       const Pair turned = S00003(tmp, ro, qo);
       const nlohmann::json j = Relocalize(turned, "", depth);
-      ASSERT_TRUE(j["ok"].get<bool>()) << j.dump();
+      ASSERT_TRUE(j["solved"].get<bool>()) << j.dump();
       const freeloc::Rigid3d a = PoseOf(base), b = PoseOf(j);
       EXPECT_LT(RotationDeg(a, b), 0.5) << "orientations " << ro << "/" << qo << (depth ? " with depth" : "");
       if (depth) {

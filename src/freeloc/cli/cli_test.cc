@@ -231,7 +231,7 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
                  " --ref-intrinsics 535.4,539.2,320.1,247.6 --query-intrinsics 535.4,539.2,320.1,247.6 --json");
   // Random weights: the pose may or may not be solved; the exit code says which (0 solved, 1 not).
   const nlohmann::json pj = nlohmann::json::parse(r.out);
-  EXPECT_EQ(r.code, pj["ok"].get<bool>() ? 0 : 1) << r.out;
+  EXPECT_EQ(r.code, pj["solved"].get<bool>() ? 0 : 1) << r.out;
   EXPECT_EQ(pj["qvec"].size(), 4u) << r.out;
   // The pipeline's dust3r matcher gives the same global matches as `freeloc match` without masks.
   r = RunFreeloc("match --model " + model + " --size 224 " + pair + " --out " + tmp.File("g.txt"));
@@ -241,7 +241,8 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
   // (Random weights also give a focal far from the given one: the intrinsics check's warning comes first.)
   EXPECT_TRUE(Contains(r.out, "differs from the pointmap's estimate")) << r.out;
   const nlohmann::json rj = nlohmann::json::parse(r.out.substr(r.out.find('{')));
-  EXPECT_EQ(r.code, rj["ok"].get<bool>() ? 0 : 1) << r.out;  // random weights: the pose may well fail; the code says
+  EXPECT_EQ(r.code, rj["solved"].get<bool>() ? 0 : 1)
+      << r.out;  // random weights: the pose may well fail; the code says
   EXPECT_EQ(rj["matches"], std::count(g.begin(), g.end(), '\n')) << r.out;
   r = RelocalizeS00003(freeloc::testing::DemoPath(), " --preset dust3r");
   EXPECT_EQ(r.code, 1) << r.out;
@@ -400,7 +401,7 @@ TEST(Cli, PoseAndRunAgreeOnTheSameCorrespondences) {
                                 k(q->camera) + " --ref-depth " + sc.DepthPath(sc.reference, "gt") + " --query-depth " +
                                 sc.DepthPath(*q, "gt") + " --json");
     const auto j = nlohmann::json::parse(p.out);
-    EXPECT_EQ(p.code, rec["ok"].get<bool>() ? 0 : 1) << p.out;  // the run's query solved ⇔ pose exits 0
+    EXPECT_EQ(p.code, rec["solved"].get<bool>() ? 0 : 1) << p.out;  // the run's query solved ⇔ pose exits 0
     EXPECT_EQ(j["status"], rec["status"]);
     auto rel = [](double a, double b) {
       return std::abs(a - b) / std::max(1e-300, std::max(std::abs(a), std::abs(b)));
@@ -613,7 +614,7 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   Result r = RunFreeloc("run --data " + data + " --preset sift-essential --out " + tmp.File("s.zip") + " --log " +
                         tmp.File("log.jsonl"));
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(r.out, "2 of 7 queries relocalized in 3 scenes")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "2 of 7 queries solved in 3 scenes, 7 submitted")) << r.out;
   const std::string log = freeloc::testing::ReadText(tmp.File("log.jsonl"));
   EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1 + 7);  // the header, then a record per query
   EXPECT_TRUE(Contains(log, "\"status\":\"no-depth\"")) << log;
@@ -622,7 +623,7 @@ TEST(Cli, RunThenEvalAndRelocalize) {
   const auto j = nlohmann::json::parse(r.out);
   // Always answer: the no-depth queries are submitted too, with the prior pose and confidence 0.
   EXPECT_EQ(j["counts"]["estimates"], 3);
-  EXPECT_TRUE(Contains(log, "\"answered\":true")) << log;
+  EXPECT_TRUE(Contains(log, "\"solved\":false,\"submitted\":true")) << log;
   EXPECT_LT(j["Average Median Translation Error"].get<double>(), 0.03);
   r = RelocalizeS00003(data);
   ASSERT_EQ(r.code, 0) << r.out;
@@ -677,7 +678,7 @@ TEST(Cli, RunReportsBadInputClearly) {
   // The submission is written, but the run says how many queries failed on input errors, shows the first messages
   // and where the log is, and exits 3 (never a silent "0 of N" with exit 0).
   ASSERT_EQ(r.code, 3) << r.out;
-  EXPECT_TRUE(Contains(r.out, "0 of 2 queries relocalized in 2 scenes")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "0 of 2 queries solved in 2 scenes")) << r.out;
   EXPECT_TRUE(Contains(r.out, "statuses: error 2")) << r.out;
   EXPECT_TRUE(
       Contains(r.out, "2 of 2 queries failed on input errors (status error), every record in " + tmp.File("log.jsonl")))
@@ -1295,5 +1296,5 @@ TEST(Cli, RunWarnsBeforeReplacingAnEarlierRunsProgress) {
   EXPECT_EQ(r.code, 0) << r.out;
   ExpectMentions(r.out, {"sub.zip.progress.jsonl holds an earlier run's progress; this run starts over",
                          "add --resume to continue that run instead"});
-  EXPECT_LT(r.out.find("holds an earlier run's progress"), r.out.find("queries relocalized")) << r.out;
+  EXPECT_LT(r.out.find("holds an earlier run's progress"), r.out.find("queries solved")) << r.out;
 }

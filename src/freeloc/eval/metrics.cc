@@ -29,7 +29,7 @@ std::array<double, 8> MetricValues(const Metrics& m) {
 
 size_t SceneRecord::estimates() const {
   size_t n = 0;
-  for (const auto& f : frames) n += f.status == "ok";
+  for (const auto& f : frames) n += f.status == "submitted";
   return n;
 }
 
@@ -202,7 +202,7 @@ Metrics Aggregate(const std::vector<SceneRecord>& scenes, const Thresholds& th) 
     m.failures += s.failures;
     std::vector<double> t, r, v;
     for (const auto& f : s.frames) {
-      if (f.status != "ok") continue;
+      if (f.status != "submitted") continue;
       t.push_back(f.err.trans_err);
       r.push_back(f.err.rot_err);
       v.push_back(f.err.vcre);
@@ -298,7 +298,7 @@ std::vector<SceneRecord> EvaluateScenes(const EvalInput& in) {
       FREELOC_CHECK(k != K.k.end(), dir << "/intrinsics.txt: no intrinsics for frame key " << key);
       f.err = ComputeFrameErrors(gt.poses.at(key), e->second, k->second, K.width, K.height);
       f.confidence = e->second.confidence;
-      f.status = "ok";
+      f.status = "submitted";
       rec.frames.push_back(f);
     }
     out.push_back(std::move(rec));

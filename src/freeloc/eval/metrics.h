@@ -26,8 +26,10 @@ FrameErrors ComputeFrameErrors(const io::OfficialPose& gt, const io::OfficialPos
 
 struct FrameRecord {
   std::string scene;
-  int64_t frame = 0;   // the 5-digit key
-  std::string status;  // "ok" (estimated), "missing" (no usable line), "scene-missing" (no pose file)
+  int64_t frame = 0;  // the 5-digit key
+  // "submitted" (the submission has a pose for it: solved, or freeloc's prior with confidence 0), "missing" (no
+  // usable line), "scene-missing" (no pose file). Never "ok": the evaluator cannot tell a solved query.
+  std::string status;
   FrameErrors err;
   double confidence = 0;
 };

@@ -76,7 +76,7 @@ SceneRecord Scene(const std::string& name, std::vector<std::tuple<double, double
   s.failures = failures;
   int64_t k = 0;
   for (auto [t, r, v, c] : frames) {
-    FrameRecord f{name, k++, "ok", {t, r, v}, c};
+    FrameRecord f{name, k++, "submitted", {t, r, v}, c};
     s.frames.push_back(f);
   }
   for (int i = 0; i < failures; ++i) s.frames.push_back({name, k++, "missing", {}, 0});

@@ -199,7 +199,7 @@ std::string ErrorsCsv(const EvalRun& r) {
   char buf[160];
   for (const auto& s : r.scenes) {
     for (const auto& f : s.frames) {
-      if (f.status == "ok") {
+      if (f.status == "submitted") {
         std::snprintf(buf, sizeof(buf), "%s,%05lld,%.9g,%.9g,%.9g,%.9g,%s\n", s.name.c_str(),
                       static_cast<long long>(f.frame), f.err.trans_err, f.err.rot_err, f.err.vcre, f.confidence,
                       f.status.c_str());
@@ -254,7 +254,7 @@ std::string CdfSvg(const std::vector<const EvalRun*>& runs, const std::string& t
     int64_t total = 0;
     for (const auto& s : runs[k]->scenes) {
       for (const auto& f : s.frames) {
-        if (f.status != "ok") continue;
+        if (f.status != "submitted") continue;
         v.push_back(which == 0 ? f.err.trans_err : which == 1 ? f.err.rot_err : f.err.vcre);
       }
     }

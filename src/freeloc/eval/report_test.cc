@@ -16,8 +16,8 @@ EvalRun SmallRun() {
   SceneRecord a;
   a.name = "s00460";
   a.file_present = true;
-  a.frames = {{"s00460", 0, "ok", {0.1, 2.0, 30.0}, 5},
-              {"s00460", 5, "ok", {1.0, 20.0, 300.0}, 1},
+  a.frames = {{"s00460", 0, "submitted", {0.1, 2.0, 30.0}, 5},
+              {"s00460", 5, "submitted", {1.0, 20.0, 300.0}, 1},
               {"s00460", 10, "missing", {}, 0}};
   a.failures = 1;
   SceneRecord b;
@@ -54,7 +54,7 @@ TEST(Report, CsvMarkdownAndPlots) {
   const EvalRun r = SmallRun();
   const std::string csv = ErrorsCsv(r);
   EXPECT_EQ(csv.substr(0, csv.find('\n')), "scene,frame,trans_err,rot_err,vcre,confidence,status");
-  EXPECT_NE(csv.find("s00460,00000,0.1,2,30,5,ok"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("s00460,00000,0.1,2,30,5,submitted"), std::string::npos) << csv;
   EXPECT_NE(csv.find("s00460,00010,,,,,missing"), std::string::npos);
   EXPECT_NE(csv.find("s00461,00002,,,,,scene-missing"), std::string::npos);
   const std::string md = MarkdownReport(r);

@@ -137,7 +137,7 @@ std::string Failures(const std::vector<ReportQuery>& queries) {
   std::map<std::string, std::vector<const ReportQuery*>> by;
   for (const auto& q : queries)
     if (!q.has_pose) by[q.status].push_back(&q);
-  if (by.empty()) return "<p>Every query was answered.</p>";
+  if (by.empty()) return "<p>Every query has a pose of its own (solved or weak-support).</p>";
   std::string s;
   for (const auto& [status, list] : by) {
     s += "<h3>" + Escape(status) + " (" + std::to_string(list.size()) + ")</h3><ul>";
@@ -322,9 +322,11 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
   }
   std::string html = "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" + Escape(title) + "</title><style>" +
                      kStyle + "</style></head><body><h1>" + Escape(title) + "</h1>";
-  size_t answered = 0;
-  for (const auto& q : queries) answered += q.has_pose;
-  html += "<p>" + std::to_string(queries.size()) + " queries, " + std::to_string(answered) + " answered.</p>";
+  size_t solved = 0, submitted = 0;
+  for (const auto& q : queries) solved += q.solved, submitted += q.submitted;
+  html += "<p>" + std::to_string(queries.size()) + " queries: " + std::to_string(solved) + " solved (status ok), " +
+          std::to_string(submitted) +
+          " submitted (solved, or unsolved with a weak-support pose or the prior pose).</p>";
   if (eval) {
     WriteReportDir(dir, {eval});
     html += "<h2>Map-free metrics</h2>" + MetricsTable(*eval) +

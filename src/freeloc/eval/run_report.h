@@ -23,7 +23,9 @@ struct ReportQuery {
   std::string status, message;  // the pipeline's status text, and the error message when there is one
   double confidence = 0;
   int matches = 0, inliers = 0, instances = 0, instances_used = 0;
-  bool has_pose = false;    // the query has an estimate, ok or weak-support (answered priors count as failures)
+  bool has_pose = false;    // the query has an estimate, ok or weak-support (submitted priors count as failures)
+  bool solved = false;      // status ok or ok-unit-translation (pipeline/query_result.h's words)
+  bool submitted = false;   // a pose for it is in the submission (solved, weak-support, or the prior)
   bool has_gt = false;      // the scene has this query's ground truth (gt_centre)
   bool has_errors = false;  // … and the scene has ground truth: `err` holds the official errors
   FrameErrors err;

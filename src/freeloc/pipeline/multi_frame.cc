@@ -522,7 +522,7 @@ QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse u
   u = sum.normalized();
 
   out.status = metric ? QueryStatus::kOk : QueryStatus::kOkUnitTranslation;
-  out.answered = false;
+  out.submitted_unsolved = false;
   out.message.clear();
   out.query_from_ref = Rigid3d(R, dist * u);
   out.route = (frames[qi].to_ref.route.empty() ? std::string("window") : frames[qi].to_ref.route) + "+window";

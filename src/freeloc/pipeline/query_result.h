@@ -78,19 +78,24 @@ struct QueryResult {
   std::string frame;
   QueryStatus status = QueryStatus::kError;
   std::string message;  // kError: which file and what went wrong
+  // The words every surface uses (records, CLI, Python, report, docs): `status` says what happened; a query is
+  // *solved* when its status is ok or ok-unit-translation (freeloc stands behind the pose) and *submitted* when a pose
+  // for it goes into the submission — solved, or unsolved under always_answer (a weak-support pose with a confidence
+  // below 10⁻³, else the prior pose with confidence 0).
   bool ok() const { return status == QueryStatus::kOk || status == QueryStatus::kOkUnitTranslation; }
+  bool solved() const { return ok(); }
   bool metric() const { return status == QueryStatus::kOk; }
   std::string StatusText() const;  // "ok", "no-consensus", "error: <message>" — for people
   Rigid3d query_from_ref;
   // !ok() with always_answer: submitted anyway — a weak-support pose with its (low) confidence, else the prior
   // (identity) with confidence 0.
-  bool answered = false;
+  bool submitted_unsolved = false;
   bool weak() const { return status == QueryStatus::kWeakSupport; }
-  bool prior() const { return answered && !weak(); }  // the submitted pose is the prior
-  bool submitted() const { return ok() || answered; }
+  bool prior() const { return submitted_unsolved && !weak(); }  // the submitted pose is the prior
+  bool submitted() const { return ok() || submitted_unsolved; }
   std::string route;  // the solver's route: "essential", "hybrid", "hybrid>essential" (fell back), "pnp", …
   // The confidence model (confidence.h) for every solver; official scale: its support; unit translation: the inlier
-  // count; answered: 0.
+  // count; the prior pose: 0.
   double confidence = 0;
   int matches = 0, inliers = 0;
   std::vector<char> inlier_mask;          // per correspondence into the solver (not in the JSON records)

@@ -102,9 +102,9 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   if (!r.frame.empty()) j["frame"] = r.frame;
   j["status"] = ToString(r.status);
   if (!r.message.empty()) j["message"] = r.message;
-  j["ok"] = r.ok();
+  j["solved"] = r.solved();
+  j["submitted"] = r.submitted();  // solved, or unsolved under always_answer (weak-support pose, or the prior)
   j["metric"] = r.metric();
-  if (r.answered) j["answered"] = true;  // not solved: the prior pose, submitted with confidence 0
   if (!r.route.empty()) j["route"] = r.route;
   j["qvec"] = {q[0], q[1], q[2], q[3]};
   j["tvec"] = {t.x(), t.y(), t.z()};
@@ -182,7 +182,8 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.instances = j.value("instances", 0);
     r.instances_used = j.value("instances_used", 0);
     r.scale_inliers = j.value("scale_inliers", 0);
-    r.answered = j.value("answered", false);
+    // "answered": the name in logs written before "submitted" (0.x); both mean the same for an unsolved query.
+    r.submitted_unsolved = !r.ok() && (j.value("submitted", false) || j.value("answered", false));
     r.route = j.value("route", std::string());
     r.predicted_translation_m = j.value("predicted_translation_m", 0.0);
     r.predicted_rotation_deg = j.value("predicted_rotation_deg", 0.0);

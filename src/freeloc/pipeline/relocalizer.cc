@@ -239,7 +239,7 @@ matching::Correspondences Relocalizer::Match(const Image& image, const Camera& c
 
 void AnswerUnsolved(const PipelineOptions& o, QueryResult* r) {
   if (r->ok() || !o.solve.always_answer) return;
-  r->answered = true;
+  r->submitted_unsolved = true;
   if (r->weak()) return;          // its own pose, with its (low) confidence
   r->query_from_ref = Rigid3d();  // the prior: the reference camera's pose
   r->confidence = 0;

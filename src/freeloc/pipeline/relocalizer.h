@@ -75,9 +75,9 @@ class Relocalizer {
   std::unique_ptr<Impl> impl_;
 };
 
-// The always-answer rule (PipelineOptions::always_answer): an unsolved `r` is answered (answered = true, status
-// kept) — a weak-support result with its own pose and low confidence, any other with the prior pose (identity) and
-// confidence 0. Solved results and always_answer 0 are left as they are.
+// The always-answer rule (PipelineOptions::always_answer): an unsolved `r` is submitted (submitted_unsolved = true,
+// status kept) — a weak-support result with its own pose and low confidence, any other with the prior pose (identity)
+// and confidence 0. Solved results and always_answer 0 are left as they are.
 void AnswerUnsolved(const PipelineOptions& options, QueryResult* r);
 
 // One pair (a Relocalizer used once). `depth_ref`/`depth_query` may be empty.

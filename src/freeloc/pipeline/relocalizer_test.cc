@@ -215,7 +215,7 @@ TEST(Relocalizer, HybridSolverFallbackAndAlwaysAnswer) {
   QueryResult r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query, &rows);
   ASSERT_TRUE(r.ok()) << r.StatusText();
   EXPECT_EQ(r.route, "hybrid");
-  EXPECT_FALSE(r.answered);
+  EXPECT_FALSE(r.submitted_unsolved);
   EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.02);
   EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 0.2);
   EXPECT_GT(r.confidence, 0);
@@ -233,7 +233,7 @@ TEST(Relocalizer, HybridSolverFallbackAndAlwaysAnswer) {
   for (int i = 0; i < 200; ++i) noise.emplace_back(ux(rng), uy(rng), ux(rng), uy(rng));
   r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query, &noise);
   EXPECT_FALSE(r.ok());
-  EXPECT_TRUE(r.answered);
+  EXPECT_TRUE(r.submitted_unsolved);
   EXPECT_TRUE(r.submitted());
   EXPECT_EQ(r.confidence, 0);
   EXPECT_EQ(r.query_from_ref.translation.norm(), 0);
@@ -243,7 +243,7 @@ TEST(Relocalizer, HybridSolverFallbackAndAlwaysAnswer) {
   silent.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
   r = silent.Relocalize(Image(320, 240), scene.query, scene.depth_query, &noise);
   EXPECT_FALSE(r.ok());
-  EXPECT_FALSE(r.answered);
+  EXPECT_FALSE(r.submitted_unsolved);
   EXPECT_FALSE(r.submitted());
 }
 
@@ -274,7 +274,7 @@ TEST(Relocalizer, WeakSupportIsALowConfidenceAnswerNotThePrior) {
     }
     ++weak;
     EXPECT_FALSE(r.ok());
-    EXPECT_TRUE(r.answered && r.submitted() && !r.prior());
+    EXPECT_TRUE(r.submitted_unsolved && r.submitted() && !r.prior());
     EXPECT_GT(r.confidence, 0);
     EXPECT_LT(r.confidence, kWeakSupportCeiling);
     EXPECT_GT(r.query_from_ref.translation.norm(), 0.1);  // its own metric pose, not the prior

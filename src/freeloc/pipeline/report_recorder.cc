@@ -44,6 +44,8 @@ eval::ReportQuery ToReportQuery(const io::MapfreeScene& scene, const QueryResult
   q.instances = r.instances;
   q.instances_used = r.instances_used;
   q.has_pose = r.ok() || r.weak();
+  q.solved = r.solved();
+  q.submitted = r.submitted();
   q.centre = r.query_from_ref.Center();
   if (!r.window.empty()) {
     const WindowSummary& w = r.window;

@@ -160,7 +160,7 @@ class SceneRunner {
   int64_t total_ = 0, done_ = 0;
 };
 
-// The submission (solved queries, and the answered ones with confidence 0; an empty pose file for every scene
+// The submission (the submitted queries: solved, and unsolved under always_answer; an empty pose file for every scene
 // attempted), the log (header + one record per query) and the sidecar (header + summary), each written atomically.
 void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) {
   std::map<std::string, std::vector<io::SubmissionEntry>> sub;
@@ -169,7 +169,8 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
     sub[name];
     for (const auto& q : res->results[name]) {
       ++res->queries;
-      if (q.ok()) ++res->relocalized;
+      if (q.solved()) ++res->solved;
+      if (q.submitted()) ++res->submitted;
       ++res->statuses[ToString(q.status)];
       if (q.status == QueryStatus::kError) {
         ++res->input_errors;
@@ -185,7 +186,8 @@ void WriteOutputs(const RunSpec& spec, const RunHeader& header, RunResult* res) 
   if (!spec.log.empty()) io::WriteFileAtomic(spec.log, log.data(), log.size());
   const std::string summary = "{\"summary\":{\"scenes\":" + std::to_string(res->scenes.size()) +
                               ",\"queries\":" + std::to_string(res->queries) +
-                              ",\"relocalized\":" + std::to_string(res->relocalized) + "}}";
+                              ",\"solved\":" + std::to_string(res->solved) +
+                              ",\"submitted\":" + std::to_string(res->submitted) + "}}";
   const std::string sidecar = RunHeaderJson(header, summary) + "\n";
   io::WriteFileAtomic(spec.out + ".json", sidecar.data(), sidecar.size());
 }

@@ -52,10 +52,10 @@ struct RunSpec {
 
 struct RunResult {
   std::string split_dir;
-  std::vector<std::string> scenes;                          // the scenes run (this shard's), sorted
-  std::map<std::string, io::MapfreeScene> loaded;           // … as read (cameras, ground truth)
-  std::map<std::string, std::vector<QueryResult>> results;  // per scene, queries in poses.txt order
-  size_t queries = 0, relocalized = 0, resumed_scenes = 0;
+  std::vector<std::string> scenes;                                    // the scenes run (this shard's), sorted
+  std::map<std::string, io::MapfreeScene> loaded;                     // … as read (cameras, ground truth)
+  std::map<std::string, std::vector<QueryResult>> results;            // per scene, queries in poses.txt order
+  size_t queries = 0, solved = 0, submitted = 0, resumed_scenes = 0;  // query_result.h's words
   // Rank 0, after the outputs are written: how many queries ended with each status, and the queries that failed on
   // an input error (status error: an unreadable or damaged image, depth map or reference) with the first messages.
   std::map<std::string, size_t> statuses;

@@ -81,7 +81,7 @@ TEST(RunController, WritesSubmissionLogAndProvenance) {
     EXPECT_NE(header.find(std::string("\"") + f.name + "\":"), std::string::npos) << f.name;
   const std::string sidecar = testing::ReadText(split.out() + ".json");
   EXPECT_EQ(sidecar.rfind(header.substr(0, header.size() - 1), 0), 0u) << sidecar;
-  EXPECT_NE(sidecar.find("\"summary\":{\"scenes\":2,\"queries\":8,\"relocalized\":" + std::to_string(r.relocalized)),
+  EXPECT_NE(sidecar.find("\"summary\":{\"scenes\":2,\"queries\":8,\"solved\":" + std::to_string(r.solved)),
             std::string::npos)
       << sidecar;
   EXPECT_FALSE(fs::exists(split.out() + ".progress.jsonl"));
@@ -242,7 +242,7 @@ TEST(RunController, BundledDemoScenes) {
   spec.progress_bar = false;
   const RunResult r = ExecuteRun(spec, ResolvePreset("sift-essential"));
   EXPECT_EQ(r.queries, 7u);
-  EXPECT_EQ(r.relocalized, 2u);  // s00001 has no depth maps
+  EXPECT_EQ(r.solved, 2u);  // s00001 has no depth maps
   for (const auto& q : r.results.at("s00001")) EXPECT_EQ(q.status, QueryStatus::kNoDepth);
 }
 

@@ -131,7 +131,7 @@ async function relocalize(id, image, linkDepth) {
   depths.appendChild(anchorDepth);
   if (view.query_depth) { const q = document.createElement("img"); q.alt = "query depth"; q.src = view.query_depth; depths.appendChild(q); }
   draw3d(view.view3d);
-  document.body.dataset.answered = rec.status;
+  document.body.dataset.status = rec.status;
 }
 
 async function drawPair(id, view) {
