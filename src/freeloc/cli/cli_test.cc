@@ -1272,6 +1272,12 @@ TEST(Cli, MultiFrameOnShortScenesSaysWhy) {
   ExpectMentions(r.out, {"--track: multi-frame, but no scene of", "has the 10 or more query frames",
                          "use single-frame for these scenes"});
   EXPECT_FALSE(std::filesystem::exists(tmp.File("mf.zip")));
+  // eval of a (single-frame) submission on the same scenes: the same reason, not "check the scene names".
+  ASSERT_EQ(RunFreeloc("-q run --data " + freeloc::testing::DemoPath() + " --out " + tmp.File("sf.zip")).code, 0);
+  const Result e = RunFreeloc("eval --data " + freeloc::testing::DemoPath() + " --track multi-frame --submission " +
+                              tmp.File("sf.zip"));
+  EXPECT_EQ(e.code, 1) << e.out;
+  ExpectMentions(e.out, {"no scene has a frame to evaluate", "10 or more query frames", "single-frame track"});
 }
 
 // Every command's --help ends with examples.

@@ -87,8 +87,8 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     if (root) InterruptHint(progress);
     const pipeline::RunResult r = pipeline::ExecuteRun(spec, o, nullptr, comm.get());
     if (!root) return 0;
-    std::printf("%zu of %zu queries solved in %zu scenes, %zu submitted; submission written to %s\n", r.solved,
-                r.queries, r.scenes.size(), r.submitted, a.out.c_str());
+    std::printf("%zu of %zu queries solved in %zu %s, %zu submitted; submission written to %s\n", r.solved, r.queries,
+                r.scenes.size(), r.scenes.size() == 1 ? "scene" : "scenes", r.submitted, a.out.c_str());
     std::string statuses;
     for (const auto& [status, n] : r.statuses)
       statuses += (statuses.empty() ? "" : ", ") + status + " " + std::to_string(n);

@@ -220,6 +220,11 @@ Metrics Aggregate(const std::vector<SceneRecord>& scenes, const Thresholds& th) 
     med_v.push_back(Median(v));
     ++m.scenes_with_estimates;
   }
+  size_t evaluated = 0;
+  for (const auto& s : scenes) evaluated += s.frames.size();
+  FREELOC_CHECK(evaluated > 0,
+                "no scene has a frame to evaluate: the Multi Frame track evaluates linear positions 9, 19, … of seq1, "
+                "so only scenes with 10 or more query frames; score these scenes on the single-frame track");
   FREELOC_CHECK(m.scenes_with_estimates > 0,
                 "the submission has no valid pose estimate for any evaluated frame (the official evaluator prints no "
                 "metrics); check the scene names (pose_sNNNNN.txt) and the frame names in the pose files");
