@@ -57,14 +57,48 @@ void Resume(const RunJournal& journal, const PipelineOptions& o, RunResult* res)
 
 enum Tag { kTickTag = 1, kSceneTag = 2 };
 
+// The --log file while the run works (root only): the header, the resumed scenes, then each record as its query
+// finishes (this process's) or its scene arrives (another rank's), flushed, so the log can be followed (tail -f) and
+// keeps what was done when a run is stopped. At the end WriteOutputs replaces it atomically with the records in
+// scene order.
+class LiveLog {
+ public:
+  LiveLog(const std::string& path, const std::string& header) : path_(path) {
+    if (path.empty()) return;
+    file_ = std::fopen(path.c_str(), "wb");
+    FREELOC_CHECK(file_ != nullptr, path << ": cannot write the run log (" << std::strerror(errno) << ")");
+    Write(header + "\n");
+  }
+  ~LiveLog() {
+    if (file_) std::fclose(file_);
+  }
+  LiveLog(const LiveLog&) = delete;
+  LiveLog& operator=(const LiveLog&) = delete;
+  void Record(const std::string& scene, const QueryResult& r) {
+    if (file_) Write(QueryRecordJson(scene, r) + "\n");
+  }
+
+ private:
+  void Write(const std::string& line) {
+    if (std::fwrite(line.data(), 1, line.size(), file_) != line.size() || std::fflush(file_) != 0) {
+      FREELOC_LOG(WARNING) << path_ << ": cannot write the run log as it goes (" << std::strerror(errno)
+                           << "); it is written once at the end";
+      std::fclose(file_);
+      file_ = nullptr;
+    }
+  }
+  std::string path_;
+  FILE* file_ = nullptr;
+};
+
 // Runs this process's scenes through one relocalizer. Single process or rank 0: one progress bar over every query
 // of the run, the journal, and (rank 0) the scenes and ticks the other ranks send. Other ranks: their scenes, a
 // tick per query and each finished scene to rank 0.
 class SceneRunner {
  public:
   SceneRunner(const RunSpec& spec, Relocalizer& reloc, RunJournal* journal, RunComm* comm, ReportRecorder* report,
-              RunResult* res)
-      : spec_(spec), reloc_(reloc), journal_(journal), comm_(comm), report_(report), res_(res) {
+              LiveLog* log, RunResult* res)
+      : spec_(spec), reloc_(reloc), journal_(journal), comm_(comm), report_(report), log_(log), res_(res) {
     for (const auto& name : res->scenes)
       total_ += static_cast<int64_t>(AnsweredQueries(res->loaded.at(name), reloc.options()).size());
   }
@@ -76,7 +110,11 @@ class SceneRunner {
     const int draw = !(root && spec_.progress_bar) ? 0 : comm_ ? (LogEnabled(LogLevel::kInfo) ? 1 : 0) : -1;
     ProgressBar bar("queries", total_, draw);
     bar_ = root ? &bar : nullptr;
-    for (const auto& [name, results] : res_->results) Advance(static_cast<int64_t>(results.size()));
+    for (const auto& [name, results] : res_->results) {
+      Advance(static_cast<int64_t>(results.size()));
+      if (log_)
+        for (const auto& r : results) log_->Record(name, r);
+    }
     for (const auto& name : mine) {
       MatchesCallback save;
       if (!spec_.save_matches.empty() || report_)
@@ -85,7 +123,12 @@ class SceneRunner {
           if (report_) report_->Consider(res_->loaded.at(name), r, c, reloc_);
         };
       auto results = RelocalizeScene(
-          res_->loaded.at(name), reloc_, [&](const QueryResult&) { Query(); }, save);
+          res_->loaded.at(name), reloc_,
+          [&](const QueryResult& r) {
+            if (log_) log_->Record(name, r);
+            Query();
+          },
+          save);
       const CacheStats& cs = reloc_.stats();
       FREELOC_LOG(DEBUG) << name << ": reference work " << cs.reference_ms << " ms, " << cs.reference_instances
                          << " reference instances, DUSt3R reference encodings " << cs.reference_encodings << " (reused "
@@ -145,6 +188,8 @@ class SceneRunner {
     FREELOC_CHECK(ParseSceneRecord(payload, &scene, &results) && res_->loaded.count(scene),
                   "run: rank " << from << " sent a damaged scene record");
     journal_->AppendRecord(payload);
+    if (log_)
+      for (const auto& r : results) log_->Record(scene, r);
     res_->results[scene] = std::move(results);
     Relabel();
     return true;
@@ -155,6 +200,7 @@ class SceneRunner {
   RunJournal* journal_;
   RunComm* comm_;
   ReportRecorder* report_;
+  LiveLog* log_;
   RunResult* res_;
   ProgressBar* bar_ = nullptr;
   int64_t total_ = 0, done_ = 0;
@@ -267,7 +313,10 @@ RunResult ExecuteRun(const RunSpec& spec, const PipelineOptions& options, const 
     ro.track = options.track;
     report = std::make_unique<ReportRecorder>(spec.report, ro);
   }
-  SceneRunner(spec, *reloc, root ? &journal : nullptr, comm, report.get(), &res).Run(mine);
+  std::unique_ptr<LiveLog> live_log;
+  if (root) live_log = std::make_unique<LiveLog>(spec.log, RunHeaderJson(header));
+  SceneRunner(spec, *reloc, root ? &journal : nullptr, comm, report.get(), live_log.get(), &res).Run(mine);
+  live_log.reset();  // closed before WriteOutputs replaces it
   if (!root) return res;
   WriteOutputs(spec, header, &res);
   if (report) report->Write(res.split_dir, res.scenes, res.loaded, res.results, spec.out);

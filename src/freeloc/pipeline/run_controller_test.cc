@@ -85,11 +85,22 @@ TEST(RunController, WritesSubmissionLogAndProvenance) {
             std::string::npos)
       << sidecar;
   EXPECT_FALSE(fs::exists(split.out() + ".progress.jsonl"));
-  // Deterministic: the same run gives the same bytes.
+  // Deterministic: the same run gives the same bytes. The log is written as the run goes: after the k-th query it
+  // holds the header and k records (it can be followed, and a stopped run keeps them).
   RunSpec again = Spec(split);
   again.out = split.tmp.File("again.zip");
+  again.log = split.tmp.File("again.jsonl");
+  std::vector<std::pair<int64_t, long>> seen;
+  again.on_progress = [&](int64_t done, int64_t) {
+    const std::string text = testing::ReadText(again.log);
+    seen.emplace_back(done, static_cast<long>(std::count(text.begin(), text.end(), '\n')));
+  };
   ExecuteRun(again, Options());
   EXPECT_EQ(testing::ReadText(again.out), testing::ReadText(split.out()));
+  ASSERT_EQ(seen.size(), 8u);
+  for (const auto& [done, lines] : seen) EXPECT_EQ(lines, 1 + done);
+  const std::string final_log = testing::ReadText(again.log);  // rewritten at the end (timings differ per run)
+  EXPECT_EQ(std::count(final_log.begin(), final_log.end(), '\n'), 1 + 8);
 }
 
 // The precomputed matcher, failing one query with a LibTorch error (what a network stage throws).
