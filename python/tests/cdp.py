@@ -17,8 +17,11 @@ class Browser:
                  f"--user-data-dir={workdir}", "about:blank"]
 
         def fds():  # Chromium reads commands on fd 3 and writes answers on fd 4
-            os.dup2(to_chrome_r, 3)
-            os.dup2(from_chrome_w, 4)
+            r, w = os.dup(to_chrome_r), os.dup(from_chrome_w)  # copies first: a pipe may itself be fd 3 or 4
+            os.dup2(r, 3)
+            os.dup2(w, 4)
+            os.set_inheritable(3, True)  # (dup2 onto the same number keeps close-on-exec)
+            os.set_inheritable(4, True)
 
         self.p = subprocess.Popen(flags, preexec_fn=fds, close_fds=False, cwd=workdir,
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,

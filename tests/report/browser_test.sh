@@ -30,9 +30,23 @@ timeout 120 "$browser" "${flags[@]}" --dump-dom "file://$work/report/index.html#
 sorting=$(grep -o 'data-sorting="[^"]*"' "$work/sorted.html")
 echo "$sorting" | grep -q 'data-sorting="ok [0-9]*"' || fail "sorting: ${sorting:-the check did not run}"
 headers=$(grep -o '<table class="sortable"' "$work/dom.html" | wc -l)
+# relocalize --report: one pair's report — its row named by the query file, its detail image and 3D view loaded.
+s3="$demo/val/s00003"
+"$bin" -q relocalize --ref "$s3/seq0/frame_00000.png" --query "$s3/seq1/frame_00000.png" --intrinsics "$s3/intrinsics.txt" \
+  --ref-depth "$s3/seq0/frame_00000.sensor.png" --query-depth "$s3/seq1/frame_00000.sensor.png" --report "$work/pair" \
+  >/dev/null || fail "relocalize --report"
+timeout 120 "$browser" "${flags[@]}" --dump-dom "file://$work/pair/index.html" > "$work/pair.html" 2>>"$work/chromium.log" \
+  || fail "chromium --dump-dom (pair report)"
+grep -q 'data-images="checked"' "$work/pair.html" || fail "pair report: the page's image check did not run"
+[ "$(grep -o '<tr class="ok">' "$work/pair.html" | wc -l)" -eq 1 ] || fail "pair report: expected one solved row"
+grep -q '>frame_00000.png</a></td>' "$work/pair.html" || fail "pair report: the row does not name the query file"
+pimgs=$(grep -o '<img[^>]*>' "$work/pair.html" | wc -l)
+ploaded=$(grep -o '<img[^>]*data-loaded="1"[^>]*>' "$work/pair.html" | wc -l)
+[ "$pimgs" -ge 1 ] && [ "$ploaded" -eq "$pimgs" ] || fail "pair report: $ploaded of $pimgs images loaded"
+[ -s "$work/pair/q_pair_query.jpg.3d.js" ] || fail "pair report: no 3D view data"
 mkdir -p "$out"
 timeout 120 "$browser" "${flags[@]}" --window-size=1280,2400 --screenshot="$out/report_screenshot.png" \
   "file://$work/report/index.html" >/dev/null 2>&1 || fail "chromium --screenshot"
 [ -s "$out/report_screenshot.png" ] || fail "no screenshot"
-echo "ok: $rows query rows, $loaded of $imgs images loaded, $headers sortable tables sorted by every column ($sorting), screenshot $out/report_screenshot.png"
+echo "ok: $rows query rows, $loaded of $imgs images loaded, the pair report ($ploaded of $pimgs images), $headers sortable tables sorted by every column ($sorting), screenshot $out/report_screenshot.png"
 echo "1 passed, 0 failed"

@@ -7,6 +7,7 @@
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
+#include "freeloc/core/logging.h"
 #include "freeloc/core/progress.h"
 #include "freeloc/core/timing.h"
 #include "freeloc/io/correspondence_file.h"
@@ -15,6 +16,7 @@
 #include "freeloc/pipeline/intrinsics.h"
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/report_recorder.h"
 
 namespace freeloc::cli {
 
@@ -23,6 +25,7 @@ namespace {
 struct RelocArgs {
   PipelineArgs pipeline;
   std::string ref, query, ref_k, query_k, intrinsics, ref_depth, query_depth, ref_masks, query_masks, save_matches;
+  std::string report;  // --report DIR
   bool json = false;
 };
 
@@ -160,6 +163,13 @@ int RunRelocalize(const RelocArgs& a, const GlobalOptions& g) {
   q.timings.decode_ms = decode_ms;
   q.timings.prepare_ms += reference_ms + std::chrono::duration<double, std::milli>(t0 - ProcessStart()).count();
   if (!a.save_matches.empty()) io::WriteCorrespondenceFile(a.save_matches, c.Rows());
+  if (!a.report.empty()) {
+    pipeline::WritePairReport(a.report,
+                              "freeloc relocalize — " + std::filesystem::path(a.query).filename().string() + " from " +
+                                  std::filesystem::path(a.ref).filename().string(),
+                              std::filesystem::path(a.query).filename().string(), ref, query, q, c, reloc);
+    FREELOC_LOG(INFO) << "report written to " << a.report << "/index.html";
+  }
   Print(q, o, a.json);
   return q.ok() ? 0 : 1;
 }
@@ -177,6 +187,9 @@ void RegisterRelocalize(CLI::App& app, const GlobalOptions& global, RunFn* run) 
   rs->add_option("--intrinsics", a->intrinsics,
                  "instead of the two above: a file of 'path fx fy cx cy W H' lines (map-free intrinsics.txt)");
   rs->add_option("--save-matches", a->save_matches, "write the correspondences (x_ref y_ref x_query y_query per line)");
+  rs->add_option("--report", a->report,
+                 "write a report of the pair to this folder (index.html: the matches, the depth maps, the 3D view; "
+                 "docs/report.md)");
   rs->add_option("--ref-depth", a->ref_depth, "reference depth PNG (uint16 mm)");
   rs->add_option("--query-depth", a->query_depth, "query depth PNG (uint16 mm)");
   rs->add_option(

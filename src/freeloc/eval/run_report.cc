@@ -251,6 +251,9 @@ void WriteQueryVisual(const std::string& path, const Image& ref, const Image& qu
   const int pw = std::max(16, o.thumb_width / 2);
   const double sr = static_cast<double>(pw) / std::max(1, ref.width),
                sq = static_cast<double>(pw) / std::max(1, query.width);
+  // The matches are in the photos' own pixels; the images may be their working-resolution copies.
+  const double mr = static_cast<double>(pw) / std::max(1, ref.PhotoWidth()),
+               mq = static_cast<double>(pw) / std::max(1, query.PhotoWidth());
   const int hr = std::max(1, static_cast<int>(std::lround(ref.height * sr)));
   const int hq = std::max(1, static_cast<int>(std::lround(query.height * sq)));
   const int h = std::max(hr, hq), depth_h = (depth_ref.empty() && depth_query.empty()) ? 0 : h / 2;
@@ -267,8 +270,8 @@ void WriteQueryVisual(const std::string& path, const Image& ref, const Image& qu
     const cv::Scalar colour = !in        ? cv::Scalar(220, 40, 40)
                               : src >= 0 ? kInstanceColours[src % 8]
                                          : cv::Scalar(30, 170, 60);
-    const cv::Point p(static_cast<int>(matches[i](0) * sr), static_cast<int>(matches[i](1) * sr));
-    const cv::Point q(pw + static_cast<int>(matches[i](2) * sq), static_cast<int>(matches[i](3) * sq));
+    const cv::Point p(static_cast<int>(matches[i](0) * mr), static_cast<int>(matches[i](1) * mr));
+    const cv::Point q(pw + static_cast<int>(matches[i](2) * mq), static_cast<int>(matches[i](3) * mq));
     cv::line(canvas, p, q, colour, 1, cv::LINE_AA);
     cv::circle(canvas, p, 2, colour, -1, cv::LINE_AA);
     cv::circle(canvas, q, 2, colour, -1, cv::LINE_AA);
@@ -324,8 +327,8 @@ void WriteRunReport(const std::string& dir, const std::string& title, const std:
                      kStyle + "</style></head><body><h1>" + Escape(title) + "</h1>";
   size_t solved = 0, submitted = 0;
   for (const auto& q : queries) solved += q.solved, submitted += q.submitted;
-  html += "<p>" + std::to_string(queries.size()) + " queries: " + std::to_string(solved) + " solved (status ok), " +
-          std::to_string(submitted) +
+  html += "<p>" + std::to_string(queries.size()) + (queries.size() == 1 ? " query: " : " queries: ") +
+          std::to_string(solved) + " solved (status ok), " + std::to_string(submitted) +
           " submitted (solved, or unsolved with a weak-support pose or the prior pose).</p>";
   if (eval) {
     WriteReportDir(dir, {eval});

@@ -32,9 +32,12 @@ std::string VisualName(const std::string& scene, const std::string& frame) {
   return n;
 }
 
-eval::ReportQuery ToReportQuery(const io::MapfreeScene& scene, const QueryResult& r) {
+namespace {
+
+// The report's view of one query without ground truth.
+eval::ReportQuery ReportQueryOf(const std::string& scene, const QueryResult& r) {
   eval::ReportQuery q;
-  q.scene = scene.name;
+  q.scene = scene;
   q.frame = r.frame;
   q.status = ToString(r.status);
   q.message = r.message;
@@ -62,6 +65,35 @@ eval::ReportQuery ToReportQuery(const io::MapfreeScene& scene, const QueryResult
       q.window_votes.push_back({v.frame, ToString(v.status), v.relation, v.used ? "yes" : "no", dev, dist});
     }
   }
+  return q;
+}
+
+// Writes `dir`/`name` (the pair with its matches and depth maps) and `name`.3d.js (the 3D view's data: the
+// reference's points, its camera, the predicted and — when given — the true query camera).
+void RenderDetail(const std::string& dir, const std::string& name, const Image& ref, const Image& query,
+                  const QueryResult& r, const matching::Correspondences& c, const Relocalizer& reloc,
+                  const Camera& query_camera, const Rigid3d* truth, const eval::ReportOptions& o) {
+  eval::WriteQueryVisual(dir + "/" + name, ref, query, c.Rows(), r.inlier_mask, c.source, reloc.reference_depth(),
+                         reloc.last_query_depth(), o);
+  std::vector<eval::View3dCamera> cams;
+  Camera kr = reloc.reference_intrinsics().camera,
+         kq = r.query_intrinsics.known() ? r.query_intrinsics.camera : query_camera;
+  kr.width = ref.width;
+  kr.height = ref.height;
+  kq.width = query.width;
+  kq.height = query.height;
+  cams.push_back({Rigid3d(), kr, "#33dd66", "reference"});
+  if (r.ok() || r.weak()) cams.push_back({r.query_from_ref, kq, "#ff9922", "predicted"});
+  if (truth) cams.push_back({*truth, kq, "#3399ff", "true"});
+  const std::string js = "window.freelocViews=window.freelocViews||{};freelocViews[" + nlohmann::json(name).dump() +
+                         "]=" + eval::View3dJson(ref, reloc.reference_depth(), kr, cams, 6000) + ";\n";
+  io::WriteFileAtomic(dir + "/" + name + ".3d.js", js.data(), js.size());
+}
+
+}  // namespace
+
+eval::ReportQuery ToReportQuery(const io::MapfreeScene& scene, const QueryResult& r) {
+  eval::ReportQuery q = ReportQueryOf(scene.name, r);
   const auto gt = scene.gt.find(r.frame);
   if (gt == scene.gt.end()) return q;
   q.gt_centre = gt->second.Center();
@@ -121,23 +153,8 @@ void ReportRecorder::Consider(const io::MapfreeScene& scene, const QueryResult& 
       ref_scene_ = scene.name;
     }
     const Image query = scene.LoadImage(*f);
-    eval::WriteQueryVisual(dir_ + "/" + name, ref_, query, c.Rows(), r.inlier_mask, c.source, reloc.reference_depth(),
-                           reloc.last_query_depth(), o_);
-    // The 3D view's data (eval/view3d.h): the reference's points, its camera, the predicted and the true query camera.
-    std::vector<eval::View3dCamera> cams;
-    Camera kr = reloc.reference_intrinsics().camera,
-           kq = r.query_intrinsics.known() ? r.query_intrinsics.camera : f->camera;
-    kr.width = ref_.width;
-    kr.height = ref_.height;
-    kq.width = query.width;
-    kq.height = query.height;
-    cams.push_back({Rigid3d(), kr, "#33dd66", "reference"});
-    if (q.has_pose) cams.push_back({r.query_from_ref, kq, "#ff9922", "predicted"});
     const auto gt = scene.gt.find(r.frame);
-    if (gt != scene.gt.end()) cams.push_back({gt->second, kq, "#3399ff", "true"});
-    const std::string js = "window.freelocViews=window.freelocViews||{};freelocViews[" + nlohmann::json(name).dump() +
-                           "]=" + eval::View3dJson(ref_, reloc.reference_depth(), kr, cams, 6000) + ";\n";
-    io::WriteFileAtomic(dir_ + "/" + name + ".3d.js", js.data(), js.size());
+    RenderDetail(dir_, name, ref_, query, r, c, reloc, f->camera, gt != scene.gt.end() ? &gt->second : nullptr, o_);
   } catch (const std::exception& e) {
     FREELOC_LOG(WARNING) << "report: " << scene.name << "/" << r.frame << ": no detail image (" << e.what() << ")";
   }
@@ -190,6 +207,19 @@ void ReportRecorder::Write(const std::string& split_dir, const std::vector<std::
     }
   }
   eval::WriteRunReport(dir_, "freeloc run — " + fs::path(submission).filename().string(), queries, run.get());
+}
+
+void WritePairReport(const std::string& dir, const std::string& title, const std::string& query_name, const Image& ref,
+                     const Image& query, const QueryResult& r, const matching::Correspondences& c,
+                     const Relocalizer& reloc) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  FREELOC_CHECK(fs::is_directory(dir), dir << ": cannot create the report folder (" << ec.message() << ")");
+  eval::ReportQuery q = ReportQueryOf("pair", r);
+  q.frame = query_name;
+  q.visual = VisualName("pair", "query");
+  RenderDetail(dir, q.visual, ref, query, r, c, reloc, r.query_intrinsics.camera, nullptr, eval::ReportOptions());
+  eval::WriteRunReport(dir, title, {q}, nullptr);
 }
 
 }  // namespace freeloc::pipeline

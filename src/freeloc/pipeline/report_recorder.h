@@ -44,4 +44,11 @@ eval::ReportQuery ToReportQuery(const io::MapfreeScene& scene, const QueryResult
 // The detail image's file name of a query.
 std::string VisualName(const std::string& scene, const std::string& frame);
 
+// `relocalize --report DIR`: the report of one pair — `dir`/index.html with the query's row, its detail image
+// (matches, depth maps) and its 3D view, as `run --report` shows each query.
+// `query_name` names the query's row (its file name).
+void WritePairReport(const std::string& dir, const std::string& title, const std::string& query_name, const Image& ref,
+                     const Image& query, const QueryResult& r, const matching::Correspondences& c,
+                     const Relocalizer& reloc);
+
 }  // namespace freeloc::pipeline

@@ -560,8 +560,11 @@ struct Server::Impl {
         Json m = Json::array();
         constexpr size_t kLines = 150;  // as the report draws (eval::ReportOptions::max_lines)
         const size_t n = c.size(), step = std::max<size_t>(1, (n + kLines - 1) / kLines);
+        // In the pixels of the images the page draws (the working-resolution copies; the matches are in the photos').
+        const double sr = static_cast<double>(a->image.width) / a->image.PhotoWidth(),
+                     sq = static_cast<double>(p.image.width) / p.image.PhotoWidth();
         for (size_t i = 0; i < n; i += step)
-          m.push_back({c.ref[i].x(), c.ref[i].y(), c.query[i].x(), c.query[i].y(),
+          m.push_back({c.ref[i].x() * sr, c.ref[i].y() * sr, c.query[i].x() * sq, c.query[i].y() * sq,
                        i < q.inlier_mask.size() && q.inlier_mask[i] ? 1 : 0});
         j["view"] = {{"matches", m}};
         const DepthMap& dq = a->reloc->last_query_depth();
