@@ -20,6 +20,7 @@ row names is in that command's ``--help``. So a flag renamed in the code but not
 import os
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 
@@ -242,3 +243,50 @@ def test_command_table_lists_every_command():
     commands = set(re.findall(r"^\s+([a-z]+)\s", section, re.M))
     listed = {c for _, c, _ in table_rows()}
     assert commands and commands <= listed, f"commands missing from README's table: {sorted(commands - listed)}"
+
+
+def exit_code_paragraph():
+    text = open(README, encoding="utf-8").read()
+    start = text.index("Exit codes:")
+    return text[start:text.index("\n\n", start)] if "\n\n" in text[start:] else text[start:]
+
+
+S3 = "data/demo/val/s00003/"
+PAIR = (f"--ref {S3}seq0/frame_00000.png --query {S3}seq1/frame_00000.png --intrinsics {S3}intrinsics.txt "
+        f"--ref-depth {S3}seq0/frame_00000.sensor.png --query-depth {S3}seq1/frame_00000.sensor.png")
+# Each case of the README's exit-code paragraph: (code, what the paragraph says, command line). "damaged" makes a copy
+# of data/demo whose s00003 query photo is cut in half.
+EXIT_CASES = [
+    (0, "success", "build/freeloc --version"),
+    (0, "success", f"build/freeloc relocalize {PAIR}"),
+    (0, "success", "build/freeloc -q run --data data/demo --out ok.zip"),
+    (1, "an input error", f"build/freeloc relocalize {PAIR.replace('frame_00000.png --intrinsics', 'nope.png --intrinsics')}"),
+    (1, "an option-value error", f"build/freeloc relocalize {PAIR} --set threshold_px=abc"),
+    (1, "a query that was not solved", f"build/freeloc relocalize {PAIR.split(' --ref-depth')[0]} --preset sift-pnp"),
+    (2, "an unknown flag", f"build/freeloc relocalize {PAIR} --querry x.png"),
+    (2, "an unknown command", "build/freeloc relocalise"),
+    (2, "a missing flag", f"build/freeloc relocalize --ref {S3}seq0/frame_00000.png"),
+    (2, "a value outside a flag's own choices", f"build/freeloc relocalize {PAIR} --solver fast"),
+    (2, "a name that would become a path", f"build/freeloc relocalize {PAIR} --depth provided:../../etc"),
+    (3, "some queries failed on input errors", "build/freeloc -q run --data damaged --out damaged.zip"),
+]
+
+
+def test_the_exit_code_table_is_what_the_commands_return(scratch):
+    """Walks the README's exit codes: every code it names has cases here, and each case exits with its code."""
+    named = {int(c) for c in re.findall(r"`(\d)`", exit_code_paragraph())}
+    assert named == {c for c, _, _ in EXIT_CASES}, (named, exit_code_paragraph())
+    damaged = os.path.join(scratch, "damaged")
+    if not os.path.isdir(damaged):
+        shutil.copytree(os.path.join(SOURCE, "data", "demo"), damaged)
+        photo = os.path.join(damaged, "val", "s00003", "seq1", "frame_00000.png")
+        data = open(photo, "rb").read()
+        open(photo, "wb").write(data[: len(data) // 2])
+    bad = []
+    for code, what, cmd in EXIT_CASES:
+        r = run(cmd, scratch)
+        if r.returncode != code:
+            bad.append(f"{what}: `{cmd}` exited {r.returncode}, the README says {code}: {r.stderr.strip()[-300:]}")
+        elif code != 0 and what != "a query that was not solved" and not r.stderr.strip():
+            bad.append(f"{what}: `{cmd}` exited {code} with nothing on stderr")  # every error says what to do
+    assert not bad, "\n".join(bad)
