@@ -152,3 +152,16 @@ def test_python_binds_the_pipeline_not_the_networks_directly():
                     if re.match(r'\s*#\s*include\s+"freeloc/(nn|vision)/', line):
                         offenders.append(f"{os.path.relpath(path, SOURCE)}:{n}: {line.strip()}")
     assert not offenders, offenders
+
+
+def test_one_word_for_solved_and_submitted():
+    """The words for a query's outcome are status, solved and submitted (pipeline/query_result.h) on every surface:
+    the old ones — a count of "relocalized" queries, an "answered" field — are gone from the README and docs."""
+    bad = []
+    for f in [os.path.join(SOURCE, "README.md")] + list(files(["docs"], (".md",))):
+        for n, line in enumerate(open(f, encoding="utf-8"), 1):
+            if re.search(r"\bthe old\b|written before these", line):
+                continue  # the one sentence that names the old word for those who used it
+            if re.search(r"queries relocalized|\"relocalized\"|[`\"]answered[`\"]|\.answered\b", line):
+                bad.append(f"{os.path.relpath(f, SOURCE)}:{n}: {line.strip()[:120]}")
+    assert not bad, "old words for solved/submitted:\n" + "\n".join(bad)

@@ -472,6 +472,9 @@ TEST(Cli, RunWritesAnHtmlReport) {
   Result r = RunFreeloc("-q run --data " + freeloc::testing::DemoPath() + " --out " + tmp.File("s.zip") + " --report " +
                         tmp.File("rep"));
   ASSERT_EQ(r.code, 0) << r.out;
+  // The run's words (pipeline/query_result.h): 2 of the 7 queries solved, all 7 submitted (s00001's with the prior).
+  EXPECT_TRUE(Contains(freeloc::testing::ReadText(tmp.File("rep") + "/index.html"),
+                       "7 queries: 2 solved (status ok), 7 submitted"));
   auto check = [&](const std::string& dir, int rows, int details) {
     const std::string html = freeloc::testing::ReadText(dir + "/index.html");
     size_t n = 0;
