@@ -255,7 +255,7 @@ TEST(Cli, PointmapAndMatchOnRealPhotos) {
                  " --scenes s00003 --preset dust3r --dust3r-size 224 --dust3r-model " + model + " --out " +
                  tmp.File("d.zip"));
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(r.out, "in 1 scenes")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "in 1 scene,")) << r.out;
   EXPECT_TRUE(std::filesystem::exists(tmp.File("d.zip")));
   // A weights file that is not there stops the run before any scene: exit 1, no submission, no progress file.
   r = RunFreeloc("run --data " + freeloc::testing::DemoPath() + " --scenes s00003 --preset dust3r --dust3r-model " +
@@ -776,7 +776,7 @@ TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
   EXPECT_TRUE(Contains(r.out, "in 2 scenes")) << r.out;  // s00001 and s00003 of three
   r = RunFreeloc("run --data " + data + " --shard 2/2 --out " + tmp.File("b.zip"));
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_TRUE(Contains(r.out, "in 1 scenes")) << r.out;
+  EXPECT_TRUE(Contains(r.out, "in 1 scene,")) << r.out;
   r = RunFreeloc("merge " + tmp.File("a.zip") + " " + tmp.File("b.zip") + " --out " + tmp.File("m.zip"));
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(Contains(r.out, "merged 3 scenes from 2 submissions")) << r.out;
