@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -459,7 +460,7 @@ TEST(Cli, RunRecordsItsProvenance) {
   EXPECT_EQ(r.code, 2);  // a value outside the flag's own choices: a usage error
   EXPECT_TRUE(Contains(r.out, "--solver: 'ransac' is not one of essential, pnp, procrustes")) << r.out;
   r = RunFreeloc("run --data " + data + " --set colour=red --out " + tmp.File("x.zip"));
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.code, 2);
   EXPECT_TRUE(Contains(r.out, "colour: not an option; the options are preset, matcher")) << r.out;
   EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
 }
@@ -820,7 +821,7 @@ TEST(Cli, InputLimitsAreSetByFlagOrEnvironment) {
   EXPECT_EQ(env.code, 1) << env.out;
   EXPECT_TRUE(Contains(env.out, "max_tensors")) << env.out;
   Result bad = RunFreeloc("--limit max_pixels=5 inspect " + pth);
-  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_TRUE(Contains(bad.out, "unknown limit 'max_pixels'; the limits are max_image_pixels")) << bad.out;
 }
 
@@ -1096,7 +1097,7 @@ TEST(Cli, FlagsComeFromTheOptionRegistry) {
   EXPECT_TRUE(Contains(r.out, "--size: 100 is too small")) << r.out;
   EXPECT_FALSE(Contains(r.out, "--dust3r-size")) << r.out;
   r = RunFreeloc("run --data " + freeloc::testing::DemoPath("") + " --frames 12 --out " + tmp.File("x.zip"));
-  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_TRUE(Contains(r.out, "--frames: 12 is not in 1..9")) << r.out;
   EXPECT_EQ(RunFreeloc("run --data x --frames 0 --out " + tmp.File("x.zip")).code, 2);  // not a count
 }
@@ -1162,7 +1163,7 @@ TEST(Cli, NamesThatBecomeFileNamesAreNotPaths) {
     EXPECT_TRUE(Contains(r.out, "not a path")) << bad << "\n" << r.out;
   }
   Result r = RunFreeloc(run + " --set depth=provided:../x");
-  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_TRUE(Contains(r.out, "the suffix must be letters, digits")) << r.out;
   r = RunFreeloc(run + " --depth provided:sensor.v2 --scenes s00003");  // a dotted name is still a name
   EXPECT_EQ(r.code, 1) << r.out;
@@ -1306,4 +1307,46 @@ TEST(Cli, RunWarnsBeforeReplacingAnEarlierRunsProgress) {
   ExpectMentions(r.out, {"sub.zip.progress.jsonl holds an earlier run's progress; this run starts over",
                          "add --resume to continue that run instead"});
   EXPECT_LT(r.out.find("holds an earlier run's progress"), r.out.find("queries solved")) << r.out;
+}
+
+// Hostile tracking poses (poses_device.txt) on the Multi Frame demo scene: garbage, non-finite, huge and absurd values
+// give a per-scene warning and the images-only answer — byte for byte the submission of --device-poses ignore — never
+// a crash, a hang or a pose pulled by garbage. (A translation of 1e308 ended the whole run before; 1e150 went into
+// the submission.)
+TEST(Cli, HostileTrackingPosesFallBackToTheImages) {
+  freeloc::testing::TempDir tmp;
+  const std::string scene = tmp.File("mf/val/s00004");
+  std::filesystem::create_directories(tmp.File("mf/val"));
+  std::filesystem::copy(std::string(FREELOC_SOURCE_DIR) + "/data/demo-multiframe/val/s00004", scene,
+                        std::filesystem::copy_options::recursive);
+  const std::string good = freeloc::testing::ReadText(scene + "/poses_device.txt");
+  const std::string run = "-q run --data " + tmp.File("mf") + " --track multi-frame --depth none --out ";
+  ASSERT_EQ(RunFreeloc(run + tmp.File("ignore.zip") + " --device-poses ignore").code, 0);
+  const std::string images_only = freeloc::testing::ReadText(tmp.File("ignore.zip"));
+  const std::string first = good.substr(0, good.find('\n'));  // seq1/frame_00001.jpg qw qx qy qz tx ty tz
+  const std::string name = first.substr(0, first.find(' '));
+  const std::string rest = good.substr(good.find('\n') + 1);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"a translation of 1e308", name + " 1 0 0 0 1e308 0 0\n" + rest},
+      {"a translation of 1e150", name + " 1 0 0 0 1e150 0 0\n" + rest},
+      {"nan", name + " nan 0 0 0 0 0 0\n" + rest},
+      {"a non-unit quaternion", name + " 2 0 0 0 0.1 0 0\n" + rest},
+      {"a duplicated frame", first + "\n" + good},
+      {"text garbage", "\x01\xff garbage \x7f\n" + good},
+      {"20 MB of newlines", std::string(20 << 20, '\n') + good},
+  };
+  for (const auto& [what, text] : cases) {
+    {
+      std::ofstream f(scene + "/poses_device.txt", std::ios::binary);
+      f << text;
+    }
+    const std::string out = tmp.File("h.zip");
+    const Result r = RunFreeloc("run --data " + tmp.File("mf") + " --track multi-frame --depth none --out " + out);
+    EXPECT_EQ(r.code, 0) << what << "\n" << r.out;
+    EXPECT_TRUE(Contains(r.out, "s00004: ") && Contains(r.out, "poses_device.txt") &&
+                Contains(r.out, "the device poses are ignored for this scene"))
+        << what << "\n"
+        << r.out;
+    EXPECT_EQ(freeloc::testing::ReadText(out), images_only) << what;
+  }
 }

@@ -91,8 +91,24 @@ void AddOptionFlag(CLI::App* app, const pipeline::OptionField& f, std::string* v
     if (!d.empty() && d != "-1") help += " (default " + d + ")";
   }
   CLI::Option* opt = app->add_option(names, *value, help);
-  if (f.type != pipeline::OptionType::kText)
+  if (f.type != pipeline::OptionType::kText) {
     opt->check(Positive(f.type, pipeline::GetOption(pipeline::PipelineOptions(), f.name)));
+    // The field's own range (the registry's validation) as parsed, so that --check-args and a typo fail alike.
+    const std::string field = f.name;
+    opt->check(CLI::Validator(
+        [field](std::string& v) {
+          try {
+            pipeline::PipelineOptions o;
+            pipeline::SetOption(&o, field, v);
+            o.Validate();
+          } catch (const Error& e) {
+            const std::string m = e.what();  // "field: …": the flag names it already
+            return m.rfind(field + ": ", 0) == 0 ? m.substr(field.size() + 2) : m;
+          }
+          return std::string();
+        },
+        "RANGE"));
+  }
   if (std::string(f.name) == "preset" || std::string(f.name) == "matcher" || std::string(f.name) == "depth")
     opt->check(FileNameParts());
   // A fixed set of choices (not matcher/depth, which take a name after a colon) is checked as parsed: a usage error.
@@ -145,7 +161,23 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
     AddOptionFlag(sub, f, &a->values[f.name], &d);
   }
   sub->add_option("--set", a->sets,
-                  "override any option field: NAME=VALUE (`freeloc options` lists them with their defaults)");
+                  "override any option field: NAME=VALUE (`freeloc options` lists them with their defaults)")
+      ->check(CLI::Validator(
+          [](std::string& s) {
+            const size_t eq = s.find('=');
+            if (eq == std::string::npos || eq == 0) return "'" + SafeText(s, 60) + "' is not NAME=VALUE";
+            if (s.substr(0, eq) == "preset")
+              return std::string("preset is chosen with --preset (it sets every stage), not --set");
+            try {  // the name, the value's type and the field's range, as parsed
+              pipeline::PipelineOptions o;
+              pipeline::SetOption(&o, s.substr(0, eq), s.substr(eq + 1));
+              o.Validate();
+            } catch (const Error& e) {
+              return std::string(e.what());
+            }
+            return std::string();
+          },
+          "NAME=VALUE"));
 }
 
 pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const GlobalOptions& g,
@@ -166,6 +198,8 @@ pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const Globa
   for (const std::string& s : a.sets) {
     const size_t eq = s.find('=');
     FREELOC_OPTION_CHECK("set", eq != std::string::npos && eq > 0, ": '" << s << "' is not NAME=VALUE");
+    FREELOC_OPTION_CHECK("set", s.substr(0, eq) != "preset",
+                         ": preset is chosen with --preset (it sets every stage), not --set");
     pipeline::SetOption(&o, s.substr(0, eq), s.substr(eq + 1));
   }
   if (adjust) adjust(&o);

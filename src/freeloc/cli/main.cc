@@ -170,7 +170,20 @@ int main(int argc, char** argv) {
   std::vector<std::string> limits;
   app.add_option("--limit", limits,
                  "raise or lower an input limit, NAME=VALUE (max_image_pixels, max_zip_member_bytes, "
-                 "max_submission_bytes, max_tensors, max_pickle_objects; docs/formats.md)");
+                 "max_submission_bytes, max_tensors, max_pickle_objects; docs/formats.md)")
+      ->check(CLI::Validator(
+          [](std::string& l) {
+            const size_t eq = l.find('=');
+            if (eq == std::string::npos) return "expected NAME=VALUE, got '" + SafeText(l, 60) + "'";
+            try {
+              CheckLimit(l.substr(0, eq), l.substr(eq + 1));
+            } catch (const Error& e) {
+              const std::string m = e.what();
+              return m.rfind("limit: ", 0) == 0 ? m.substr(7) : m;
+            }
+            return std::string();
+          },
+          "NAME=VALUE"));
   bool check_args = false;
   app.add_flag("--check-args", check_args,
                "check the command line (the command, its flags and the values the parser checks) and exit "
@@ -206,7 +219,11 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    const std::string unknown = UnknownNameMessage(app, argc, argv);
+    // A value the parser refused names its flag already; the other errors (an extra word, a required flag missing)
+    // usually come from a mistyped name: say which, with the nearest.
+    const bool value_error =
+        dynamic_cast<const CLI::ValidationError*>(&e) != nullptr || dynamic_cast<const CLI::ConversionError*>(&e);
+    const std::string unknown = value_error ? std::string() : UnknownNameMessage(app, argc, argv);
     std::fprintf(stderr, "freeloc: usage error: %s\nRun 'freeloc --help' for the commands and their options.\n",
                  unknown.empty() ? e.what() : unknown.c_str());
     return 2;

@@ -65,6 +65,11 @@ void SetLimit(const std::string& name, const std::string& value) {
   Mutable().*(f.member) = ParsePositive(name, value, "limit");
 }
 
+void CheckLimit(const std::string& name, const std::string& value) {
+  FindField(name);
+  ParsePositive(name, value, "limit");
+}
+
 std::vector<std::string> LimitNames() {
   std::vector<std::string> out;
   for (const Field& f : kFields) out.push_back(f.name);

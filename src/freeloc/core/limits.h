@@ -21,6 +21,8 @@ struct InputLimits {
 const InputLimits& Limits();
 // Sets one limit by name (max_image_pixels, …); throws freeloc::Error naming the choices for an unknown name or a
 // value that is not a positive integer.
+// Throws as SetLimit would, changing nothing (a command line checked before it runs).
+void CheckLimit(const std::string& name, const std::string& value);
 void SetLimit(const std::string& name, const std::string& value);
 std::vector<std::string> LimitNames();
 // "limit max_image_pixels = 178956970; raise it with --limit max_image_pixels=N" — for the end of a limit error.

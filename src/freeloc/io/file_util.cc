@@ -28,6 +28,8 @@ std::vector<uint8_t> ReadFileBytes(const std::string& path) {
   FREELOC_CHECK(f.good(), path << ": cannot open for reading (" << std::strerror(errno) << ")");
   f.seekg(0, std::ios::end);
   const std::streamoff n = f.tellg();
+  // A "regular" file without a size (/proc, some FUSE files) tells -1: refused, never a size_t of 2^64 − 1.
+  FREELOC_CHECK(n >= 0, path << ": cannot tell its size (not a plain file on disk?); copy it to a file and give that");
   f.seekg(0);
   std::vector<uint8_t> bytes(static_cast<size_t>(n));
   if (n > 0) f.read(reinterpret_cast<char*>(bytes.data()), n);

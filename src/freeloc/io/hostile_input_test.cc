@@ -110,6 +110,14 @@ TEST(HostileInput, FifosAndFoldersAreRefusedNotWaitedOn) {
   EXPECT_NE(ErrorOf([&] { ReadCorrespondenceFile(tmp.File("dir")); }).find("folder"), std::string::npos);
 }
 
+// A "regular" file that cannot tell its size (/proc/self/mem): refused naming it (it became a vector of 2^64 − 1
+// bytes).
+TEST(HostileInput, FilesWithoutASizeAreRefused) {
+  if (!std::filesystem::exists("/proc/self/mem")) GTEST_SKIP() << "no /proc";
+  EXPECT_NE(ErrorOf([&] { ReadFileBytes("/proc/self/mem"); }).find("/proc/self/mem: cannot tell its size"),
+            std::string::npos);
+}
+
 // A ZIP whose headers declare gigabytes for a small member (a bomb: it was allocated at the declared size first).
 TEST(HostileInput, ZipMembersCannotDeclareMoreThanTheyHold) {
   testing::TempDir tmp;

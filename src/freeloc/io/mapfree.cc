@@ -25,6 +25,13 @@ std::string ReadText(const std::string& path) {
   std::error_code ec;
   FREELOC_CHECK(fs::is_regular_file(path, ec),
                 path << ": not a readable file; check that the scene folder is complete");
+  // A scene's text files hold a line per frame (tens of kB for the largest scenes): one of more than 16 MB is not one
+  // of them, and is refused before it is read (128 MB of newlines became 2 GB of lines).
+  constexpr uintmax_t kMaxSceneText = 16u << 20;
+  const uintmax_t size = fs::file_size(path, ec);
+  FREELOC_CHECK(!ec && size <= kMaxSceneText,
+                path << ": " << (ec ? std::string("cannot tell its size") : std::to_string(size) + " bytes")
+                     << ", more than a scene's text file holds (16 MB at most); check the file");
   std::ifstream f(path, std::ios::binary);
   FREELOC_CHECK(f.good(), path << ": cannot read; check that the scene folder is complete");
   std::stringstream ss;
@@ -247,6 +254,10 @@ std::map<std::string, Rigid3d> ReadDevicePoses(const std::string& path) {
                     where << ": '" << SafeText(parts[k + 1], 40) << "' is not a finite number");
     const double qn = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
     FREELOC_CHECK(std::abs(qn - 1) < 1e-3, where << ": the quaternion has norm " << qn << ", not 1");
+    // A phone's tracker between frames of one window: centimetres to metres. A kilometre is garbage, not a motion.
+    FREELOC_CHECK(std::abs(v[4]) <= 1000 && std::abs(v[5]) <= 1000 && std::abs(v[6]) <= 1000,
+                  where << ": a translation of " << v[4] << ", " << v[5] << ", " << v[6]
+                        << " m between two frames of a window; a tracking pose moves metres at most");
     FREELOC_CHECK(!out.count(parts[0]), where << ": frame " << SafeText(parts[0], 200) << " is listed twice");
     out[parts[0]] = Rigid3d::FromWxyz({v[0], v[1], v[2], v[3]}, Eigen::Vector3d(v[4], v[5], v[6]));
   }

@@ -58,6 +58,8 @@ struct EnumTable<nn::Precision> {
 namespace nn {
 inline void RuntimeOptions::Validate() const {
   FREELOC_OPTION_CHECK("threads", threads >= 0, ": " << threads << " is negative; use 0 (library default) or a count");
+  FREELOC_OPTION_CHECK("threads", threads <= 1024,
+                       ": " << threads << " is more than 1024; use 0 (library default) or a count");
 }
 inline std::string RuntimeOptions::Key() const {
   return ToString(device) + "|" + ToString(precision) + "|" + std::to_string(threads);

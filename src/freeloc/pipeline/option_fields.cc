@@ -44,9 +44,10 @@ int ParseInt(const std::string& name, const std::string& text) {
   errno = 0;
   char* end = nullptr;
   const long v = std::strtol(text.c_str(), &end, 10);
-  FREELOC_OPTION_CHECK(
-      name, !text.empty() && end == text.c_str() + text.size() && errno == 0 && v >= -(1L << 30) && v <= (1L << 30),
-      ": '" << text << "' is not an integer");
+  FREELOC_OPTION_CHECK(name, !text.empty() && end == text.c_str() + text.size(),
+                       ": '" << SafeText(text, 40) << "' is not an integer");
+  FREELOC_OPTION_CHECK(name, errno == 0 && v >= -(1L << 30) && v <= (1L << 30),
+                       ": " << SafeText(text, 40) << " is out of range (an integer option takes at most 1073741824)");
   return static_cast<int>(v);
 }
 

@@ -238,6 +238,15 @@ matching::Correspondences Relocalizer::Match(const Image& image, const Camera& c
 }
 
 void AnswerUnsolved(const PipelineOptions& o, QueryResult* r) {
+  const Rigid3d& p = r->query_from_ref;
+  if (!p.translation.allFinite() || !p.rotation.coeffs().allFinite() || !std::isfinite(r->confidence)) {
+    // Never a pose the submission cannot hold (it would end the whole run): this query fails alone, saying why.
+    r->status = QueryStatus::kError;
+    r->message = "the answer is not finite (an input far outside its range, such as a tracking pose of 1e308 m)" +
+                 (r->message.empty() ? std::string() : "; " + r->message);
+    r->query_from_ref = Rigid3d();
+    r->confidence = 0;
+  }
   if (r->ok() || !o.solve.always_answer) return;
   r->submitted_unsolved = true;
   if (r->weak()) return;          // its own pose, with its (low) confidence

@@ -77,7 +77,8 @@ class Relocalizer {
 
 // The always-answer rule (PipelineOptions::always_answer): an unsolved `r` is submitted (submitted_unsolved = true,
 // status kept) — a weak-support result with its own pose and low confidence, any other with the prior pose (identity)
-// and confidence 0. Solved results and always_answer 0 are left as they are.
+// and confidence 0. Solved results and always_answer 0 are left as they are. A result whose pose or confidence is not
+// finite becomes status error (its message says so) first: a submission never receives it.
 void AnswerUnsolved(const PipelineOptions& options, QueryResult* r);
 
 // One pair (a Relocalizer used once). `depth_ref`/`depth_query` may be empty.
