@@ -139,10 +139,12 @@ ExifInfo ReadExif(const uint8_t* bytes, size_t size) {
   if (r.Positive(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_PLANE_Y_RESOLUTION, "FocalPlaneYResolution", &x))
     info.focal_plane_y_resolution = x;
   if (r.Integer(EXIF_IFD_EXIF, EXIF_TAG_FOCAL_PLANE_RESOLUTION_UNIT, "FocalPlaneResolutionUnit", &v)) {
-    if (v >= 2 && v <= 5)
+    if (v >= 2 && v <= 5) {
       info.focal_plane_unit = static_cast<int>(v);
-    else
+    } else {  // 1 ("no absolute unit") or anything else: the resolution is in no known length, so unusable
+      info.focal_plane_unit = -1;
       r.Problem("FocalPlaneResolutionUnit", std::to_string(v) + " is not 2 (inch), 3 (cm), 4 (mm) or 5 (um)");
+    }
   }
   if (r.Integer(EXIF_IFD_EXIF, EXIF_TAG_PIXEL_X_DIMENSION, "PixelXDimension", &v) && v > 0 && v < (1 << 20))
     info.pixel_x_dimension = static_cast<int>(v);
@@ -187,7 +189,9 @@ bool CameraFromExif(const ExifInfo& e, int width, int height, Camera* camera, st
   k.cx = (width - 1) / 2.0;
   k.cy = (height - 1) / 2.0;
 
-  if (e.focal_length_mm > 0 && e.focal_plane_x_resolution > 0) {
+  if (e.focal_length_mm > 0 && e.focal_plane_x_resolution > 0 && e.focal_plane_unit < 0)
+    reasons << "FocalPlaneResolution in no known length unit (FocalPlaneResolutionUnit is not inch, cm, mm or um); ";
+  if (e.focal_length_mm > 0 && e.focal_plane_x_resolution > 0 && e.focal_plane_unit >= 0) {
     // Pixels per millimetre on the sensor: FocalPlaneResolutionUnit 2 inch (the EXIF default), 3 cm, 4 mm, 5 µm.
     const int unit = e.focal_plane_unit ? e.focal_plane_unit : 2;
     const double mm_per_unit = unit == 2 ? 25.4 : unit == 3 ? 10.0 : unit == 4 ? 1.0 : 1e-3;

@@ -23,7 +23,9 @@ struct ExifInfo {
   int focal_length_35mm = 0;            // FocalLengthIn35mmFilm
   double focal_plane_x_resolution = 0;  // FocalPlaneXResolution: pixels per unit along the stored image's x
   double focal_plane_y_resolution = 0;
-  int focal_plane_unit = 0;  // FocalPlaneResolutionUnit: 2 inch (the default), 3 cm, 4 mm, 5 µm
+  // FocalPlaneResolutionUnit: 2 inch (the default when absent: 0), 3 cm, 4 mm, 5 µm; −1 present but none of these (1
+  // is "no absolute unit"): the focal plane resolution is then unusable, never read as inches.
+  int focal_plane_unit = 0;
   int pixel_x_dimension = 0, pixel_y_dimension = 0;  // PixelX/YDimension: the stored image's size the tags describe
   std::string make, model;
   std::vector<std::string> problems;  // fields present but unusable, one line each

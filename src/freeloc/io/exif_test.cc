@@ -180,6 +180,30 @@ TEST(Exif, AbsurdValuesFallThrough) {
   }
 }
 
+// FocalPlaneResolutionUnit 1 ("no absolute unit") or 65535: the focal plane resolution is in no known length and is
+// never read as inches (it gave fx 210.8 for 535.4, and an ok pose 8.9° off): the 35 mm equivalent when there is one,
+// else no EXIF intrinsics, the reason named.
+TEST(Exif, AFocalPlaneUnitThatIsNoLengthIsNotInches) {
+  for (int unit : {1, 65535}) {
+    SCOPED_TRACE(unit);
+    ExifFields f;
+    f.focal_length = Rational(4.2);
+    f.focal_plane_x = Rational(1000);
+    f.focal_plane_unit = unit;
+    ExifInfo e = ReadExif(testing::WithExif(PlainJpeg(), f));
+    EXPECT_EQ(e.focal_plane_unit, -1);
+    Camera k;
+    std::string why, refused;
+    EXPECT_FALSE(CameraFromExif(e, 640, 480, &k, &why));
+    EXPECT_NE(why.find("no known length unit"), std::string::npos) << why;
+    f.focal_35mm = 28;
+    e = ReadExif(testing::WithExif(PlainJpeg(), f));
+    ASSERT_TRUE(CameraFromExif(e, 640, 480, &k, &why, &refused));
+    EXPECT_NEAR(k.fx, 28.0 / 36 * 640, 1e-9);
+    EXPECT_NE(refused.find("no known length unit"), std::string::npos) << refused;
+  }
+}
+
 // Hostile segments: a length past the end of the file, a payload of garbage, a segment cut short — never a crash,
 // never an invented value.
 TEST(Exif, HostileSegments) {

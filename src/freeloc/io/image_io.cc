@@ -197,12 +197,44 @@ void CheckPixelLimit(ImageFormat f, const std::vector<uint8_t>& b, const std::st
                                                                  << LimitHint("max_image_pixels"));
 }
 
-// The codecs module's decode at 1/`reduce` of the size; throws naming `what` when the data cannot be decoded.
+// The stored image turned as EXIF `orientation` (1–8) says it is displayed: 2 mirrored left-right, 3 turned 180°,
+// 4 mirrored top-bottom, 5 transposed, 6 turned 90° clockwise, 7 transversed, 8 turned 90° counter-clockwise.
+Image Oriented(const Image& in, int orientation) {
+  if (orientation < 2 || orientation > 8) return in;
+  const int W = in.width, H = in.height;
+  const bool turned = orientation >= 5;
+  Image out(turned ? H : W, turned ? W : H);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      int sx = x, sy = y;  // the stored pixel shown at (x, y)
+      switch (orientation) {
+        case 2: sx = W - 1 - x; break;
+        case 3: sx = W - 1 - x, sy = H - 1 - y; break;
+        case 4: sy = H - 1 - y; break;
+        case 5: sx = y, sy = x; break;
+        case 6: sx = y, sy = H - 1 - x; break;
+        case 7: sx = W - 1 - y, sy = H - 1 - x; break;
+        case 8: sx = W - 1 - y, sy = x; break;
+      }
+      const uint8_t* p = &in.data[(static_cast<size_t>(sy) * W + sx) * 3];
+      uint8_t* q = &out.data[(static_cast<size_t>(y) * out.width + x) * 3];
+      q[0] = p[0], q[1] = p[1], q[2] = p[2];
+    }
+  return out;
+}
+
+// The codecs module's decode at 1/`reduce` of the size, turned upright by the EXIF orientation freeloc reads (one
+// reading for the image and for what `intrinsics` and the records report); throws naming `what` when the data cannot
+// be decoded.
 void DecodeWith(ImageFormat f, const std::vector<uint8_t>& bytes, const std::string& what, int reduce, Image* img) {
   std::string error;
   if (!internal::Codecs().decode_rgb_reduced(bytes.data(), bytes.size(), reduce, img, &error)) {
     FREELOC_THROW(what << ": cannot decode the " << ImageFormatName(f) << " data"
                        << (error.empty() ? "" : " (" + SafeText(error, 300) + ")") << "; the file is damaged");
+  }
+  if (f == ImageFormat::kJpeg) {
+    const int orientation = ReadExif(bytes).orientation;
+    if (orientation >= 2) *img = Oriented(*img, orientation);
   }
 }
 

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "freeloc/core/error.h"
 #include "freeloc/io/file_util.h"
@@ -93,6 +94,55 @@ TEST(ImageIo, HonoursExifOrientation) {
     EXPECT_TRUE(IsBlue(im, 16, 4));
     EXPECT_TRUE(IsRed(im, 16, 60));
   }
+}
+
+// The orientation is applied by freeloc from its own EXIF reading: for every well-formed tag the pixels are those
+// OpenCV's own orientation gives (the behaviour before), byte for byte.
+TEST(ImageIo, OrientationMatchesOpenCvForAllEight) {
+  cv::Mat m(24, 40, CV_8UC3);
+  for (int y = 0; y < m.rows; ++y)
+    for (int x = 0; x < m.cols; ++x) m.at<cv::Vec3b>(y, x) = cv::Vec3b(x * 6, y * 10, (x * 7 + y * 3) % 256);
+  const std::string jpeg = Encode(m, ".jpg");
+  for (int o = 1; o <= 8; ++o) {
+    SCOPED_TRACE(o);
+    const std::string bytes = WithExifOrientation(jpeg, o);
+    const Image ours = DecodeString(bytes);
+    cv::Mat ref = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())),
+                               cv::IMREAD_COLOR);
+    cv::cvtColor(ref, ref, cv::COLOR_BGR2RGB);
+    ASSERT_EQ(ours.width, ref.cols);
+    ASSERT_EQ(ours.height, ref.rows);
+    EXPECT_EQ(std::memcmp(ours.data.data(), ref.data, ours.data.size()), 0);
+  }
+}
+
+// Tags OpenCV and freeloc's reader used to read differently — the Orientation as a LONG, with a count of 0, in an
+// Exif segment after an XMP one: the image decoded is always turned as the orientation freeloc reports (the depth
+// checks and the fx/fy swap rely on it).
+TEST(ImageIo, TheReportedOrientationIsTheDecodedOne) {
+  const std::string jpeg = Encode(TwoColourBgr(), ".jpg");
+  const auto check = [](const std::string& bytes, int expected) {
+    const ExifInfo e = ReadExif(std::vector<uint8_t>(bytes.begin(), bytes.end()));
+    EXPECT_EQ(e.orientation, expected);
+    const Image im = DecodeString(bytes);
+    EXPECT_EQ(im.width, e.transposed() ? 32 : 64);
+    EXPECT_EQ(im.height, e.transposed() ? 64 : 32);
+  };
+  std::string as_long = WithExifOrientation(jpeg, 6);  // type SHORT (3) → LONG (4), the value in 4 bytes
+  const size_t tiff = 2 + 4 + 6;                       // SOI, APP1 marker + length, "Exif\0\0"
+  as_long[tiff + 10 + 3] = 4;
+  as_long[tiff + 10 + 8] = 0, as_long[tiff + 10 + 9] = 0, as_long[tiff + 10 + 10] = 0, as_long[tiff + 10 + 11] = 6;
+  check(as_long, 6);
+  std::string count0 = WithExifOrientation(jpeg, 6);
+  count0[tiff + 10 + 7] = 0;  // count 1 → 0
+  check(count0, 0);
+  const std::string xmp_payload = std::string("http://ns.adobe.com/xap/1.0/\0", 29) + "<x:xmpmeta/>";
+  std::string xmp = "\xFF\xE1";
+  xmp += static_cast<char>((xmp_payload.size() + 2) >> 8);
+  xmp += static_cast<char>((xmp_payload.size() + 2) & 0xFF);
+  xmp += xmp_payload;
+  const std::string after_xmp = WithExifOrientation(jpeg, 6);
+  check(after_xmp.substr(0, 2) + xmp + after_xmp.substr(2), 6);
 }
 
 // A working resolution (image_io.h): a large JPEG decodes reduced — JPEG's scaled decoding, then an area resize —

@@ -14,7 +14,8 @@ namespace freeloc::io::internal {
 
 struct CodecsApi {
   int abi;  // kCodecsAbi of the build that made the module
-  // Any format OpenCV decodes, to RGB8 with the EXIF orientation applied (IMREAD_COLOR). False + message on failure.
+  // Any format OpenCV decodes, to RGB8 as stored (the EXIF orientation is not applied: io does that). False + message
+  // on failure.
   bool (*decode_rgb)(const uint8_t* bytes, size_t size, Image* out, std::string* error);
   // Baseline JPEG of an RGB8 image at `quality` (0–100).
   bool (*encode_jpeg)(const Image& rgb, int quality, std::vector<uint8_t>* out, std::string* error);
@@ -23,7 +24,7 @@ struct CodecsApi {
   // An area-averaging resize of an RGB8 image to width × height (OpenCV's INTER_AREA).
   bool (*resize_area)(const Image& in, int width, int height, Image* out, std::string* error);
 };
-constexpr int kCodecsAbi = 2;
+constexpr int kCodecsAbi = 3;  // 3: decoders leave the EXIF orientation to io
 constexpr const char* kCodecsLibrary = "libfreeloc_codecs.so";
 constexpr const char* kCodecsEntry = "freeloc_codecs_v1";
 

@@ -9,11 +9,13 @@ namespace {
 
 bool DecodeRgbReduced(const uint8_t* bytes, size_t size, int reduce, freeloc::Image* out, std::string* error) {
   try {
-    // IMREAD_COLOR and IMREAD_REDUCED_COLOR_* apply the EXIF orientation (IMREAD_IGNORE_ORIENTATION is not set).
-    const int flag = reduce == 8   ? cv::IMREAD_REDUCED_COLOR_8
-                     : reduce == 4 ? cv::IMREAD_REDUCED_COLOR_4
-                     : reduce == 2 ? cv::IMREAD_REDUCED_COLOR_2
-                                   : cv::IMREAD_COLOR;
+    // The stored pixels: the EXIF orientation is applied by io (image_io.cc) from freeloc's own EXIF reading, so that
+    // the orientation it reports and the image it decodes never disagree (OpenCV reads the tag its own way).
+    const int flag = (reduce == 8   ? cv::IMREAD_REDUCED_COLOR_8
+                      : reduce == 4 ? cv::IMREAD_REDUCED_COLOR_4
+                      : reduce == 2 ? cv::IMREAD_REDUCED_COLOR_2
+                                    : cv::IMREAD_COLOR) |
+                     cv::IMREAD_IGNORE_ORIENTATION;
     const cv::Mat m = cv::imdecode(cv::Mat(1, static_cast<int>(size), CV_8UC1, const_cast<uint8_t*>(bytes)), flag);
     if (m.empty() || m.cols <= 0 || m.rows <= 0 || m.type() != CV_8UC3) {
       *error = m.empty() ? "" : "unexpected decoded pixel type";
