@@ -62,6 +62,29 @@ std::string NewId() {
   return buf;
 }
 
+// A stored anchor's upload (DIR/<id>/meta.json, image, depth.png) checked field by field: an Error naming what is
+// wrong, never a parser's raw text.
+PhotoUpload ReadStored(const fs::path& d) {
+  const std::string path = (d / "meta.json").string();
+  const std::vector<uint8_t> bytes = io::ReadFileBytes(path);
+  FREELOC_CHECK(bytes.size() <= 4096, "meta.json: " << bytes.size() << " bytes, more than an anchor's metadata");
+  const nlohmann::json meta = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
+  FREELOC_CHECK(meta.is_object(), "meta.json: not a JSON object (truncated or overwritten?)");
+  const auto field = [&](const char* name, nlohmann::json::value_t type, const char* what) {
+    const auto it = meta.find(name);
+    FREELOC_CHECK(it == meta.end() || it->type() == type, "meta.json: '" << name << "' is not " << what);
+  };
+  field("intrinsics", nlohmann::json::value_t::string, "text");
+  field("depth", nlohmann::json::value_t::boolean, "true or false");
+  field("depth_unit", nlohmann::json::value_t::string, "text");
+  PhotoUpload u;
+  u.image = io::ReadFileBytes((d / "image").string());
+  if (meta.value("depth", false)) u.depth = io::ReadFileBytes((d / "depth.png").string());
+  u.intrinsics = meta.value("intrinsics", std::string());
+  u.depth_unit = meta.value("depth_unit", std::string());
+  return u;
+}
+
 bool ValidId(const std::string& id) {
   if (id.size() != 16) return false;
   for (char c : id)
@@ -82,16 +105,18 @@ AnchorStore::AnchorStore(const pipeline::PipelineOptions& options, int max_ancho
     const std::string id = entry.path().filename().string();
     if (!entry.is_directory() || !ValidId(id) || !fs::exists(entry.path() / "meta.json")) continue;
     try {
-      PhotoUpload u;
-      const nlohmann::json meta = nlohmann::json::parse(io::ReadFileBytes((entry.path() / "meta.json").string()));
-      u.image = io::ReadFileBytes((entry.path() / "image").string());
-      if (meta.value("depth", false)) u.depth = io::ReadFileBytes((entry.path() / "depth.png").string());
-      u.intrinsics = meta.value("intrinsics", std::string());
-      u.depth_unit = meta.value("depth_unit", std::string());
       if (static_cast<int>(anchors_.size()) >= max_anchors_) break;
-      anchors_[id] = Make(id, std::move(u));
+      anchors_[id] = Make(id, ReadStored(entry.path()));
     } catch (const std::exception& e) {
-      FREELOC_LOG(WARNING) << entry.path().string() << ": anchor not reloaded: " << e.what();
+      // A damaged anchor is set aside, not retried at every start, and the others load.
+      const fs::path q = fs::path(dir_) / "quarantine" / id;
+      std::error_code qec;
+      fs::create_directories(q.parent_path(), qec);
+      fs::remove_all(q, qec);
+      fs::rename(entry.path(), q, qec);
+      FREELOC_LOG(WARNING) << entry.path().string() << ": anchor not reloaded (" << e.what() << "); "
+                           << (qec ? "left in place (cannot move it: " + qec.message() + ")"
+                                   : "moved to " + q.string() + " — delete it, or fix it and move it back");
     }
   }
   FREELOC_LOG(INFO) << dir_ << ": " << anchors_.size() << " anchors reloaded";

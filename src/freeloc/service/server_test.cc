@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -415,6 +416,48 @@ TEST(Service, StoreSurvivesARestartAndMaxAnchorsHolds) {
   EXPECT_EQ(Json::parse(r->body)["tvec"], Json::parse(before)["tvec"]);
   EXPECT_EQ(c.Delete(("/v1/anchors/" + id).c_str())->status, 200);
   EXPECT_FALSE(std::filesystem::exists(tmp.File("anchors/" + id)));
+}
+
+}  // namespace
+}  // namespace freeloc::service
+
+namespace freeloc::service {
+namespace {
+
+// A --store whose anchors were damaged (a truncated meta.json, a wrong-typed field, a missing image): each is set
+// aside into quarantine/ with a warning at start, the others load and answer as before.
+TEST(Service, DamagedStoredAnchorsAreQuarantinedAndTheRestLoad) {
+  const Tum t;
+  const testing::TempDir tmp;
+  ServiceOptions o = Sift();
+  o.store_dir = tmp.File("anchors");
+  o.max_anchors = 4;
+  std::vector<std::string> ids;
+  std::string before;
+  {
+    const Running s(o);
+    httplib::Client c = s.Client();
+    for (int i = 0; i < 4; ++i) ids.push_back(AddAnchor(c, t));
+    before = c.Post(("/v1/anchors/" + ids[0] + "/relocalize").c_str(), Photo(t.query, t.query_depth))->body;
+  }
+  const auto write = [&](const std::string& path, const std::string& text) {
+    std::ofstream f(tmp.File("anchors/" + path), std::ios::binary | std::ios::trunc);
+    f << text;
+  };
+  write(ids[1] + "/meta.json", "{\"intrinsics\": \"5");
+  write(ids[2] + "/meta.json", "{\"intrinsics\": \"\", \"depth\": \"yes\"}");
+  std::filesystem::remove(tmp.File("anchors/" + ids[3] + "/image"));
+  const Running s(o);
+  httplib::Client c = s.Client();
+  EXPECT_EQ(Json::parse(c.Get("/healthz")->body)["anchors"], 1);
+  const auto r = c.Post(("/v1/anchors/" + ids[0] + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Json::parse(r->body)["tvec"], Json::parse(before)["tvec"]);
+  for (int i = 1; i < 4; ++i) {
+    EXPECT_TRUE(std::filesystem::exists(tmp.File("anchors/quarantine/" + ids[i]))) << i;
+    EXPECT_FALSE(std::filesystem::exists(tmp.File("anchors/" + ids[i]))) << i;
+    EXPECT_EQ(c.Get(("/v1/anchors/" + ids[i]).c_str())->status, 404);
+  }
 }
 
 }  // namespace
