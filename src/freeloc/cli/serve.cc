@@ -75,6 +75,10 @@ void RegisterServe(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   sub->add_option("--max-upload-mb", a->service.max_upload_mb, "largest request body; beyond: 413")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
+  sub->add_option("--max-upload-mp", a->service.max_upload_mp,
+                  "largest photo, in megapixels its header declares; beyond: 400 before decoding")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   sub->add_option("--max-anchors", a->service.max_anchors, "anchors held; beyond: 507")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000000));

@@ -396,3 +396,12 @@ const CodecsApi& Codecs() {
 }  // namespace internal
 
 }  // namespace freeloc::io
+
+namespace freeloc::io {
+
+bool ImageHeaderSize(const std::vector<uint8_t>& bytes, uint64_t* width, uint64_t* height) {
+  if (bytes.empty()) return false;
+  return HeaderDimensions(SniffImageFormat(bytes.data(), bytes.size()), bytes, width, height);
+}
+
+}  // namespace freeloc::io

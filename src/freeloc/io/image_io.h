@@ -15,6 +15,8 @@ namespace freeloc::io {
 enum class ImageFormat { kUnknown, kJpeg, kPng, kBmp, kTiff, kWebp };
 ImageFormat SniffImageFormat(const uint8_t* bytes, size_t size);
 const char* ImageFormatName(ImageFormat f);
+// The stored width and height an image's header declares (JPEG, PNG, …), without decoding; false when it cannot tell.
+bool ImageHeaderSize(const std::vector<uint8_t>& bytes, uint64_t* width, uint64_t* height);
 
 // Decodes to RGB8 (grey is replicated, alpha dropped). Throws freeloc::Error naming `what` when the bytes are not
 // a supported image, are truncated or cannot be decoded.

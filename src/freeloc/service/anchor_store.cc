@@ -18,11 +18,18 @@ namespace freeloc::service {
 
 namespace fs = std::filesystem;
 
-DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOptions& o, const std::string& frame) {
+DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOptions& o, const std::string& frame,
+                         int64_t max_pixels) {
   DecodedPhoto p;
   FREELOC_CHECK(!upload.image.empty(), frame << " image: missing or empty; send the photo as the multipart field "
                                                 "'image'");
-  p.image = io::DecodeImage(upload.image, frame + " image");
+  uint64_t w = 0, h = 0;
+  if (max_pixels > 0 && io::ImageHeaderSize(upload.image, &w, &h))
+    FREELOC_CHECK(w * h <= static_cast<uint64_t>(max_pixels),
+                  frame << " image: declares " << w << " x " << h << " pixels, more than this server takes ("
+                        << max_pixels / 1000000 << " MP, its max_upload_mp option); send a smaller photo");
+  // At the working resolution, as `freeloc relocalize` reads a file (a JPEG decodes reduced): the same answer.
+  p.image = io::DecodeImage(upload.image, frame + " image", o.WorkingMaxSide());
   const io::ExifInfo exif = io::ReadExif(upload.image);
   Camera given;
   const bool has_k = !upload.intrinsics.empty();
@@ -94,8 +101,9 @@ bool ValidId(const std::string& id) {
 
 }  // namespace
 
-AnchorStore::AnchorStore(const pipeline::PipelineOptions& options, int max_anchors, const std::string& store_dir)
-    : options_(options), max_anchors_(max_anchors), dir_(store_dir) {
+AnchorStore::AnchorStore(const pipeline::PipelineOptions& options, int max_anchors, const std::string& store_dir,
+                         int64_t max_pixels)
+    : options_(options), max_anchors_(max_anchors), max_pixels_(max_pixels), dir_(store_dir) {
   FREELOC_CHECK(max_anchors >= 1, "max_anchors: " << max_anchors << " must be at least 1");
   if (dir_.empty()) return;
   std::error_code ec;
@@ -129,7 +137,7 @@ std::shared_ptr<Anchor> AnchorStore::Make(const std::string& id, PhotoUpload upl
   pipeline::PipelineOptions o = options_;
   // As `freeloc relocalize` without depth files: the provided-depth presets answer without depth.
   if (!a->has_depth && o.UsesProvidedDepth()) o.depth = pipeline::DepthSpec::FromString("none");
-  DecodedPhoto p = DecodePhoto(upload, o, "anchor");
+  DecodedPhoto p = DecodePhoto(upload, o, "anchor", max_pixels_);
   a->upload = std::move(upload);
   a->image = std::move(p.image);
   const auto t0 = std::chrono::steady_clock::now();

@@ -34,7 +34,9 @@ struct DecodedPhoto {
   Camera camera;
   pipeline::FrameInputs inputs;
 };
-DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOptions& options, const std::string& frame);
+// `max_pixels` (> 0): a photo whose header declares more is refused before it is decoded.
+DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOptions& options, const std::string& frame,
+                         int64_t max_pixels = 0);
 
 struct Anchor {
   std::string id;
@@ -51,7 +53,9 @@ struct Anchor {
 class AnchorStore {
  public:
   // `store_dir` empty: in memory only. Anchors already in `store_dir` are loaded (their reference work runs again).
-  AnchorStore(const pipeline::PipelineOptions& options, int max_anchors, const std::string& store_dir);
+  AnchorStore(const pipeline::PipelineOptions& options, int max_anchors, const std::string& store_dir,
+              int64_t max_pixels = 0);
+  int64_t max_pixels() const { return max_pixels_; }
 
   // Adds an anchor and runs its reference work. Throws freeloc::Error for bad input (naming the field) and
   // StoreFull when max_anchors are held.
@@ -73,6 +77,7 @@ class AnchorStore {
   void Persist(const Anchor& a) const;
   pipeline::PipelineOptions options_;
   int max_anchors_;
+  int64_t max_pixels_;
   std::string dir_;
   mutable std::mutex mu_;
   std::map<std::string, std::shared_ptr<Anchor>> anchors_;

@@ -39,6 +39,7 @@ void ServiceOptions::Validate() const {
   FREELOC_CHECK(workers >= 1 && workers <= 256, "workers: " << workers << " is not 1-256");
   FREELOC_CHECK(max_queue >= 0 && max_queue <= 100000, "max_queue: " << max_queue << " is not 0-100000");
   FREELOC_CHECK(max_upload_mb >= 1 && max_upload_mb <= 4096, "max_upload_mb: " << max_upload_mb << " is not 1-4096");
+  FREELOC_CHECK(max_upload_mp >= 1 && max_upload_mp <= 1000, "max_upload_mp: " << max_upload_mp << " is not 1-1000");
   FREELOC_CHECK(max_anchors >= 1, "max_anchors: " << max_anchors << " must be at least 1");
   FREELOC_CHECK(queue_timeout_s > 0, "queue_timeout_s: " << queue_timeout_s << " must be positive");
   pipeline.Validate();
@@ -321,7 +322,7 @@ struct Server::Impl {
 
   explicit Impl(const ServiceOptions& opt)
       : o(opt),
-        store(opt.pipeline, opt.max_anchors, opt.store_dir),
+        store(opt.pipeline, opt.max_anchors, opt.store_dir, int64_t{opt.max_upload_mp} * 1000000),
         admission(opt.workers, opt.max_queue),
         workers(opt.workers) {
     three_js = StaticAsset(ReadStatic(o.static_dir + "/build/three.min.js"));
@@ -537,7 +538,7 @@ struct Server::Impl {
     const bool view = req.has_param("view") && req.get_param_value("view") == "1";
     Admitted(res, [&](double queue_ms) {
       const auto td = std::chrono::steady_clock::now();
-      DecodedPhoto p = DecodePhoto(u, a->reloc->options(), "query");
+      DecodedPhoto p = DecodePhoto(u, a->reloc->options(), "query", store.max_pixels());
       const double decode_ms = MsSince(td);
       std::lock_guard<std::mutex> lock(a->mu);
       matching::Correspondences c;

@@ -19,6 +19,7 @@ struct ServiceOptions {
   int workers = 1;     // requests doing work at once (each runs the networks with the pipeline's threads)
   int max_queue = 64;  // requests waiting for a worker; more are answered 503
   int max_upload_mb = 64;
+  int max_upload_mp = 50;  // megapixels a photo may declare (a 48 MP phone photo passes; a 0.5 MB PNG of 13000² not)
   int max_anchors = 1000;
   std::string token;                           // non-empty: every /v1 request needs "Authorization: Bearer <token>"
   std::string store_dir;                       // non-empty: anchors persisted there and reloaded at start

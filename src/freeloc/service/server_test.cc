@@ -249,6 +249,16 @@ TEST(Service, BadInputIsAClearClientError) {
     huge[k + 3] = static_cast<char>(0xA0);
   }
   expect(c.Post(reloc.c_str(), Photo(huge + t.query.substr(33))), 400, "pixels");
+  // 13000 x 13000 (169 MP, under the readers' own limit): refused by the server's max_upload_mp before decoding.
+  std::string big = t.query.substr(0, 33);
+  for (int k : {16, 20}) {
+    big[k] = 0;
+    big[k + 1] = 0;
+    big[k + 2] = static_cast<char>(0x32);
+    big[k + 3] = static_cast<char>(0xC8);
+  }
+  expect(c.Post(reloc.c_str(), Photo(big + t.query.substr(33))), 400,
+         "declares 13000 x 13000 pixels, more than this server takes (50 MP, its max_upload_mp option)");
   // Bodies over --max-upload-mb, and a declared length far over it: 413 before reading them.
   expect(c.Post(reloc.c_str(), Photo(std::string(2 << 20, 'x'))), 413,
          "is over this server's limit of 1 MB (its max_upload_mb option)");
