@@ -9,7 +9,8 @@ PACKAGES=(
   libtorch-dev libopenblas0-openmp libopenblas-dev libdnnl-dev
   libeigen3-dev
   libopencv-dev libpng-dev libexif-dev
-  libcpp-httplib-dev libjs-three  # freeloc serve: HTTP server, the page's 3D view
+  libboost-dev libjs-three  # freeloc serve: the HTTP server (Boost.Beast, header-only), the page's 3D view
+  libcpp-httplib-dev  # tests and bench/serve only: their HTTP client
   libnanoflann-dev
   nlohmann-json3-dev libcli11-dev libzip-dev zip unzip
   libgtest-dev libgmock-dev libbenchmark-dev

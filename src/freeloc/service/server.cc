@@ -1,6 +1,5 @@
 #include "freeloc/service/server.h"
 
-#include <httplib.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -28,6 +27,7 @@
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/service/anchor_store.h"
+#include "freeloc/service/http.h"
 #include "freeloc/service/page.h"
 
 namespace freeloc::service {
@@ -85,9 +85,9 @@ class Admission {
   int running_ = 0, waiting_ = 0;
 };
 
-// The threads that do the work: `n` of them, for the life of the server. Handlers (httplib's connection threads) hand
-// their work over and wait, so the per-thread state of the libraries underneath (OpenBLAS buffers, OpenCV and OpenMP
-// pools, LibTorch) exists `n` times, not once per connection thread.
+// The threads that do the work: `n` of them, for the life of the server. Handlers (the transport's handler threads)
+// hand their work over and wait, so the per-thread state of the libraries underneath (OpenBLAS buffers, OpenCV and
+// OpenMP pools, LibTorch) exists `n` times, not once per connection thread.
 class Workers {
  public:
   explicit Workers(int n) {
@@ -182,7 +182,7 @@ double ProcMiB(const char* key) {
   return 0;
 }
 
-void SendJson(httplib::Response& res, int status, const Json& j) {
+void SendJson(http::Response& res, int status, const Json& j) {
   res.status = status;
   // Client text echoed in a message may hold bytes that are not UTF-8: replaced, never thrown (a throw here, on the
   // error path, would end the server).
@@ -193,25 +193,35 @@ const char* kMultipartExpected =
     "request: expected multipart/form-data with the fields 'image' (the photo), optional 'depth' (16-bit PNG, "
     "millimetres unless 'depth_unit' says cm or m) and 'intrinsics' (fx,fy,cx,cy); got ";
 
-std::string ContentTypeText(const httplib::Request& req) {
+std::string ContentTypeText(const http::Request& req) {
   const std::string ct = req.get_header_value("Content-Type");
   return ct.empty() ? "no Content-Type" : "'" + SafeText(ct, 80) + "'";
 }
 
-void SendError(httplib::Response& res, int status, const std::string& message) {
+void SendError(http::Response& res, int status, const std::string& message);
+
+// 415 for a body that is not multipart/form-data (a photo posted raw, JSON, a form): true when answered.
+bool NotMultipart(const http::Request& req, http::Response& res) {
+  if (req.is_multipart_form_data()) return false;
+  SendError(res, 415, kMultipartExpected + ContentTypeText(req));
+  return true;
+}
+
+void SendError(http::Response& res, int status, const std::string& message) {
   SendJson(res, status, {{"error", message}});
 }
 
 // The one answer for an id no anchor has (any text: ids are looked up, never turned into paths).
-void SendUnknownAnchor(httplib::Response& res, const std::string& id) {
+void SendUnknownAnchor(http::Response& res, const std::string& id) {
   SendError(res, 404,
             "anchor '" + SafeText(id, 40) +
                 "': unknown (deleted, never added, or lost at a restart of a server without a store); GET "
                 "/v1/anchors lists the anchors, POST /v1/anchors adds one");
 }
 
-// The photo fields of a multipart request; throws freeloc::Error (→ 400) naming what is wrong.
-PhotoUpload UploadOf(const httplib::Request& req) {
+// The photo fields of a multipart request; throws freeloc::Error (→ 400) naming what is wrong. (A body that is not
+// multipart is answered 415 before: NotMultipart.)
+PhotoUpload UploadOf(const http::Request& req) {
   FREELOC_CHECK(req.is_multipart_form_data(), kMultipartExpected << ContentTypeText(req));
   FREELOC_CHECK(req.has_file("image"), "image: missing; send the photo as the multipart field 'image'");
   PhotoUpload u;
@@ -293,8 +303,7 @@ struct StaticAsset {
     deflateEnd(&z);
   }
   // The response: 304 for a matching If-None-Match, else the bytes (gzip where the client takes it). The content
-  // type carries a charset, so that cpp-httplib does not compress it again.
-  void Send(const httplib::Request& req, httplib::Response& res, const char* type) const {
+  void Send(const http::Request& req, http::Response& res, const char* type) const {
     res.set_header("Cache-Control", "public, max-age=86400");
     res.set_header("ETag", etag);
     res.set_header("Vary", "Accept-Encoding");
@@ -310,13 +319,24 @@ struct StaticAsset {
 
 }  // namespace
 
+// The transport's bounds from the service's options (service/http.h).
+http::Limits TransportLimits(const ServiceOptions& o) {
+  http::Limits l;
+  l.body_bytes = static_cast<uint64_t>(o.max_upload_mb) << 20;
+  l.header_timeout_s = o.header_timeout_s;
+  l.body_timeout_s = o.body_timeout_s;
+  l.max_connections = o.max_connections;
+  l.handler_threads = o.workers + o.max_queue + 2;  // the admission (workers + queue) answers 503 beyond
+  return l;
+}
+
 struct Server::Impl {
   ServiceOptions o;
   AnchorStore store;
   Admission admission;
   Metrics metrics;
   Workers workers;
-  httplib::Server http;  // last: destroyed (its connection threads joined) before the workers
+  http::Server transport;  // last: destroyed (its threads joined) before the workers
   int port = 0;
   StaticAsset three_js, orbit_js, view3d_js;
 
@@ -324,7 +344,8 @@ struct Server::Impl {
       : o(opt),
         store(opt.pipeline, opt.max_anchors, opt.store_dir, int64_t{opt.max_upload_mp} * 1000000),
         admission(opt.workers, opt.max_queue),
-        workers(opt.workers) {
+        workers(opt.workers),
+        transport(TransportLimits(opt)) {
     three_js = StaticAsset(ReadStatic(o.static_dir + "/build/three.min.js"));
     orbit_js = StaticAsset(ReadStatic(o.static_dir + "/examples/js/controls/OrbitControls.js"));
     view3d_js = StaticAsset(eval::View3dScript());
@@ -335,7 +356,7 @@ struct Server::Impl {
     Routes();
   }
 
-  bool Authorized(const httplib::Request& req, httplib::Response& res) {
+  bool Authorized(const http::Request& req, http::Response& res) {
     // The header, or (for the page's <img> links, which send no headers) a `token` query parameter.
     if (o.token.empty() || req.get_header_value("Authorization") == "Bearer " + o.token ||
         (req.has_param("token") && req.get_param_value("token") == o.token))
@@ -349,7 +370,7 @@ struct Server::Impl {
   // Runs `work` as one admitted unit: 503 when the queue is full (or the wait too long), 400 for bad input
   // (freeloc::Error), 500 for anything else.
   template <typename Fn>
-  void Admitted(httplib::Response& res, const Fn& work) {
+  void Admitted(http::Response& res, const Fn& work) {
     const auto t0 = std::chrono::steady_clock::now();
     if (!admission.Enter(o.queue_timeout_s)) {
       res.set_header("Retry-After", "1");
@@ -374,70 +395,51 @@ struct Server::Impl {
     admission.Leave();
   }
 
-  // What went wrong, for the errors cpp-httplib answers itself (before a route runs). A body it refused for its size
-  // that is not multipart at all is the client's format (415), whatever its size.
-  std::string HttpErrorText(const httplib::Request& req, httplib::Response& res) const {
-    if (res.status == 413 && !req.is_multipart_form_data()) {
-      res.status = 415;
+  // What went wrong, for the answers the transport gives itself (service/http.h). A body refused for its size that is
+  // not multipart at all is the client's format (415), whatever its size.
+  std::string HttpErrorText(const http::Request& req, int* status) const {
+    if (*status == 413 && !req.is_multipart_form_data()) {
+      *status = 415;
       return kMultipartExpected + ContentTypeText(req);
     }
-    if (res.status == 413) {
+    if (*status == 413) {
       const std::string length = req.get_header_value("Content-Length");
       return "upload too large: " + (length.empty() ? std::string("the body") : SafeText(length, 20) + " bytes") +
              " is over this server's " + "limit of " + std::to_string(o.max_upload_mb) +
              " MB (its max_upload_mb option): send a smaller photo, or restart the server with a larger limit";
     }
-    if (res.status == 404)
+    if (*status == 404)
       return "no such route: " + SafeText(req.method, 10) + " " + SafeText(req.path, 80) +
              "; the routes: GET /, /healthz, /metrics, /v1/anchors, /v1/anchors/{id}[/image|/depth|/points]; POST "
              "/v1/anchors, /v1/anchors/{id}/relocalize; DELETE /v1/anchors/{id} (docs/service.md)";
-    if (res.status == 400) return "bad request (malformed HTTP or multipart body)";
-    return "HTTP error " + std::to_string(res.status);
+    if (*status == 431) return "request: headers over 16 KiB";
+    if (*status == 503) return "busy: too many requests at once; retry later";
+    if (*status == 400) return "bad request (malformed HTTP)";
+    return "HTTP error " + std::to_string(*status);
   }
 
   void Routes() {
-    http.set_payload_max_length(static_cast<size_t>(o.max_upload_mb) << 20);
-    http.set_read_timeout(30, 0);
-    http.set_write_timeout(30, 0);
-    http.set_keep_alive_timeout(5);
-    const int threads = o.workers + o.max_queue + 8;
-    http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
-    http.set_error_handler(
-        httplib::Server::HandlerWithResponse([this](const httplib::Request& req, httplib::Response& res) {
-          if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;  // our own JSON error
-          SendJson(res, res.status, {{"error", HttpErrorText(req, res)}});
-          return httplib::Server::HandlerResponse::Handled;
-        }));
-    http.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
-      std::string what = "internal error";
-      try {
-        if (ep) std::rethrow_exception(ep);
-      } catch (const std::exception& e) {
-        what += std::string(": ") + e.what();
-      } catch (...) {
-      }
-      SendError(res, 500, what);
-    });
-    http.set_logger([this](const httplib::Request&, const httplib::Response& res) { metrics.Count(res.status); });
+    transport.SetErrorText([this](const http::Request& req, int* status) { return HttpErrorText(req, status); });
+    transport.SetLogger([this](int status) { metrics.Count(status); });
 
-    http.Get("/", [this](const httplib::Request&, httplib::Response& res) {
+    transport.Route("GET", "/", [this](const http::Request&, http::Response& res) {
       res.set_content(PageHtml(), "text/html; charset=utf-8");
     });
     constexpr const char* kJs = "application/javascript; charset=utf-8";
-    http.Get("/static/three.min.js", [this, kJs](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("GET", "/static/three.min.js", [this, kJs](const http::Request& req, http::Response& res) {
       if (three_js.raw.empty()) return SendError(res, 404, "three.js is not installed (Debian package libjs-three)");
       three_js.Send(req, res, kJs);
     });
-    http.Get("/static/OrbitControls.js", [this, kJs](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("GET", "/static/OrbitControls.js", [this, kJs](const http::Request& req, http::Response& res) {
       if (orbit_js.raw.empty()) return SendError(res, 404, "OrbitControls.js is not installed (libjs-three)");
       orbit_js.Send(req, res, kJs);
     });
-    http.Get("/static/view3d.js",
-             [this, kJs](const httplib::Request& req, httplib::Response& res) { view3d_js.Send(req, res, kJs); });
-    http.Get("/healthz", [this](const httplib::Request&, httplib::Response& res) {
+    transport.Route("GET", "/static/view3d.js",
+                    [this, kJs](const http::Request& req, http::Response& res) { view3d_js.Send(req, res, kJs); });
+    transport.Route("GET", "/healthz", [this](const http::Request&, http::Response& res) {
       SendJson(res, 200, {{"status", "ok"}, {"anchors", store.size()}});
     });
-    http.Get("/metrics", [this](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("GET", "/metrics", [this](const http::Request& req, http::Response& res) {
       if (!Authorized(req, res)) return;
       Json j = metrics.ToJson();
       j["queue"] = admission.waiting();
@@ -448,42 +450,46 @@ struct Server::Impl {
       SendJson(res, 200, j);
     });
 
-    http.Post("/v1/anchors", [this](const httplib::Request& req, httplib::Response& res) {
-      const auto t0 = std::chrono::steady_clock::now();
-      if (Authorized(req, res)) {
-        try {
-          PhotoUpload u = UploadOf(req);
-          Admitted(res, [&](double queue_ms) {
-            const std::shared_ptr<Anchor> a = store.Add(std::move(u));
-            Json j = AnchorJson(*a);
-            j["queue_ms"] = queue_ms;
-            SendJson(res, 201, j);
-          });
-        } catch (const Error& e) {
-          SendError(res, 400, e.what());
-        }
-      }
-      metrics.Latency(MsSince(t0));
-    });
-    http.Get("/v1/anchors", [this](const httplib::Request& req, httplib::Response& res) {
+    transport.Route(
+        "POST", "/v1/anchors",
+        [this](const http::Request& req, http::Response& res) {
+          if (NotMultipart(req, res)) return;
+          const auto t0 = std::chrono::steady_clock::now();
+          if (Authorized(req, res)) {
+            try {
+              PhotoUpload u = UploadOf(req);
+              Admitted(res, [&](double queue_ms) {
+                const std::shared_ptr<Anchor> a = store.Add(std::move(u));
+                Json j = AnchorJson(*a);
+                j["queue_ms"] = queue_ms;
+                SendJson(res, 201, j);
+              });
+            } catch (const Error& e) {
+              SendError(res, 400, e.what());
+            }
+          }
+          metrics.Latency(MsSince(t0));
+        },
+        /*heavy=*/true);
+    transport.Route("GET", "/v1/anchors", [this](const http::Request& req, http::Response& res) {
       if (!Authorized(req, res)) return;
       Json list = Json::array();
       for (const auto& a : store.List()) list.push_back(AnchorJson(*a));
       SendJson(res, 200, {{"anchors", list}});
     });
     const std::string id = "/v1/anchors/([^/]{1,200})";  // any text: looked up, never a path
-    http.Get(id, [this](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("GET", id, [this](const http::Request& req, http::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
       if (!a) return SendUnknownAnchor(res, req.matches[1]);
       SendJson(res, 200, AnchorJson(*a));
     });
-    http.Delete(id, [this](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("DELETE", id, [this](const http::Request& req, http::Response& res) {
       if (!Authorized(req, res)) return;
       if (!store.Remove(req.matches[1])) return SendUnknownAnchor(res, req.matches[1]);
       SendJson(res, 200, {{"deleted", std::string(req.matches[1])}});
     });
-    http.Get(id + "/image", [this](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("GET", id + "/image", [this](const http::Request& req, http::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
       if (!a) return SendUnknownAnchor(res, req.matches[1]);
@@ -493,7 +499,7 @@ struct Server::Impl {
           io::EncodeJpeg(a->image, 90, "anchor image");  // upright, as the pipeline sees it
       res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
     });
-    http.Get(id + "/depth", [this](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("GET", id + "/depth", [this](const http::Request& req, http::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
       if (!a) return SendUnknownAnchor(res, req.matches[1]);
@@ -507,7 +513,7 @@ struct Server::Impl {
       const std::vector<uint8_t> jpg = DepthPicture(d);
       res.set_content(std::string(jpg.begin(), jpg.end()), "image/jpeg");
     });
-    http.Get(id + "/points", [this](const httplib::Request& req, httplib::Response& res) {
+    transport.Route("GET", id + "/points", [this](const http::Request& req, http::Response& res) {
       if (!Authorized(req, res)) return;
       const auto a = store.Get(req.matches[1]);
       if (!a) return SendUnknownAnchor(res, req.matches[1]);
@@ -519,14 +525,18 @@ struct Server::Impl {
                Json::parse(eval::View3dJson(a->image, a->reloc->reference_depth(), k,
                                             {{Rigid3d(), k, "#33dd66", "reference"}})));
     });
-    http.Post(id + "/relocalize", [this](const httplib::Request& req, httplib::Response& res) {
-      const auto t0 = std::chrono::steady_clock::now();
-      if (Authorized(req, res)) Relocalize(req, res, t0);
-      metrics.Latency(MsSince(t0));
-    });
+    transport.Route(
+        "POST", id + "/relocalize",
+        [this](const http::Request& req, http::Response& res) {
+          if (NotMultipart(req, res)) return;
+          const auto t0 = std::chrono::steady_clock::now();
+          if (Authorized(req, res)) Relocalize(req, res, t0);
+          metrics.Latency(MsSince(t0));
+        },
+        /*heavy=*/true);
   }
 
-  void Relocalize(const httplib::Request& req, httplib::Response& res, std::chrono::steady_clock::time_point t0) {
+  void Relocalize(const http::Request& req, http::Response& res, std::chrono::steady_clock::time_point t0) {
     const auto a = store.Get(req.matches[1]);
     if (!a) return SendUnknownAnchor(res, req.matches[1]);
     PhotoUpload u;
@@ -594,22 +604,12 @@ Server::Server(const ServiceOptions& options) {
 Server::~Server() = default;
 
 int Server::Bind() {
-  Impl& m = *impl_;
-  if (m.o.port == 0) {
-    m.port = m.http.bind_to_any_port(m.o.host);
-    FREELOC_CHECK(m.port > 0, m.o.host << ": cannot bind to any port");
-  } else {
-    FREELOC_CHECK(m.http.bind_to_port(m.o.host, m.o.port),
-                  m.o.host << ":" << m.o.port
-                           << ": cannot bind (in use, or not an address of this machine); choose "
-                              "another port");
-    m.port = m.o.port;
-  }
-  return m.port;
+  impl_->port = impl_->transport.Bind(impl_->o.host, impl_->o.port);
+  return impl_->port;
 }
 
-void Server::Serve() { impl_->http.listen_after_bind(); }
-void Server::Stop() { impl_->http.stop(); }
+void Server::Serve() { impl_->transport.Serve(); }
+void Server::Stop() { impl_->transport.Stop(); }
 int Server::port() const { return impl_->port; }
 
 }  // namespace freeloc::service

@@ -25,6 +25,10 @@ struct ServiceOptions {
   std::string store_dir;                       // non-empty: anchors persisted there and reloaded at start
   double queue_timeout_s = 120;                // a request waiting longer for a worker is answered 503
   std::string static_dir = eval::kThreeJsDir;  // three.js (libjs-three) for the page's 3D view
+  // The transport's bounds (service/http.h): a client's headers must arrive within header_timeout_s, its body within
+  // body_timeout_s; at most max_connections are open.
+  double header_timeout_s = 10, body_timeout_s = 120;
+  int max_connections = 256;
   void Validate() const;
 };
 
