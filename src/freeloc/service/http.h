@@ -7,8 +7,7 @@
 // listings) run there, heavy ones on a bounded pool of handler threads (full: 503 with Retry-After). Stop() closes the
 // listener and every connection that is not being answered, and returns once the admitted requests are answered.
 //
-// The multipart/form-data body is parsed here (ParseMultipart): bounded in parts, names and part headers; a part's
-// bytes are kept as sent.
+// The multipart/form-data body is parsed by freeloc (multipart.h), bounded in parts, names and part headers.
 #pragma once
 
 #include <cstdint>
@@ -18,15 +17,9 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/service/multipart.h"
+
 namespace freeloc::service::http {
-
-struct Part {
-  std::string name, filename, content_type, content;
-};
-
-// The form fields of a multipart/form-data body, by name; throws freeloc::Error naming what is malformed (at most 16
-// parts, names of at most 64 bytes, part headers of at most 1 KiB, each name once).
-std::map<std::string, Part> ParseMultipart(const std::string& body, const std::string& content_type);
 
 struct Request {
   std::string method, target, path, query, body;
