@@ -211,6 +211,15 @@ void SendError(http::Response& res, int status, const std::string& message) {
   SendJson(res, status, {{"error", message}});
 }
 
+// Compares a client's secret with the server's in time that depends on neither's contents (a byte-by-byte early exit
+// would tell an attacker how much of a guess is right).
+bool SameSecret(const std::string& given, const std::string& secret) {
+  unsigned char diff = given.size() == secret.size() ? 0 : 1;
+  for (size_t i = 0; i < secret.size(); ++i)
+    diff |= static_cast<unsigned char>(secret[i] ^ (i < given.size() ? given[i] : 0));
+  return diff == 0;
+}
+
 // The one answer for an id no anchor has (any text: ids are looked up, never turned into paths).
 void SendUnknownAnchor(http::Response& res, const std::string& id) {
   SendError(res, 404,
@@ -358,8 +367,8 @@ struct Server::Impl {
 
   bool Authorized(const http::Request& req, http::Response& res) {
     // The header, or (for the page's <img> links, which send no headers) a `token` query parameter.
-    if (o.token.empty() || req.get_header_value("Authorization") == "Bearer " + o.token ||
-        (req.has_param("token") && req.get_param_value("token") == o.token))
+    if (o.token.empty() || SameSecret(req.get_header_value("Authorization"), "Bearer " + o.token) ||
+        (req.has_param("token") && SameSecret(req.get_param_value("token"), o.token)))
       return true;
     SendError(res, 401,
               req.has_header("Authorization") ? "Authorization: wrong token"

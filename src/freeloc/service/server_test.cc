@@ -15,6 +15,8 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -355,6 +357,10 @@ TEST(Service, TokenIsRequiredWhenSet) {
   EXPECT_EQ(wrong.Get("/metrics")->status, 401);
   EXPECT_EQ(right.Get("/v1/anchors")->status, 200);
   EXPECT_EQ(none.Get("/healthz")->status, 200);
+  // A prefix, a longer token, the token with a byte changed: refused alike (compared in constant time).
+  for (const char* guess : {"s3cre", "s3cret!", "s3creT", ""})
+    EXPECT_EQ(s.Client().Get((std::string("/v1/anchors?token=") + guess).c_str())->status, 401) << guess;
+  EXPECT_EQ(s.Client().Get("/v1/anchors?token=s3cret")->status, 200);
 }
 
 // 16 concurrent requests against one anchor all succeed with the same answer; with one worker and a queue of one,
@@ -637,6 +643,55 @@ TEST(Service, StopIsNotHeldBySlowClients) {
   server.Stop();
   serving.join();
   EXPECT_LT(Seconds(t0), 2.0);
+}
+
+}  // namespace
+}  // namespace freeloc::service
+
+namespace freeloc::service {
+namespace {
+
+// Create, delete and relocalize racing on the same anchors: every answer is 200/201 or 404 (never 500, never a
+// crash); a query already running on an anchor being deleted completes with its answer; afterwards the server is
+// healthy and a good request keeps its exact answer. (Deleting never waits for or fails on a running query.)
+TEST(Service, CreateDeleteAndRelocalizeRaceSafely) {
+  const Tum t;
+  ServiceOptions o = Sift();
+  o.workers = 2;
+  const Running s(o);
+  httplib::Client c = s.Client();
+  const std::string keep = AddAnchor(c, t);
+  const std::string good = c.Post(("/v1/anchors/" + keep + "/relocalize").c_str(), Photo(t.query, t.query_depth))->body;
+  std::mutex mu;
+  std::map<int, int> seen;
+  std::vector<std::string> ids;
+  for (int round = 0; round < 3; ++round) {
+    const std::string id = AddAnchor(c, t);
+    std::vector<std::thread> th;
+    for (int i = 0; i < 4; ++i)
+      th.emplace_back([&, i] {
+        httplib::Client cl = s.Client();
+        const auto r = i == 3 ? cl.Delete(("/v1/anchors/" + id).c_str())
+                              : cl.Post(("/v1/anchors/" + id + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+        std::lock_guard<std::mutex> lock(mu);
+        ++seen[r ? r->status : -1];
+      });
+    th.emplace_back([&] {
+      httplib::Client cl = s.Client();
+      const auto r = cl.Post("/v1/anchors", Photo(t.ref, t.ref_depth));
+      std::lock_guard<std::mutex> lock(mu);
+      ++seen[r ? r->status : -1];
+    });
+    for (auto& x : th) x.join();
+    EXPECT_EQ(c.Get(("/v1/anchors/" + id).c_str())->status, 404);
+  }
+  for (const auto& [status, n] : seen)
+    EXPECT_TRUE(status == 200 || status == 201 || status == 404) << status << " x" << n;
+  EXPECT_EQ(seen[-1], 0);
+  EXPECT_EQ(c.Get("/healthz")->status, 200);
+  const auto r = c.Post(("/v1/anchors/" + keep + "/relocalize").c_str(), Photo(t.query, t.query_depth));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(Json::parse(r->body)["tvec"], Json::parse(good)["tvec"]);
 }
 
 }  // namespace
