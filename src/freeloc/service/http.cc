@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "freeloc/core/error.h"
+#include "freeloc/service/job_threads.h"
 #include "freeloc/service/multipart.h"
 
 namespace freeloc::service::http {
@@ -94,55 +95,6 @@ struct RouteEntry {
   bool heavy;
 };
 
-// A fixed pool of handler threads with no queue of its own: TryRun refuses when every thread is busy.
-class HandlerPool {
- public:
-  explicit HandlerPool(int n) {
-    for (int i = 0; i < n; ++i)
-      threads_.emplace_back([this] {
-        while (true) {
-          std::function<void()> job;
-          {
-            std::unique_lock<std::mutex> lock(mu_);
-            cv_.wait(lock, [&] { return stop_ || !jobs_.empty(); });
-            if (jobs_.empty()) return;
-            job = std::move(jobs_.front());
-            jobs_.pop_front();
-          }
-          job();
-          std::lock_guard<std::mutex> lock(mu_);
-          --busy_;
-        }
-      });
-  }
-  ~HandlerPool() {
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    for (auto& t : threads_) t.join();
-  }
-  bool TryRun(std::function<void()> job) {
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      if (busy_ >= static_cast<int>(threads_.size())) return false;
-      ++busy_;
-      jobs_.push_back(std::move(job));
-    }
-    cv_.notify_one();
-    return true;
-  }
-
- private:
-  std::mutex mu_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> jobs_;
-  std::vector<std::thread> threads_;
-  int busy_ = 0;
-  bool stop_ = false;
-};
-
 class Session;
 
 }  // namespace
@@ -154,13 +106,13 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
   std::vector<RouteEntry> routes;
   std::function<std::string(const Request&, int*)> error_text;
   std::function<void(int)> logger;
-  std::unique_ptr<HandlerPool> pool;
+  std::unique_ptr<JobThreads> pool;
   std::atomic<int> connections{0};
   std::atomic<bool> stopping{false};
   std::mutex sessions_mu;
   std::set<Session*> sessions;
 
-  explicit Impl(const Limits& l) : limits(l), pool(std::make_unique<HandlerPool>(l.handler_threads)) {}
+  explicit Impl(const Limits& l) : limits(l), pool(std::make_unique<JobThreads>(l.handler_threads)) {}
   void Accept();
   void CloseIdle();
 };
@@ -287,7 +239,7 @@ class Session : public std::enable_shared_from_this<Session> {
       auto guard =
           std::make_shared<net::executor_work_guard<net::io_context::executor_type>>(server_->io.get_executor());
       const Handler* h = &r.handler;
-      if (!server_->pool->TryRun([self = shared_from_this(), h, guard] {
+      if (!server_->pool->TryPost([self = shared_from_this(), h, guard] {
             Response res;
             self->Run(*h, res);
             net::post(self->stream_.get_executor(),

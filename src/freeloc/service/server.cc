@@ -28,6 +28,7 @@
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/service/anchor_store.h"
 #include "freeloc/service/http.h"
+#include "freeloc/service/job_threads.h"
 #include "freeloc/service/page.h"
 
 namespace freeloc::service {
@@ -83,58 +84,6 @@ class Admission {
   mutable std::mutex mu_;
   std::condition_variable cv_;
   int running_ = 0, waiting_ = 0;
-};
-
-// The threads that do the work: `n` of them, for the life of the server. Handlers (the transport's handler threads)
-// hand their work over and wait, so the per-thread state of the libraries underneath (OpenBLAS buffers, OpenCV and
-// OpenMP pools, LibTorch) exists `n` times, not once per connection thread.
-class Workers {
- public:
-  explicit Workers(int n) {
-    for (int i = 0; i < n; ++i)
-      threads_.emplace_back([this] {
-        while (true) {
-          std::function<void()> job;
-          {
-            std::unique_lock<std::mutex> lock(mu_);
-            cv_.wait(lock, [&] { return stop_ || !jobs_.empty(); });
-            if (jobs_.empty()) return;
-            job = std::move(jobs_.front());
-            jobs_.pop_front();
-          }
-          job();
-        }
-      });
-  }
-  ~Workers() {
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      stop_ = true;
-    }
-    cv_.notify_all();
-    for (auto& t : threads_) t.join();
-  }
-  // Runs `job` on a worker thread and returns when it has run (`job` must not throw).
-  void Run(const std::function<void()>& job) {
-    std::promise<void> done;
-    std::future<void> f = done.get_future();
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      jobs_.push_back([&] {
-        job();
-        done.set_value();
-      });
-    }
-    cv_.notify_one();
-    f.get();
-  }
-
- private:
-  std::mutex mu_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> jobs_;
-  std::vector<std::thread> threads_;
-  bool stop_ = false;
 };
 
 // Requests and errors of every route, and the latency of the last 4096 requests that did work.
@@ -344,7 +293,7 @@ struct Server::Impl {
   AnchorStore store;
   Admission admission;
   Metrics metrics;
-  Workers workers;
+  JobThreads workers;      // the threads that do the work: `workers` of them, for the life of the server
   http::Server transport;  // last: destroyed (its threads joined) before the workers
   int port = 0;
   StaticAsset three_js, orbit_js, view3d_js;

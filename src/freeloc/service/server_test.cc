@@ -446,12 +446,6 @@ TEST(Service, StoreSurvivesARestartAndMaxAnchorsHolds) {
   EXPECT_FALSE(std::filesystem::exists(tmp.File("anchors/" + id)));
 }
 
-}  // namespace
-}  // namespace freeloc::service
-
-namespace freeloc::service {
-namespace {
-
 // A --store whose anchors were damaged (a truncated meta.json, a wrong-typed field, a missing image): each is set
 // aside into quarantine/ with a warning at start, the others load and answer as before.
 TEST(Service, DamagedStoredAnchorsAreQuarantinedAndTheRestLoad) {
@@ -487,12 +481,6 @@ TEST(Service, DamagedStoredAnchorsAreQuarantinedAndTheRestLoad) {
     EXPECT_EQ(c.Get(("/v1/anchors/" + ids[i]).c_str())->status, 404);
   }
 }
-
-}  // namespace
-}  // namespace freeloc::service
-
-namespace freeloc::service {
-namespace {
 
 // A raw TCP client for the hostile cases: what it sends is exactly what a hostile client sends.
 class Raw {
@@ -644,12 +632,6 @@ TEST(Service, StopIsNotHeldBySlowClients) {
   serving.join();
   EXPECT_LT(Seconds(t0), 2.0);
 }
-
-}  // namespace
-}  // namespace freeloc::service
-
-namespace freeloc::service {
-namespace {
 
 // Create, delete and relocalize racing on the same anchors: every answer is 200/201 or 404 (never 500, never a
 // crash); a query already running on an anchor being deleted completes with its answer; afterwards the server is
