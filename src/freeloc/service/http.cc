@@ -139,7 +139,9 @@ class Session : public std::enable_shared_from_this<Session> {
   void Start() { ReadHeader(); }
   // Stop(): a connection waiting for (or reading) a request is closed; one being answered finishes first.
   void CloseIfIdle() {
-    net::post(stream_.get_executor(), [self = shared_from_this()] {
+    auto self = weak_from_this().lock();  // (null while its destructor waits for the session list: nothing to close)
+    if (!self) return;
+    net::post(stream_.get_executor(), [self] {
       if (!self->answering_) self->stream_.socket().close();
     });
   }
