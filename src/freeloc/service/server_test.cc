@@ -599,10 +599,11 @@ TEST(Service, HostileClientsAreBoundedAndTheServerKeepsServing) {
   EXPECT_EQ(slow.front()->ReadAll(), "");  // closed
   EXPECT_LT(Seconds(t0), 3.0);
   slow.clear();
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // the server sees them closed and counts them out
   // More connections than max_connections: the extra ones get 503 at once, and are closed.
   std::vector<std::unique_ptr<Raw>> idle;
   for (int i = 0; i < 40; ++i) idle.push_back(std::make_unique<Raw>(s.port()));
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // (accepted, not timed out: header limit 1 s)
   {
     Raw extra(s.port());
     EXPECT_EQ(extra.Status(), "503");
