@@ -149,6 +149,7 @@ class Session : public std::enable_shared_from_this<Session> {
  private:
   void ReadHeader() {
     if (server_->stopping) return Close();
+    head_ = false;
     parser_.emplace();
     parser_->header_limit(static_cast<std::uint32_t>(server_->limits.header_bytes));
     parser_->body_limit(server_->limits.body_bytes);
@@ -227,9 +228,11 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void Dispatch() {
     keep_alive_ = parser_->get().keep_alive();
+    head_ = req_.method == "HEAD";  // a GET route's headers without its body (monitors, curl -I)
     for (const RouteEntry& r : server_->routes) {
       std::smatch m;
-      if (r.method != req_.method || !std::regex_match(req_.path, m, r.pattern)) continue;
+      if (r.method != (head_ ? std::string("GET") : req_.method) || !std::regex_match(req_.path, m, r.pattern))
+        continue;
       req_.matches.assign(m.begin(), m.end());
       answering_ = true;
       if (!r.heavy) {
@@ -314,6 +317,7 @@ class Session : public std::enable_shared_from_this<Session> {
     msg->keep_alive(keep);
     if (res.status != 304) msg->body() = std::move(res.body);
     msg->prepare_payload();
+    if (head_) msg->body().clear();  // Content-Length stays that of the GET answer
     if (server_->logger) server_->logger(res.status);
     stream_.expires_after(Seconds(server_->limits.write_timeout_s));
     bhttp::async_write(stream_, *msg, [self = shared_from_this(), msg, keep](beast::error_code ec, size_t) {
@@ -351,7 +355,7 @@ class Session : public std::enable_shared_from_this<Session> {
   beast::flat_buffer buffer_;
   std::optional<bhttp::request_parser<bhttp::string_body>> parser_;
   Request req_;
-  bool keep_alive_ = false, first_ = true, failed_ = false;
+  bool keep_alive_ = false, first_ = true, failed_ = false, head_ = false;
   std::atomic<bool> answering_{false};
 };
 

@@ -610,8 +610,13 @@ TEST(Service, HostileClientsAreBoundedAndTheServerKeepsServing) {
   }
   idle.clear();
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  // After all that: healthy, and a good request gets the same answer as before.
+  // After all that: healthy (also to a monitor's HEAD: headers only), and a good request gets the same answer.
   EXPECT_TRUE(healthy());
+  const auto head = c.Head("/healthz");
+  ASSERT_TRUE(head);
+  EXPECT_EQ(head->status, 200);
+  EXPECT_TRUE(head->body.empty());
+  EXPECT_NE(head->get_header_value("Content-Length"), "0");
   const auto after = c.Post(reloc.c_str(), Photo(t.query, t.query_depth));
   ASSERT_TRUE(after);
   EXPECT_EQ(Json::parse(after->body)["tvec"], Json::parse(good)["tvec"]);
