@@ -7,9 +7,8 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <regex>
 #include <set>
@@ -107,10 +106,9 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
   std::function<std::string(const Request&, int*)> error_text;
   std::function<void(int)> logger;
   std::unique_ptr<JobThreads> pool;
-  std::atomic<int> connections{0};
   std::atomic<bool> stopping{false};
   std::mutex sessions_mu;
-  std::set<Session*> sessions;
+  std::set<Session*> sessions;  // the open connections (their count is the connection limit's)
 
   explicit Impl(const Limits& l) : limits(l), pool(std::make_unique<JobThreads>(l.handler_threads)) {}
   void Accept();
@@ -127,12 +125,10 @@ class Session : public std::enable_shared_from_this<Session> {
  public:
   Session(tcp::socket socket, std::shared_ptr<Server::Impl> server)
       : stream_(std::move(socket)), server_(std::move(server)) {
-    ++server_->connections;
     std::lock_guard<std::mutex> lock(server_->sessions_mu);
     server_->sessions.insert(this);
   }
   ~Session() {
-    --server_->connections;
     std::lock_guard<std::mutex> lock(server_->sessions_mu);
     server_->sessions.erase(this);
   }
@@ -272,17 +268,9 @@ class Session : public std::enable_shared_from_this<Session> {
     }
   }
 
+  // A message as a JSON string, bytes that are not UTF-8 replaced (as server.cc's SendJson writes its answers).
   static std::string Quote(const std::string& s) {
-    std::string out = "\"";
-    for (unsigned char c : SafeText(s, 2000)) {
-      if (c == '"' || c == '\\')
-        out += '\\', out += static_cast<char>(c);
-      else if (c < 0x20)
-        out += ' ';
-      else
-        out += static_cast<char>(c);
-    }
-    return out + "\"";
+    return nlohmann::json(SafeText(s, 2000)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   }
 
   // An answer the transport gives itself; the connection is closed after it (the rest of the request is unread).
@@ -367,12 +355,19 @@ void Server::Impl::Accept() {
       if (!self->stopping && ec != net::error::operation_aborted) self->Accept();
       return;
     }
-    if (self->connections >= self->limits.max_connections) {
+    size_t open = 0;
+    {
+      std::lock_guard<std::mutex> lock(self->sessions_mu);
+      open = self->sessions.size();
+    }
+    if (open >= static_cast<size_t>(self->limits.max_connections)) {
       // Over the connection limit: a short 503, then closed (it never waits unread, holding a slot).
       auto s = std::make_shared<tcp::socket>(std::move(socket));
+      const std::string body = "{\"error\":\"busy: too many open connections; retry later\"}";
       auto text = std::make_shared<std::string>(
           "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/json\r\nRetry-After: 1\r\nConnection: "
-          "close\r\nContent-Length: 57\r\n\r\n{\"error\":\"busy: too many open connections; retry later\"}");
+          "close\r\nContent-Length: " +
+          std::to_string(body.size()) + "\r\n\r\n" + body);
       if (self->logger) self->logger(503);
       net::async_write(*s, net::buffer(*text), [s, text](beast::error_code, size_t) {
         beast::error_code e;
@@ -410,9 +405,15 @@ void Server::SetLogger(std::function<void(int)> log) { impl_->logger = std::move
 
 int Server::Bind(const std::string& host, int port) {
   beast::error_code ec;
-  const auto address = net::ip::make_address(host, ec);
-  FREELOC_CHECK(!ec, host << ": not an IP address (use 127.0.0.1, 0.0.0.0 or ::)");
-  const tcp::endpoint ep(address, static_cast<unsigned short>(port));
+  tcp::endpoint ep(net::ip::make_address(host, ec), static_cast<unsigned short>(port));
+  if (ec) {  // a name (localhost, a host name of this machine): its first address
+    tcp::resolver resolver(impl_->io);
+    const auto found = resolver.resolve(host, std::to_string(port), ec);
+    FREELOC_CHECK(!ec && !found.empty(), host << ": not an address or a name of this machine (" << ec.message()
+                                              << "); use 127.0.0.1, 0.0.0.0 or ::");
+    ep = found.begin()->endpoint();
+    ec.clear();
+  }
   impl_->acceptor.open(ep.protocol(), ec);
   if (!ec) impl_->acceptor.set_option(net::socket_base::reuse_address(true), ec);
   if (!ec) impl_->acceptor.bind(ep, ec);
