@@ -1,5 +1,5 @@
 // bench/baseline — freeloc's `sift-essential` (its shipped vote, the depth-anchored scale, the hybrid solver) against
-// the map-free benchmark code's SIFT + Ess.Mat + D.Scale baseline (spec/mapfree-protocol.md §4), side by side on the
+// the map-free benchmark code's SIFT + Ess.Mat + D.Scale baseline (nianticlabs/map-free-reloc), side by side on the
 // same scenes, SIFT included in both:
 //   official: OpenCV SIFT 2048 / RootSIFT / FLANN / ratio 0.8 (the same extractor as freeloc's) per pair, pixels
 //             normalised by each K, cv::findEssentialMat(USAC_MAGSAC, prob 0.9999, 3 px / mean focal),
@@ -196,7 +196,7 @@ int main(int argc, char** argv) {
             char buf[160];
             std::snprintf(buf, sizeof(buf), "  [%zu] %.3f m %.2f° %s %s c %.3g", m,
                           (r.query_from_ref.Center() - gt.Center()).norm(),
-                          RotationAngleDeg(r.query_from_ref.rotation, gt.rotation), r.route.c_str(),
+                          RotationAngleDeg(r.query_from_ref.rotation, gt.rotation), r.RouteText().c_str(),
                           ToString(r.status).c_str(), r.confidence);
             line += buf;
           }

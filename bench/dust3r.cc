@@ -1,6 +1,6 @@
 // bench/dust3r — the released DUSt3R_ViTLarge_BaseDecoder_512_dpt architecture with random weights (no download):
 // a 512×384 landscape pair on 2 threads; warm-up + median of 3 for the full pair (encoder / decoder / heads split),
-// the per-query time with a cached reference encoding, achieved GFLOP/s (1.86 TFLOP per pair, spec/dust3r.md §9)
+// the per-query time with a cached reference encoding, achieved GFLOP/s (1.86 TFLOP per pair, naver/dust3r)
 // next to the fp32 GEMM rate measured in this process, and peak RSS. bf16 is measured per block (one encoder and
 // one decoder block at 768 tokens) because on CPUs without AVX512-BF16 LibTorch's bf16 GEMM is emulated and a full
 // bf16 pair takes minutes; `--bf16-pair` runs the whole pair in bf16 once.

@@ -2,9 +2,9 @@
 // download; shapes from the fixture's list of the released tensors): a 512×384 pair on 2 threads, warm-up + median
 // of R. Side by side in one run on the same weights: the DUSt3R trunk alone (the same checkpoint without the 8
 // local-feature tensors, the DUSt3R path) and MASt3R (pointmaps + descriptors); the per-query time with a cached
-// reference encoding; the swapped pass of route B (spec/mast3r.md §5.5: decoders + head 1 again, the query's own
-// depth); the fast reciprocal NN on the pair's own 512×384×24 descriptors (subsample 8) against its exhaustive
-// reference; achieved GFLOP/s (MASt3R 2.04 TFLOP per pair, DUSt3R 1.86: spec/mast3r.md §6.1) next to the fp32 GEMM
+// reference encoding; the swapped pass of route B (docs/pipeline.md "The MASt3R routes": decoders + head 1 again, the
+// query's own depth); the fast reciprocal NN on the pair's own 512×384×24 descriptors (subsample 8) against its
+// exhaustive reference; achieved GFLOP/s (MASt3R 2.04 TFLOP per pair, DUSt3R 1.86: naver/mast3r) next to the fp32 GEMM
 // rate measured in this process; peak RSS.
 //
 //   mast3r [--threads N] [--reps R]

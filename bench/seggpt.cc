@@ -1,6 +1,6 @@
 // bench/seggpt — the released seggpt_vit_large architecture (896×448 input, ViT-L, 24 blocks, global attention over
 // 1568 tokens) with random weights, one prompt, 2 threads, median of 3 after a warm-up: time per prompt, achieved
-// GFLOP/s (1.59 TFLOP per prompt, spec/seggpt.md §5) next to the fp32 GEMM rate measured in this process, peak
+// GFLOP/s (1.59 TFLOP per prompt, baaivision/Painter SegGPT) next to the fp32 GEMM rate measured in this process, peak
 // RSS. bf16 is reported per block on CPUs without AVX512-BF16 (emulated bf16 GEMM); `--bf16` runs a full bf16 pass.
 //
 //   seggpt [--threads N] [--reps R] [--bf16 | --bf16-only]   (--bf16-only: the bf16 model alone, warm, median of R)

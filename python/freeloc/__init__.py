@@ -35,19 +35,22 @@ from ._freeloc import (  # noqa: F401,E402
     SegGPT,
     __version__,
     estimate_relative_pose,
+    option_families,
     option_names,
     preset_names,
     read_depth,
     read_image,
     read_intrinsics,
     run,
+    set_limit,
 )
 from . import _freeloc  # noqa: E402
 from .client import Client, ServiceError  # noqa: E402,F401
 
 __all__ = [
     "Client", "ServiceError", "Dust3r", "Error", "Metric3D", "PoseResult", "Relocalizer", "SegGPT", "__version__", "estimate_relative_pose",
-    "evaluate", "option_names", "preset_names", "read_depth", "read_image", "read_intrinsics", "run",
+    "evaluate", "option_families", "option_names", "preset_names", "read_depth", "read_image", "read_intrinsics", "run",
+    "set_limit",
 ]
 
 

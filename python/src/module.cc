@@ -19,7 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/core/env.h"
 #include "freeloc/core/error.h"
+#include "freeloc/core/limits.h"
 #include "freeloc/core/version.h"
 #include "freeloc/eval/report.h"
 #include "freeloc/io/image_io.h"
@@ -30,6 +32,8 @@
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/run_controller.h"
+#include "freeloc/pipeline/run_fields.h"
+#include "freeloc/service/service_fields.h"
 
 namespace py = pybind11;
 
@@ -423,10 +427,19 @@ std::string Evaluate(const std::string& data, const std::string& submission, con
   return eval::JsonReport(eval::RunEvaluation(split_dir, list, submission, t));
 }
 
-py::dict Run(const std::string& data, const std::string& out, const std::string& preset, const std::string& split,
-             const std::vector<std::string>& scenes, const std::string& log, bool resume, const std::string& shard,
-             const std::string& save_matches, const py::object& models, const py::object& progress,
-             const py::kwargs& kw) {
+// A run-family keyword's value as its text form (run_fields.h): lists comma-joined, bools 1/0.
+std::string RunFieldText(const std::string& name, const py::handle& v) {
+  if (py::isinstance<py::bool_>(v)) return v.cast<bool>() ? "1" : "0";
+  if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) {
+    std::string s;
+    for (const auto& e : v) s += (s.empty() ? "" : ",") + py::str(e).cast<std::string>();
+    return s;
+  }
+  return OptionText(name, v);
+}
+
+py::dict Run(const std::string& data, const std::string& out, const std::string& preset, const py::object& models,
+             const py::object& progress, const py::kwargs& kw) {
   pipeline::PipelineOptions o;
   try {
     o = pipeline::ResolvePreset(preset);
@@ -434,24 +447,24 @@ py::dict Run(const std::string& data, const std::string& out, const std::string&
     BadValue(e.what());
   }
   if (!models.is_none()) o.models.models_dir = PathOf(models);
-  ApplyOptions(&o, kw);
-  pipeline::FindModels(&o);  // validated once, by ExecuteRun (an option's error is a ValueError naming it)
+  // Run fields (pipeline/run_fields.h) by their names; every other keyword is a pipeline option.
   pipeline::RunSpec spec;
-  spec.data = data;
-  spec.out = out;
-  spec.split = split;
-  spec.scenes = scenes;
-  spec.log = log;
-  spec.resume = resume;
-  spec.save_matches = save_matches;
-  spec.progress_bar = false;
-  if (!shard.empty()) {
-    try {
-      spec.shard = pipeline::Shard::FromString(shard);
-    } catch (const Error& e) {
-      BadValue(e.what());
+  std::vector<std::string> run_names;
+  for (const FamilyField& f : pipeline::RunFamily().fields) run_names.push_back(f.name);
+  try {
+    pipeline::SetRunField(&spec, "data", data);
+    pipeline::SetRunField(&spec, "out", out);
+    for (const auto& [k, v] : kw) {
+      const std::string name = py::str(k);
+      if (std::find(run_names.begin(), run_names.end(), name) != run_names.end())
+        pipeline::SetRunField(&spec, name, RunFieldText(name, v));
     }
+  } catch (const Error& e) {
+    BadValue(e.what());
   }
+  ApplyOptions(&o, kw, run_names);
+  pipeline::FindModels(&o);  // validated once, by ExecuteRun (an option's error is a ValueError naming it)
+  spec.progress_bar = false;
   if (!progress.is_none()) {
     spec.on_progress = [progress](int64_t done, int64_t total) {
       py::gil_scoped_acquire gil;
@@ -663,7 +676,7 @@ void BindPoses(py::module_& m) {
           },
           "gone: use solved or submitted")
       .def_property_readonly(
-          "route", [](const PoseResult& p) { return p.r.route; },
+          "route", [](const PoseResult& p) { return p.r.RouteText(); },
           "the solver's route: essential, hybrid, hybrid>essential (fell back), pnp, procrustes")
       .def_property_readonly("qvec",
                              [](const PoseResult& p) {
@@ -714,12 +727,52 @@ void BindPoses(py::module_& m) {
 void BindRuns(py::module_& m) {
   m.def("_evaluate", &Evaluate, py::arg("data"), py::arg("submission"), py::arg("split") = "val",
         py::arg("scenes") = std::vector<std::string>{}, py::arg("track") = "single-frame");
-  m.def("run", &Run, py::arg("data"), py::arg("out"), py::arg("preset") = "sift-essential", py::arg("split") = "val",
-        py::arg("scenes") = std::vector<std::string>{}, py::arg("log") = "", py::arg("resume") = false,
-        py::arg("shard") = "", py::arg("save_matches") = "", py::arg("models") = py::none(),
-        py::arg("progress") = py::none(),
-        "Every query of every scene into a submission ZIP (as `freeloc run`); progress(done, total) is called "
-        "after each query.");
+  m.def("run", &Run, py::arg("data"), py::arg("out"), py::arg("preset") = "sift-essential",
+        py::arg("models") = py::none(), py::arg("progress") = py::none(),
+        "Every query of every scene into a submission ZIP (as `freeloc run`); the run fields (split, scenes, log, "
+        "report, report_worst, report_per_scene, resume, shard, save_matches: freeloc.option_families()['run']) and "
+        "any pipeline option as keywords; progress(done, total) is called after each query.");
+  // Every option family by name: {family: [{"name", "flag", "type", "default", "help"}, …]} — the registry the
+  // command line and the docs are made from (core/option_family.h).
+  m.def("option_families", [] {
+    py::dict d;
+    const auto fields = [](const OptionFamily& f) {
+      py::list l;
+      for (const FamilyField& x : f.fields) {
+        py::dict e;
+        e["name"] = x.name;
+        e["flag"] = x.flag;
+        e["type"] = FieldTypeText(x.type);
+        e["default"] = x.default_text;
+        e["help"] = x.help;
+        l.append(e);
+      }
+      return l;
+    };
+    py::list p;
+    for (const auto& f : pipeline::OptionFields()) {
+      py::dict e;
+      e["name"] = f.name;
+      e["flag"] = f.flag ? f.flag : "";
+      p.append(e);
+    }
+    d["pipeline"] = p;
+    d["run"] = fields(pipeline::RunFamily());
+    d["service"] = fields(service::ServiceFamily());
+    d["limits"] = fields(LimitsFamily());
+    d["environment"] = fields(EnvironmentFamily());
+    return d;
+  });
+  m.def(
+      "set_limit",
+      [](const std::string& name, long long value) {
+        try {
+          SetLimit(name, std::to_string(value));
+        } catch (const Error& e) {
+          BadValue(e.what());
+        }
+      },
+      py::arg("name"), py::arg("value"), "Raises (or lowers) an input limit for this process (as --limit NAME=N).");
   m.def("option_names", [] {
     std::vector<std::string> n;
     for (const auto& f : pipeline::OptionFields()) n.push_back(f.name);

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "freeloc/eval/metrics.h"
-#include "freeloc/pipeline/relocalizer.h"
+#include "freeloc/pipeline/relocalize_scene.h"
 #include "testing/synthetic_scene.h"
 
 namespace freeloc::testing {

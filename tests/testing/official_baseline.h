@@ -1,4 +1,4 @@
-// The map-free benchmark code's Ess.Mat + D.Scale solver (EssentialMatrixMetricSolver, spec/mapfree-protocol.md
+// The map-free benchmark code's Ess.Mat + D.Scale solver (EssentialMatrixMetricSolver, nianticlabs/map-free-reloc
 // §4) reproduced with the same OpenCV calls, for side-by-side comparisons in tests and benchmarks: pixels normalised
 // by each K, findEssentialMat(USAC_MAGSAC, prob 0.9999, 3 px / mean focal) on identity K, recoverPose per returned
 // E (no depth cut) keeping the one with most cheirality inliers, the official scale vote on the essential inliers,

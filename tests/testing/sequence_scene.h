@@ -1,4 +1,4 @@
-// Synthetic query sequences for the Multi Frame track (spec/mapfree-multiframe.md): the photo-textured room of
+// Synthetic query sequences for the Multi Frame track (docs/pipeline.md "Multi Frame"): the photo-textured room of
 // textured_scene.h, and a seq1 that is a hand-held video — each evaluated frame (linear positions 9, 19, …) ends a
 // smooth path of 9 frames (2–7 cm and up to 0.6° per frame, a gentle arc), frame numbers with gaps, exact /
 // degraded8 / mono depth per frame, ground truth for every frame, and the phone's tracking poses three ways:

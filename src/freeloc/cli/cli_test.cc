@@ -768,6 +768,42 @@ TEST(Cli, RunResumesFromItsProgressFile) {
 }
 
 // Shards of a run, merged, give the same bytes as the whole run; overlapping shards and bad shard specs are refused.
+// An options file: a run's sidecar read back with --options reproduces the run — the same options and scenes, the
+// same submission byte for byte; a flag given over it wins; a name that is not an option is refused.
+TEST(Cli, AnOptionsFileReproducesTheRunItRecords) {
+  freeloc::testing::TempDir tmp;
+  const std::string data = freeloc::testing::DemoPath();
+  Result r = RunFreeloc("-q run --data " + data + " --scenes s00002,s00003 --solver hybrid --threshold 2 --set " +
+                        "sprt_min_matches=0 --out " + tmp.File("a.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = RunFreeloc("-q run --options " + tmp.File("a.zip.json") + " --out " + tmp.File("b.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto a = freeloc::io::ZipContents::Read(tmp.File("a.zip")),
+             b = freeloc::io::ZipContents::Read(tmp.File("b.zip"));
+  EXPECT_EQ(a.files, b.files);
+  const auto side_a = nlohmann::json::parse(freeloc::testing::ReadText(tmp.File("a.zip.json")));
+  const auto side_b = nlohmann::json::parse(freeloc::testing::ReadText(tmp.File("b.zip.json")));
+  EXPECT_EQ(side_a["options"], side_b["options"]);
+  EXPECT_EQ(side_a["scenes"], side_b["scenes"]);
+  EXPECT_EQ(side_b["options"]["solver"], "hybrid");
+  EXPECT_EQ(side_b["options"]["threshold_px"], 2.0);
+  // A flag over the file; the log's header line is an options file too.
+  r = RunFreeloc("-q run --options " + tmp.File("a.zip.json") + " --solver essential --log " + tmp.File("c.log") +
+                 " --out " + tmp.File("c.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto side_c = nlohmann::json::parse(freeloc::testing::ReadText(tmp.File("c.zip.json")));
+  EXPECT_EQ(side_c["options"]["solver"], "essential");
+  EXPECT_EQ(side_c["options"]["threshold_px"], 2.0);
+  r = RunFreeloc("-q run --options " + tmp.File("c.log") + " --out " + tmp.File("d.zip"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(freeloc::io::ZipContents::Read(tmp.File("d.zip")).files,
+            freeloc::io::ZipContents::Read(tmp.File("c.zip")).files);
+  freeloc::testing::WriteText(tmp.File("bad.json"), "{\"options\": {\"solvr\": \"pnp\"}}");
+  r = RunFreeloc("run --data " + data + " --options " + tmp.File("bad.json") + " --out " + tmp.File("e.zip"));
+  EXPECT_EQ(r.code, 1) << r.out;
+  ExpectMentions(r.out, {"bad.json", "solvr", "not an option"});
+}
+
 TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
   freeloc::testing::TempDir tmp;
   const std::string data = freeloc::testing::DemoPath();
@@ -793,8 +829,9 @@ TEST(Cli, ShardedRunsMergeIntoTheWholeRun) {
   for (const char* t : {"0", "-2", "nan", "inf", "3px"})  // not silently replaced by the default any more
     EXPECT_EQ(RunFreeloc("run --data " + data + " --threshold " + t + " --out " + tmp.File("x.zip")).code, 2) << t;
   EXPECT_FALSE(std::filesystem::exists(tmp.File("x.zip")));
-  // -1 is the solver's own threshold, as --help says.
-  EXPECT_EQ(RunFreeloc("run --data " + data + " --threshold -1 --out " + tmp.File("x.zip")).code, 0);
+  // default is the solver's own threshold, as --help says (-1, its older spelling, too).
+  EXPECT_EQ(RunFreeloc("run --data " + data + " --threshold default --out " + tmp.File("x.zip")).code, 0);
+  EXPECT_EQ(RunFreeloc("run --data " + data + " --threshold -1 --out " + tmp.File("y.zip")).code, 0);
 }
 
 }  // namespace
@@ -1249,17 +1286,18 @@ TEST(Cli, TyposAreNamedWithTheNearestName) {
   EXPECT_FALSE(Contains(r.out, "did you mean")) << r.out;
 }
 
-// A flag's documented sentinel is taken (--threshold -1), a value outside a flag's fixed choices is a usage error
-// (exit 2, as the README's table says) — --check-args sees it too.
+// A flag's documented word is taken (--threshold default; -1, its older spelling), a value outside a flag's fixed
+// choices is a usage error (exit 2, as the README's table says) — --check-args sees it too.
 TEST(Cli, SentinelsAndChoicesAreCheckedAsTheFlagIsParsed) {
   const std::string k = "535.4,539.2,320.1,247.6";
   const std::string pose = "pose --matches " + freeloc::testing::SourceDir() +
                            "/tests/data/tum_sift/s00003_sift_matches.txt --ref-intrinsics " + k +
                            " --query-intrinsics " + k;
+  EXPECT_EQ(RunFreeloc(pose + " --threshold default").code, 0);
   EXPECT_EQ(RunFreeloc(pose + " --threshold -1").code, 0);
   Result r = RunFreeloc(pose + " --threshold -2");
   EXPECT_EQ(r.code, 2) << r.out;
-  ExpectMentions(r.out, {"must be a positive number (or -1)"});
+  ExpectMentions(r.out, {"must be a positive number (or default)"});
   r = RunFreeloc(pose + " --solver fast");
   EXPECT_EQ(r.code, 2) << r.out;
   ExpectMentions(r.out, {"fast"});

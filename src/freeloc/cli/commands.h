@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "freeloc/core/error.h"
+#include "freeloc/core/option_family.h"
 #include "freeloc/nn/runtime.h"
 #include "freeloc/pipeline/options.h"
 
@@ -34,6 +35,7 @@ void AddGlobalFlags(CLI::App* app, GlobalOptions* global);
 struct PipelineArgs {
   std::map<std::string, std::string> values;  // field → text as given (empty: the preset's)
   std::vector<std::string> sets;              // NAME=VALUE
+  std::string options_file;                   // --options FILE: a run's provenance (pipeline::ReadOptionsFile)
 };
 // The kSolve rows; with `stages` also the kStages rows (matcher, depth, networks) — without them for a command
 // given its correspondences and depth maps (pose); with `run` also the kRun rows (track, frames, device poses).
@@ -46,6 +48,12 @@ pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& args, const Gl
                                               const std::string& default_preset,
                                               const std::function<void(pipeline::PipelineOptions*)>& adjust = nullptr,
                                               bool validate = true);
+
+// A family's fields (core/option_family.h) as flags of `sub` — each with its row's help and default, checked as
+// parsed by `check(name, value)` (the family's setter on a scratch value: a usage error) — their values as given
+// into `values` by field name ("1" for a switch given).
+void AddFamilyFlags(CLI::App* sub, const OptionFamily& family, std::map<std::string, std::string>* values,
+                    const std::function<void(const std::string&, const std::string&)>& check);
 
 // The flag of an option field (the registry's, or a run field's: --data, --out, --log, --shard); `own` maps a
 // command's own spellings first (match: dust3r_size → --size).

@@ -10,6 +10,7 @@
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
 #include "freeloc/io/image_io.h"
+#include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/run_controller.h"
 
@@ -58,13 +59,13 @@ CLI::Validator FileNameParts() {
       "NAME");
 }
 
-// Numbers given as flags are counts and sizes: positive — or `own`, the field's default when it is a negative
-// sentinel that --help documents (--threshold -1: the solver's own) — checked as parsed (a usage error, exit 2); each
-// field's own range is the registry's validation.
+// Numbers given as flags are counts and sizes: positive — or, for a field whose default is `default` (the
+// component's own value: --threshold default, the solver's), that word (or -1, its older spelling) — checked as
+// parsed (a usage error, exit 2); each field's own range is the registry's validation.
 CLI::Validator Positive(pipeline::OptionType type, const std::string& own) {
   return CLI::Validator(
       [type, own](std::string& v) {
-        if (v == own && own.rfind("-", 0) == 0) return std::string();  // a negative default is a sentinel
+        if (own == "default" && (v == own || v == "-1")) return std::string();
         char* end = nullptr;
         errno = 0;
         const double x = type == pipeline::OptionType::kInt ? static_cast<double>(std::strtol(v.c_str(), &end, 10))
@@ -73,7 +74,7 @@ CLI::Validator Positive(pipeline::OptionType type, const std::string& own) {
         return ok ? std::string()
                   : std::string(type == pipeline::OptionType::kInt ? "must be a positive integer"
                                                                    : "must be a positive number") +
-                        (own.rfind("-", 0) == 0 ? " (or " + own + ")" : "");
+                        (own == "default" ? " (or default)" : "");
       },
       type == pipeline::OptionType::kInt ? "N" : "X");
 }
@@ -88,7 +89,7 @@ void AddOptionFlag(CLI::App* app, const pipeline::OptionField& f, std::string* v
   if (!f.choices.empty()) help += "; one of " + f.choices;
   if (defaults) {
     const std::string d = pipeline::GetOption(*defaults, f.name);
-    if (!d.empty() && d != "-1") help += " (default " + d + ")";
+    if (!d.empty() && d != "default") help += " (default " + d + ")";
   }
   CLI::Option* opt = app->add_option(names, *value, help);
   if (f.type != pipeline::OptionType::kText) {
@@ -160,6 +161,9 @@ void AddPipelineArgs(CLI::App* sub, PipelineArgs* a, const std::string& default_
     }
     AddOptionFlag(sub, f, &a->values[f.name], &d);
   }
+  sub->add_option("--options", a->options_file,
+                  "an options file: a run's <out>.json (or its log, or a --json record) — its options, then the flags "
+                  "given here over them");
   sub->add_option("--set", a->sets,
                   "override any option field: NAME=VALUE (`freeloc options` lists them with their defaults)")
       ->check(CLI::Validator(
@@ -188,8 +192,20 @@ pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const Globa
     const auto it = a.values.find(field);
     return it == a.values.end() ? std::string() : it->second;
   };
-  const std::string preset = given("preset");
-  pipeline::PipelineOptions o = pipeline::ResolvePreset(preset.empty() ? default_preset : preset);
+  // An options file: its preset (unless one is given), then its values, then the flags given.
+  pipeline::OptionsFile file;
+  if (!a.options_file.empty()) file = pipeline::ReadOptionsFile(a.options_file);
+  const std::string preset = !given("preset").empty()       ? given("preset")
+                             : file.options.count("preset") ? file.options.at("preset")
+                                                            : default_preset;
+  pipeline::PipelineOptions o = pipeline::ResolvePreset(preset);
+  for (const pipeline::OptionField& f : pipeline::OptionFields()) {  // in registry order
+    const auto it = file.options.find(f.name);
+    if (it != file.options.end() && std::string(f.name) != "preset") pipeline::SetOption(&o, f.name, it->second);
+  }
+  for (const auto& [name, value] : file.options)  // a name this version does not know is an error
+    if (!pipeline::FindOptionFieldOrNull(name))
+      FREELOC_THROW(a.options_file << ": '" << SafeText(name, 60) << "' is not an option (freeloc options lists them)");
   for (const pipeline::OptionField& f : pipeline::OptionFields()) {  // in registry order
     const std::string v = given(f.name);
     if (!v.empty() && std::string(f.name) != "preset") pipeline::SetOption(&o, f.name, v);
@@ -206,6 +222,35 @@ pipeline::PipelineOptions ResolvePipelineArgs(const PipelineArgs& a, const Globa
   pipeline::FindModels(&o);
   if (validate) o.Validate();
   return o;
+}
+
+void AddFamilyFlags(CLI::App* sub, const OptionFamily& family, std::map<std::string, std::string>* values,
+                    const std::function<void(const std::string&, const std::string&)>& check) {
+  for (const FamilyField& f : family.fields) {
+    if (f.flag.empty()) continue;
+    const std::string name = f.name;
+    if (f.type == FieldType::kSwitch) {
+      sub->add_flag_callback(
+          f.flag, [values, name] { (*values)[name] = "1"; }, f.help);
+      continue;
+    }
+    const std::string help = f.help + (f.default_text.empty() ? "" : " (default " + f.default_text + ")");
+    sub->add_option_function<std::string>(
+           f.flag, [values, name](const std::string& v) { (*values)[name] = v; }, help)
+        ->check(CLI::Validator(
+            [check, name](std::string& v) {
+              try {
+                check(name, v);
+              } catch (const Error& e) {
+                const std::string m = e.what();  // "field: …": the flag names it already
+                return m.rfind(name + ": ", 0) == 0 ? m.substr(name.size() + 2) : m;
+              }
+              return std::string();
+            },
+            f.type == FieldType::kInteger  ? "N"
+            : f.type == FieldType::kNumber ? "X"
+                                           : ""));
+  }
 }
 
 std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split, const std::string& scenes_csv,

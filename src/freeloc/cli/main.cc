@@ -12,6 +12,7 @@
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/blas_select.h"
+#include "freeloc/core/env.h"
 #include "freeloc/core/error.h"
 #include "freeloc/core/limits.h"
 #include "freeloc/core/logging.h"
@@ -24,7 +25,7 @@ namespace {
 // the kernels this CPU runs (core/blas_select.h). A user-set OPENBLAS_CORETYPE, or FREELOC_BLAS_SELECT=0, is left
 // alone; if the exec fails the command goes on with the kernels it has.
 void SelectBlasKernels(char** argv) {
-  const char* off = std::getenv("FREELOC_BLAS_SELECT");
+  const char* off = freeloc::EnvSwitch("FREELOC_BLAS_SELECT");
   if (std::getenv("OPENBLAS_CORETYPE") || (off && std::strcmp(off, "0") == 0)) return;
   for (char** a = argv + 1; *a; ++a)
     if (std::strcmp(*a, "--check-args") == 0) return;  // nothing will run
@@ -34,7 +35,7 @@ void SelectBlasKernels(char** argv) {
       network = network || std::strcmp(*a, c) == 0;
   if (!network) return;
   // FREELOC_BLAS_ASSUME_REPORTED (tests): act as if OpenBLAS had reported that core.
-  const char* assume = std::getenv("FREELOC_BLAS_ASSUME_REPORTED");
+  const char* assume = freeloc::EnvSwitch("FREELOC_BLAS_ASSUME_REPORTED");
   const std::string reported = assume ? assume : freeloc::LoadedOpenBlasCore();
   const std::string pick = freeloc::ChooseOpenBlasCoretype(freeloc::ThisCpu(), reported);
   if (pick.empty()) return;
@@ -168,9 +169,13 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("freeloc ") + Version());
   cli::AddGlobalFlags(&app, &global);  // --threads, --device, --precision: the option registry's global rows
   std::vector<std::string> limits;
-  app.add_option("--limit", limits,
-                 "raise or lower an input limit, NAME=VALUE (max_image_pixels, max_zip_member_bytes, "
-                 "max_submission_bytes, max_tensors, max_pickle_objects; docs/formats.md)")
+  std::string limit_names;  // the limits family (core/limits.h)
+  for (const FamilyField& f : LimitsFamily().fields) limit_names += (limit_names.empty() ? "" : ", ") + f.name;
+  std::string env_names;  // the environment family (core/env.h)
+  for (const FamilyField& f : EnvironmentFamily().fields) env_names += (env_names.empty() ? "" : ", ") + f.name;
+  app.footer("\nEnvironment: " + env_names +
+             " (docs/formats.md \"Option families\"; freeloc options --family environment)");
+  app.add_option("--limit", limits, "raise or lower an input limit, NAME=VALUE (" + limit_names + "; docs/formats.md)")
       ->check(CLI::Validator(
           [](std::string& l) {
             const size_t eq = l.find('=');
@@ -236,7 +241,7 @@ int main(int argc, char** argv) {
   SetLogLevel(global.quiet ? LogLevel::kError : global.verbose ? LogLevel::kDebug : LogLevel::kInfo);
   if (global.verbose) {
     const std::string core = LoadedOpenBlasCore();
-    const char* selected = std::getenv("FREELOC_BLAS_SELECTED");
+    const char* selected = freeloc::EnvSwitch("FREELOC_BLAS_SELECTED");
     const char* user = std::getenv("OPENBLAS_CORETYPE");
     FREELOC_LOG(DEBUG) << "BLAS: "
                        << (core.empty() ? "not OpenBLAS (no core to select)" : "OpenBLAS, " + core + " kernels")

@@ -1,6 +1,7 @@
 // `freeloc options`: every option field of the pipeline (the names `--set` and Python take), its flag, and its value
 // — the defaults, or what a preset resolves to. `--markdown` prints the table docs/formats.md shows, from the same
-// option table (pipeline/options.h), so the docs cannot drift from the code.
+// option table (pipeline/options.h), so the docs cannot drift from the code; `--family` the other families (run,
+// service, limits, environment: core/option_family.h) the same way.
 #include "freeloc/pipeline/options.h"
 
 #include <CLI/CLI.hpp>
@@ -9,6 +10,10 @@
 #include <memory>
 
 #include "freeloc/cli/commands.h"
+#include "freeloc/core/env.h"
+#include "freeloc/core/limits.h"
+#include "freeloc/pipeline/run_fields.h"
+#include "freeloc/service/service_fields.h"
 
 namespace freeloc::cli {
 
@@ -16,10 +21,46 @@ namespace {
 
 struct OptionsArgs {
   std::string preset;
-  bool markdown = false;
+  std::string family;
+  bool markdown = false, json = false;
 };
 
+// The option families besides the pipeline's (core/option_family.h), by name.
+const OptionFamily& Family(const std::string& name) {
+  if (name == "run") return pipeline::RunFamily();
+  if (name == "service") return service::ServiceFamily();
+  if (name == "limits") return LimitsFamily();
+  if (name == "environment") return EnvironmentFamily();
+  throw OptionError("family",
+                    ": '" + SafeText(name, 40) + "' is not one of pipeline, run, service, limits, environment");
+}
+
+int RunFamilyListing(const OptionsArgs& a) {
+  const OptionFamily& f = Family(a.family);
+  if (a.json) {
+    std::printf("%s\n", FamilyJson(f).c_str());
+  } else if (a.markdown) {
+    std::printf("%s", FamilyMarkdown(f).c_str());
+  } else {
+    std::printf("# %s options (set by %s)\n", f.name.c_str(), f.set_by.c_str());
+    for (const FamilyField& x : f.fields)
+      std::printf("%-22s %-22s %s%s\n", x.name.c_str(), x.flag.c_str(), x.help.c_str(),
+                  x.default_text.empty() ? "" : (" (default " + x.default_text + ")").c_str());
+  }
+  return 0;
+}
+
 int RunOptions(const OptionsArgs& a) {
+  if (!a.family.empty() && a.family != "pipeline") return RunFamilyListing(a);
+  if (a.json) {
+    std::string j = "{\"name\":\"pipeline\",\"fields\":[";
+    for (size_t i = 0; i < pipeline::OptionFields().size(); ++i) {
+      const auto& f = pipeline::OptionFields()[i];
+      j += std::string(i ? "," : "") + "{\"name\":\"" + f.name + "\",\"flag\":\"" + (f.flag ? f.flag : "") + "\"}";
+    }
+    std::printf("%s]}\n", j.c_str());
+    return 0;
+  }
   if (a.markdown) {
     std::printf("%s", pipeline::OptionTableMarkdown().c_str());
     return 0;
@@ -44,7 +85,10 @@ void RegisterOptions(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run)
   auto a = std::make_shared<OptionsArgs>();
   auto* sub = app.add_subcommand("options", "List every pipeline option: name (for --set), value, meaning, flag");
   sub->add_option("--preset", a->preset, "show the values this preset resolves to (default: the defaults)");
+  sub->add_option("--family", a->family,
+                  "another option family: run, service, limits or environment (default: the pipeline's)");
   sub->add_flag("--markdown", a->markdown, "the option table as Markdown (as docs/formats.md shows it)");
+  sub->add_flag("--json", a->json, "the family's fields as JSON (name, flag, type, default, help)");
   sub->callback([a, run] { *run = [a] { return RunOptions(*a); }; });
 }
 

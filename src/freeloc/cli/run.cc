@@ -11,9 +11,11 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/eval/report.h"
+#include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/run_comm.h"
 #include "freeloc/pipeline/run_controller.h"
+#include "freeloc/pipeline/run_fields.h"
 
 #ifndef FREELOC_DEMO_DIR
 #define FREELOC_DEMO_DIR "data/demo"
@@ -50,10 +52,22 @@ void InterruptHint(const std::string& progress) {
 
 struct RunArgs {
   PipelineArgs pipeline;
-  std::string data, split = "val", scenes, out, log, shard, save_matches, report;
-  int report_worst = 20, report_per_scene = 1;
-  bool resume = false;
+  std::map<std::string, std::string> run;  // the run family's fields as given (pipeline/run_fields.h)
 };
+
+// The run: an options file's run fields (its data, split, scenes, shard), then the flags given.
+pipeline::RunSpec RunSpecOf(const RunArgs& a) {
+  pipeline::RunSpec spec;
+  if (!a.pipeline.options_file.empty())
+    for (const auto& [name, value] : pipeline::ReadOptionsFile(a.pipeline.options_file).run)
+      for (const FamilyField& f : pipeline::RunFamily().fields)
+        if (f.name == name) pipeline::SetRunField(&spec, name, value);
+  for (const auto& [name, value] : a.run) pipeline::SetRunField(&spec, name, value);
+  FREELOC_OPTION_CHECK("data", !spec.data.empty(), " is required (or an options file that names it)");
+  std::string split_dir;
+  if (!spec.scenes.empty()) spec.scenes = pipeline::ResolveScenes(spec.data, spec.split, spec.scenes, &split_dir);
+  return spec;
+}
 
 int RunRun(const RunArgs& a, const GlobalOptions& g) {
   // Launched by mpirun/srun: the ranks split the scenes and rank 0 writes the outputs (pipeline/run_comm.h).
@@ -64,22 +78,10 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     const pipeline::PipelineOptions o =
         ResolvePipelineArgs(a.pipeline, g, "sift-essential", nullptr, /*validate=*/false);
     if (root) FREELOC_LOG(INFO) << o.Summary();
-    pipeline::RunSpec spec;
-    spec.data = a.data;
-    spec.split = a.split;
-    std::string split_dir;
-    if (!a.scenes.empty()) spec.scenes = ResolveScenes(a.data, a.split, a.scenes, &split_dir);
-    spec.out = a.out;
-    spec.log = a.log;
-    spec.save_matches = a.save_matches;
-    spec.report = a.report;
-    spec.report_options.worst = a.report_worst;
-    spec.report_options.per_scene = a.report_per_scene;
-    spec.resume = a.resume;
-    if (!a.shard.empty()) spec.shard = pipeline::Shard::FromString(a.shard);
-    const std::string progress = a.out + ".progress.jsonl";
+    const pipeline::RunSpec spec = RunSpecOf(a);
+    const std::string progress = spec.out + ".progress.jsonl";
     std::error_code ec;
-    if (root && !a.resume && std::filesystem::exists(progress, ec))
+    if (root && !spec.resume && std::filesystem::exists(progress, ec))
       std::fprintf(stderr,
                    "freeloc: warning: %s holds an earlier run's progress; this run starts over and replaces it — "
                    "stop it now (Ctrl-C) and add --resume to continue that run instead\n",
@@ -88,7 +90,7 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     const pipeline::RunResult r = pipeline::ExecuteRun(spec, o, nullptr, comm.get());
     if (!root) return 0;
     std::printf("%zu of %zu queries solved in %zu %s, %zu submitted; submission written to %s\n", r.solved, r.queries,
-                r.scenes.size(), r.scenes.size() == 1 ? "scene" : "scenes", r.submitted, a.out.c_str());
+                r.scenes.size(), r.scenes.size() == 1 ? "scene" : "scenes", r.submitted, spec.out.c_str());
     std::string statuses;
     for (const auto& [status, n] : r.statuses)
       statuses += (statuses.empty() ? "" : ", ") + status + " " + std::to_string(n);
@@ -97,11 +99,11 @@ int RunRun(const RunArgs& a, const GlobalOptions& g) {
     // Queries that failed on input errors (damaged or unreadable files): the submission is written (they carry the
     // prior pose), but the run says so and exits 3, so a script cannot mistake it for a clean run.
     std::fprintf(stderr, "freeloc: %zu of %zu queries failed on input errors (status error)%s:\n", r.input_errors,
-                 r.queries, a.log.empty() ? "" : (", every record in " + a.log).c_str());
+                 r.queries, spec.log.empty() ? "" : (", every record in " + spec.log).c_str());
     for (const auto& m : r.input_error_messages) std::fprintf(stderr, "  %s\n", SafeText(m, 300).c_str());
     if (r.input_errors > r.input_error_messages.size())
       std::fprintf(stderr, "  … and %zu more%s\n", r.input_errors - r.input_error_messages.size(),
-                   a.log.empty() ? " (run with --log FILE for every record)" : "");
+                   spec.log.empty() ? " (run with --log FILE for every record)" : "");
     return 3;
   } catch (const std::exception& e) {
     if (!comm) throw;
@@ -206,38 +208,18 @@ int RunDemo(const std::string& data_dir, const std::string& models, const Global
 void RegisterRun(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto a = std::make_shared<RunArgs>();
   auto* sub = app.add_subcommand("run", "Relocalize every query of every scene into a map-free submission ZIP");
-  sub->add_option("--data", a->data, "dataset root (holding val/ test/) or a split folder")->required();
-  sub->add_option("--split", a->split, "split folder (default val)");
-  sub->add_option("--scenes", a->scenes, "comma-separated scene names (default: all)");
-  sub->add_option("--out", a->out, "submission ZIP (written atomically; <out>.json beside it holds the provenance)")
-      ->required();
-  sub->add_option("--log", a->log, "JSON-lines log: a header record, then one record per query");
-  sub->add_option(
-      "--save-matches", a->save_matches,
-      "folder: each query's correspondences as <scene>/seq1/frame_XXXXX.matches.txt (the input of freeloc pose)");
-  sub->add_option("--report", a->report,
-                  "folder: an HTML report of the run (index.html: metrics, every query, failures, match overlays of "
-                  "the worst queries; docs/report.md)");
-  sub->add_option("--report-worst", a->report_worst, "queries with the largest errors shown in detail (default 20)")
-      ->check(CLI::NonNegativeNumber);
-  sub->add_option("--report-per-scene", a->report_per_scene, "first queries of each scene shown in detail (default 1)")
-      ->check(CLI::NonNegativeNumber);
-  sub->add_flag("--resume", a->resume,
-                "continue an interrupted run from <out>.progress.jsonl (same options), skipping finished scenes");
-  sub->add_option("--shard", a->shard,
-                  "i/n: only every n-th scene starting at the i-th (1 ≤ i ≤ n); join the shards with freeloc merge")
-      ->check(CLI::Validator(
-          [](std::string& v) {
-            try {
-              pipeline::Shard::FromString(v);
-              return std::string();
-            } catch (const Error&) {
-              return std::string("expected i/n with 1 <= i <= n, e.g. 2/4");
-            }
-          },
-          "I/N"));
+  // The run family's flags (pipeline/run_fields.cc); --out is required, --data unless an options file names it.
+  AddFamilyFlags(sub, pipeline::RunFamily(), &a->run, [](const std::string& name, const std::string& value) {
+    pipeline::RunSpec scratch;
+    pipeline::SetRunField(&scratch, name, value);
+  });
+  sub->get_option("--out")->required();
   AddPipelineArgs(sub, &a->pipeline, "sift-essential", /*stages=*/true, /*run=*/true);
-  sub->callback([a, run, &global] { *run = [a, &global] { return RunRun(*a, global); }; });
+  sub->callback([a, run, &global] {
+    if (!a->run.count("data") && a->pipeline.options_file.empty())  // a usage error, as CLI11's own are
+      throw CLI::RequiredError("--data (or --options FILE naming it)");
+    *run = [a, &global] { return RunRun(*a, global); };
+  });
 }
 
 void RegisterDemo(CLI::App& app, const GlobalOptions& global, RunFn* run) {

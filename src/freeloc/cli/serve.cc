@@ -10,6 +10,7 @@
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/error.h"
 #include "freeloc/service/server.h"
+#include "freeloc/service/service_fields.h"
 
 namespace freeloc::cli {
 
@@ -17,11 +18,12 @@ namespace {
 
 struct ServeArgs {
   PipelineArgs pipeline;
-  service::ServiceOptions service;
+  std::map<std::string, std::string> service;  // the service family's fields as given (service/service_fields.h)
 };
 
 int RunServe(const ServeArgs& a, const GlobalOptions& g) {
-  service::ServiceOptions o = a.service;
+  service::ServiceOptions o;
+  for (const auto& [name, value] : a.service) service::SetServiceField(&o, name, value);
   // Validated once, by the server.
   o.pipeline = ResolvePipelineArgs(
       a.pipeline, g, "sift-essential",
@@ -61,37 +63,19 @@ int RunServe(const ServeArgs& a, const GlobalOptions& g) {
 void RegisterServe(CLI::App& app, const GlobalOptions& global, RunFn* run) {
   auto a = std::make_shared<ServeArgs>();
   auto* sub = app.add_subcommand("serve", "Relocalization service: anchors kept warm, a JSON API and a web page");
-  sub->add_option("--host", a->service.host, "address to listen on (localhost by default)")->capture_default_str();
-  // Ranges as service::ServiceOptions::Validate checks them, here at parse (a usage error, and under --check-args).
-  sub->add_option("--port", a->service.port, "port (0: any free one, printed)")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 65535));
-  sub->add_option("--workers", a->service.workers, "requests doing work at once")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 256));
-  sub->add_option("--max-queue", a->service.max_queue, "requests waiting for a worker; beyond: 503")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 100000));
-  sub->add_option("--max-upload-mb", a->service.max_upload_mb, "largest request body; beyond: 413")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 4096));
-  sub->add_option("--max-upload-mp", a->service.max_upload_mp,
-                  "largest photo, in megapixels its header declares; beyond: 400 before decoding")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
-  sub->add_option("--max-anchors", a->service.max_anchors, "anchors held; beyond: 507")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1000000));
-  sub->add_option("--token", a->service.token, "require 'Authorization: Bearer TOKEN' on /v1 and /metrics")
-      ->check(CLI::Validator(
-          [](std::string& t) {
-            return t.empty() ? std::string(
-                                   "an empty token would let every client in: give a token, or leave "
-                                   "--token out for a server without one")
-                             : std::string();
-          },
-          "TOKEN"));
-  sub->add_option("--store", a->service.store_dir, "persist anchors to this folder and reload them at start");
+  // The service family's flags (service/service_fields.cc), each checked against its row's range as parsed.
+  AddFamilyFlags(sub, service::ServiceFamily(), &a->service, [](const std::string& name, const std::string& value) {
+    service::ServiceOptions scratch;
+    service::SetServiceField(&scratch, name, value);
+  });
+  sub->get_option("--token")->check(CLI::Validator(
+      [](std::string& t) {
+        return t.empty() ? std::string(
+                               "an empty token would let every client in: give a token, or leave "
+                               "--token out for a server without one")
+                         : std::string();
+      },
+      "TOKEN"));
   AddPipelineArgs(sub, &a->pipeline, "sift-essential");
   sub->callback([a, run, &global] { *run = [a, &global] { return RunServe(*a, global); }; });
 }

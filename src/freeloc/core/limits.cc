@@ -3,6 +3,7 @@
 #include <cctype>
 #include <cstdlib>
 
+#include "freeloc/core/env.h"
 #include "freeloc/core/error.h"
 
 namespace freeloc {
@@ -12,13 +13,15 @@ namespace {
 struct Field {
   const char* name;
   int64_t InputLimits::*member;
+  const char* help;
 };
 
-constexpr Field kFields[] = {{"max_image_pixels", &InputLimits::max_image_pixels},
-                             {"max_zip_member_bytes", &InputLimits::max_zip_member_bytes},
-                             {"max_submission_bytes", &InputLimits::max_submission_bytes},
-                             {"max_tensors", &InputLimits::max_tensors},
-                             {"max_pickle_objects", &InputLimits::max_pickle_objects}};
+constexpr Field kFields[] = {
+    {"max_image_pixels", &InputLimits::max_image_pixels, "pixels a photo's header may declare (Pillow's bound)"},
+    {"max_zip_member_bytes", &InputLimits::max_zip_member_bytes, "a ZIP member's decompressed size, bytes"},
+    {"max_submission_bytes", &InputLimits::max_submission_bytes, "one pose_*.txt of a submission, bytes"},
+    {"max_tensors", &InputLimits::max_tensors, "tensors in one safetensors, .pth or .npz file"},
+    {"max_pickle_objects", &InputLimits::max_pickle_objects, "values a .pth pickle may push"}};
 
 int64_t ParsePositive(const std::string& name, const std::string& value, const std::string& source) {
   char* end = nullptr;
@@ -49,7 +52,7 @@ InputLimits& Mutable() {
     InputLimits l;
     for (const Field& f : kFields) {
       const std::string env = EnvName(f.name);
-      if (const char* v = std::getenv(env.c_str())) l.*(f.member) = ParsePositive(f.name, v, env);
+      if (const char* v = EnvSwitch(env)) l.*(f.member) = ParsePositive(f.name, v, env);
     }
     return l;
   }();
@@ -57,6 +60,27 @@ InputLimits& Mutable() {
 }
 
 }  // namespace
+
+const OptionFamily& LimitsFamily() {
+  static const OptionFamily family = [] {
+    OptionFamily f;
+    f.name = "limits";
+    f.set_by = "--limit NAME=N (every command), FREELOC_LIMIT_<NAME>, freeloc.set_limit(NAME, N)";
+    const InputLimits defaults;
+    for (const Field& k : kFields) {
+      FamilyField v;
+      v.name = k.name;
+      v.flag = "--limit " + std::string(k.name) + "=N";
+      v.type = FieldType::kInteger;
+      v.default_text = std::to_string(defaults.*(k.member));
+      v.help = k.help;
+      v.min = 1;
+      f.fields.push_back(v);
+    }
+    return f;
+  }();
+  return family;
+}
 
 const InputLimits& Limits() { return Mutable(); }
 

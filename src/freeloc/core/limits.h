@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "freeloc/core/option_family.h"
+
 namespace freeloc {
 
 struct InputLimits {
@@ -25,6 +27,8 @@ const InputLimits& Limits();
 void CheckLimit(const std::string& name, const std::string& value);
 void SetLimit(const std::string& name, const std::string& value);
 std::vector<std::string> LimitNames();
+// The family "limits" (option_family.h): each limit's name, default and help.
+const OptionFamily& LimitsFamily();
 // "limit max_image_pixels = 178956970; raise it with --limit max_image_pixels=N" — for the end of a limit error.
 std::string LimitHint(const std::string& name);
 

@@ -1,4 +1,4 @@
-// Map-free metrics exactly as the official evaluator computes them (spec/mapfree-protocol.md §3,
+// Map-free metrics exactly as the official evaluator computes them (docs/formats.md "Evaluation",
 // nianticlabs/map-free-reloc benchmark/{mapfree,utils,metrics,reprojection}.py): translation error between camera
 // centres, rotation error 2·asin‖vec(q_gt ⊗ q_est⁻¹)‖, VCRE on the 7×4×7 virtual grid with float32 intrinsics and
 // clipping, precision and AUC with failures in the denominators, average of per-scene medians — with every quirk
@@ -72,7 +72,7 @@ struct EvalInput {
   std::string submission_path;      // for messages
   const io::ZipContents* submission = nullptr;
   // single-frame: every 5th key of poses.txt (the official evaluator); multi-frame: the seq1 frames at linear
-  // positions 9, 19, … of the frames sorted by number (spec/mapfree-multiframe.md §2), a missing scene counting
+  // positions 9, 19, … of the frames sorted by number (docs/pipeline.md "Multi Frame"), a missing scene counting
   // those frames only.
   io::Track track = io::Track::kSingleFrame;
 };

@@ -1,4 +1,4 @@
-// Metric pose baselines of the paper (spec/geometry.md, map-free `PnPSolver` / `ProcrustesSolver`):
+// Metric pose baselines of the paper (docs/geometry.md, map-free `PnPSolver` / `ProcrustesSolver`):
 //  * PnP — reference depth only: back-projected reference pixels (3D) with query pixels (2D); P3P (p3p.h) inside
 //    the LO-RANSAC of ransac.h, then robust Gauss–Newton refinement of the reprojection error on all inliers.
 //    Official failure rules: fewer than 6 inliers or ‖t‖ > 1000 m is a failure.

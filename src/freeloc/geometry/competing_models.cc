@@ -7,7 +7,7 @@
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/geometry/five_point.h"
 #include "freeloc/geometry/ransac.h"
-#include "freeloc/geometry/relative_pose.h"
+#include "freeloc/geometry/refine_relative_pose.h"
 
 namespace freeloc::geometry {
 

@@ -10,7 +10,7 @@
 //
 // The model's translation is in the units of the reference depth (the reference depth anchors the metric scale);
 // `scale` maps the query depth into those units, so with two metric depth maps scale ≈ 1 and their disagreement is
-// |log scale| (pipeline/stages.cc combines the two anchorings).
+// |log scale| (pose/hybrid_route.cc combines the two anchorings).
 #pragma once
 
 #include <Eigen/Core>

@@ -1,4 +1,4 @@
-// Metric scale of the translation from depth ("D.Scale", spec/geometry.md): each inlier correspondence is
+// Metric scale of the translation from depth ("D.Scale", docs/geometry.md): each inlier correspondence is
 // back-projected with its depth in both frames, p_r = d_r·K_r⁻¹[u,v,1]ᵀ, p_q = d_q·K_q⁻¹[u',v',1]ᵀ, and gives the
 // candidate s_i = (p_q − R·p_r)·t̂ (the translation that best aligns the pair along t̂).
 //  * kOfficial — the map-free baseline exactly: depth read at int-truncated pixels (which are also back-projected),

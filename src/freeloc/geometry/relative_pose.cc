@@ -7,9 +7,7 @@
 
 #include "freeloc/core/error.h"
 #include "freeloc/geometry/five_point.h"
-#include "freeloc/geometry/levenberg_marquardt.h"
-#include "freeloc/geometry/lie.h"
-#include "freeloc/geometry/robust_loss.h"
+#include "freeloc/geometry/refine_relative_pose.h"
 
 namespace freeloc::geometry {
 
@@ -30,70 +28,6 @@ void CheckFinite(const std::vector<Eigen::Vector2d>& pts, const std::string& wha
 }
 
 namespace {
-
-// (R, unit t) refined on the Sampson error of the correspondences `idx` under a Cauchy loss: 5 parameters, a left
-// rotation increment and a step in the tangent plane of t.
-class SampsonRefinement {
- public:
-  using Params = PoseRt;
-  static constexpr int kNumParams = 5;
-  SampsonRefinement(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
-                    const std::vector<int>& idx, double loss_scale)
-      : x1_(x1), x2_(x2), idx_(idx), loss_(loss_scale) {}
-  int num_params() const { return kNumParams; }
-  double Cost(const PoseRt& p) const {
-    const Eigen::Matrix3d E = EssentialFromPose(p);
-    double cost = 0;
-    for (int i : idx_) cost += loss_.Cost(SampsonSquared(E, x1_[i], x2_[i]));
-    return cost;
-  }
-  void Linearize(const PoseRt& p, Eigen::Matrix<double, 5, 5>* H, Eigen::Matrix<double, 5, 1>* g) const {
-    const Eigen::Matrix3d& R = p.R;
-    const Eigen::Vector3d& t = p.t;
-    Eigen::Vector3d b1, b2;
-    TangentBasis(t, &b1, &b2);
-    const Eigen::Matrix3d E = Skew(t) * R;
-    // dE for the 5 parameters: rotation (left increment) and translation along the tangent basis.
-    Eigen::Matrix3d dE[5];
-    const Eigen::Matrix3d tx = Skew(t);
-    for (int k = 0; k < 3; ++k) dE[k] = tx * Skew(Eigen::Vector3d::Unit(k)) * R;
-    dE[3] = Skew(b1) * R;
-    dE[4] = Skew(b2) * R;
-    for (int i : idx_) {
-      const Eigen::Vector3d& a = x1_[i];
-      const Eigen::Vector3d& b = x2_[i];
-      const Eigen::Vector3d Ea = E * a, Etb = E.transpose() * b;
-      const double C = b.dot(Ea);
-      const double S = Ea(0) * Ea(0) + Ea(1) * Ea(1) + Etb(0) * Etb(0) + Etb(1) * Etb(1);
-      if (S <= 1e-30) continue;
-      const double inv_sqrt_s = 1.0 / std::sqrt(S);
-      const double r = C * inv_sqrt_s;
-      Eigen::Matrix<double, 5, 1> J;
-      for (int k = 0; k < 5; ++k) {
-        const Eigen::Vector3d dEa = dE[k] * a, dEtb = dE[k].transpose() * b;
-        const double dC = b.dot(dEa);
-        const double dS = 2 * (Ea(0) * dEa(0) + Ea(1) * dEa(1) + Etb(0) * dEtb(0) + Etb(1) * dEtb(1));
-        J(k) = (dC - 0.5 * C * dS / S) * inv_sqrt_s;
-      }
-      const double w = loss_.Weight(r * r);
-      H->noalias() += w * J * J.transpose();
-      g->noalias() += w * r * J;
-    }
-  }
-  bool Step(const PoseRt& p, const Eigen::Matrix<double, 5, 1>& d, PoseRt* out) const {
-    Eigen::Vector3d b1, b2;
-    TangentBasis(p.t, &b1, &b2);
-    out->R = ExpSO3(d.head<3>()) * p.R;
-    out->t = (p.t + d(3) * b1 + d(4) * b2).normalized();
-    return true;
-  }
-
- private:
-  const std::vector<Eigen::Vector3d>& x1_;
-  const std::vector<Eigen::Vector3d>& x2_;
-  const std::vector<int>& idx_;
-  CauchyLoss loss_;
-};
 
 // A hypothesis carries its essential matrix so scoring never recomputes it.
 struct RelModel {
@@ -131,14 +65,6 @@ class RelPoseEstimator {
 };
 
 }  // namespace
-
-double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
-                          const std::vector<int>& idx, double loss_scale, int max_iterations, PoseRt* pose) {
-  LMOptions lm;
-  lm.max_iterations = max_iterations;
-  lm.min_step_norm = 1e-12;
-  return MinimizeLM(SampsonRefinement(x1, x2, idx, loss_scale), pose, lm).final_cost;
-}
 
 // The smaller principal spread (standard deviation, pixels) of the inlier points of one image.
 namespace {
@@ -185,6 +111,109 @@ int ChanceInliers(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eige
   }
   return total / kShuffles;
 }
+
+namespace {
+
+// The inliers of `p`: the correspondences within the Sampson threshold.
+void CollectInliers(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2, const PoseRt& p,
+                    double threshold_sq, std::vector<int>* in) {
+  in->clear();
+  const Eigen::Matrix3d E = EssentialFromPose(p);
+  for (size_t i = 0; i < x1.size(); ++i)
+    if (SampsonSquared(E, x1[i], x2[i]) < threshold_sq) in->push_back(static_cast<int>(i));
+}
+
+// Competing models: a distinct model with nearly the same support (a planar view's twin) is examined with the
+// evidence beyond the Sampson count — cheirality, and the depths' consistency when given — and the confidence
+// learns how plausible the loser stayed.
+// The winner may change (`best`, its inliers `in` collected again); the runner-up and the decision go into `res`.
+void DecideCompetingModels(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
+                           const RelativePoseOptions& opt, const DepthSamples& depth, double th, double threshold_sq,
+                           double focal, PoseRt* best_model, std::vector<int>* in_out, RelativePoseResult* res_out) {
+  PoseRt& best = *best_model;
+  std::vector<int>& in = *in_out;
+  RelativePoseResult& res = *res_out;
+  const auto collect = [&](const PoseRt& p) { CollectInliers(x1, x2, p, threshold_sq, &in); };
+  std::vector<CompetingModel> near;
+  const bool use_depth = !depth.ref.empty() || !depth.query.empty();
+  const auto rivals = FindCompetingRelativeModels(x1, x2, best, in, threshold_sq, th, opt.ransac.seed,
+                                                  opt.competitor_samples, 0.7, 3, use_depth ? &near : nullptr);
+  const double sigma = 1.0 / focal;
+  // The evidence of every model on the same even subsample of ≤ 4000 correspondences (dense sets).
+  const size_t stride = std::max<size_t>(1, x1.size() / 2000);
+  std::vector<Eigen::Vector3d> e1, e2;
+  DepthSamples ed;
+  for (size_t i = 0; i < x1.size(); i += stride) {
+    e1.push_back(x1[i]);
+    e2.push_back(x2[i]);
+    if (!depth.ref.empty()) ed.ref.push_back(i < depth.ref.size() ? depth.ref[i] : 0.0);
+    if (!depth.query.empty()) ed.query.push_back(i < depth.query.size() ? depth.query[i] : 0.0);
+  }
+  auto evaluate = [&](const PoseRt& p) { return EvaluateRelativeModel(e1, e2, p, threshold_sq, ed, sigma); };
+  std::vector<PoseRt> models = {best};
+  std::vector<ModelEvidence> ev = {evaluate(best)};
+  for (const auto& r : rivals) {
+    models.push_back(r.pose);
+    ev.push_back(evaluate(r.pose));
+  }
+  // Depth: every model must have enough depth samples; the near-winner minimal-sample models join (a flat
+  // valley of near-equal Sampson support, where the depths pick the point the matches cannot).
+  bool by_depth = use_depth;
+  for (const auto& e : ev) by_depth &= e.depth_samples >= 10;
+  if (by_depth)
+    for (const auto& m : near)
+      if (m.inliers >= 0.9 * static_cast<double>(in.size())) {
+        models.push_back(m.pose);
+        ev.push_back(evaluate(m.pose));
+      }
+  if (models.size() > 1) {
+    const size_t n_rivals = rivals.size() + 1;  // models [0, n_rivals): RANSAC's winner and the refined rivals
+    auto evidence = [&](const ModelEvidence& e) {
+      return by_depth ? static_cast<double>(e.depth_reprojection_inliers) : static_cast<double>(e.in_front);
+    };
+    // RANSAC's winner stands unless the evidence beyond its score is clearly better elsewhere. (Not the lowest
+    // Sampson score among the refined rivals: a refinement can slide into a model that explains more matches
+    // with many of them behind a camera.)
+    size_t win = 0;
+    // The evidence beyond support overrules it when clearly better (10 % and 2 points), among the refined models
+    // — and, with depth, the near-winner ones.
+    const size_t pool = by_depth ? models.size() : n_rivals;
+    size_t best_ev = win;
+    for (size_t k = 0; k < pool; ++k)
+      if (evidence(ev[k]) > evidence(ev[best_ev])) best_ev = k;
+    const bool overruled = evidence(ev[best_ev]) > 1.1 * evidence(ev[win]) + 2;
+    if (overruled) win = best_ev;
+    // The runner-up: the most plausible refined model that is a different answer, and how plausible it stayed —
+    // exp(−Δ/√e): its evidence deficit in (Poisson) standard deviations of the winner's.
+    size_t runner = models.size();
+    for (size_t k = 0; k < n_rivals; ++k)
+      if (k != win && DistinctModels(models[k], models[win]) &&
+          (runner == models.size() || evidence(ev[k]) > evidence(ev[runner])))
+        runner = k;
+    const double e_win = std::max(evidence(ev[win]), 1.0);
+    res.status.competitors = static_cast<int>(rivals.size());
+    if (runner < models.size()) {
+      const double deficit = std::max(0.0, e_win - evidence(ev[runner]));
+      res.status.runner_up_plausibility = std::exp(-deficit / std::sqrt(e_win));
+      res.status.runner_up_inliers = ev[runner].inliers * static_cast<int>(stride);
+      res.runner_up = Rigid3d(models[runner].R, models[runner].t.normalized());
+    }
+    res.status.decided_by = overruled ? (by_depth ? CompetitorDecision::kDepth : CompetitorDecision::kCheirality)
+                                      : CompetitorDecision::kSupport;
+    if (win != 0) {
+      best = models[win];
+      collect(best);
+      // A refined rival was refined on a subsample of a dense set: once more on all its inliers. (A near-winner
+      // model picked by the depths stays as it is: the Sampson cost would slide it back along the valley.)
+      if (win <= rivals.size() && stride > 1 && in.size() >= 6 && opt.final_refinement) {
+        RefineRelativePose(x1, x2, in, th, opt.refinement_iterations, &best);
+        collect(best);
+      }
+    }
+  }
+}
+
+}  // namespace
 
 RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_ref,
                                         const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,
@@ -235,12 +264,7 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
   res.status.stop = st.stop;
   if (!st.found() || st.num_inliers < 5) return finish(EstimatorOutcome::kNoConsensus);
   std::vector<int> in;
-  auto collect = [&](const PoseRt& p) {
-    in.clear();
-    const Eigen::Matrix3d E = EssentialFromPose(p);
-    for (size_t i = 0; i < x1.size(); ++i)
-      if (SampsonSquared(E, x1[i], x2[i]) < threshold_sq) in.push_back(static_cast<int>(i));
-  };
+  const auto collect = [&](const PoseRt& p) { CollectInliers(x1, x2, p, threshold_sq, &in); };
   collect(best);
   if (opt.final_refinement && in.size() >= 6) {
     // Two rounds: refine on the inliers, re-select them with the refined model, refine again.
@@ -250,88 +274,8 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
       if (in.size() < 6) break;
     }
   }
-  // Competing models: a distinct model with nearly the same support (a planar view's twin) is examined with the
-  // evidence beyond the Sampson count — cheirality, and the depths' consistency when given — and the confidence
-  // learns how plausible the loser stayed.
-  if (opt.competitor_samples > 0 && in.size() >= static_cast<size_t>(opt.min_inliers)) {
-    std::vector<CompetingModel> near;
-    const bool use_depth = !depth.ref.empty() || !depth.query.empty();
-    const auto rivals = FindCompetingRelativeModels(x1, x2, best, in, threshold_sq, th, opt.ransac.seed,
-                                                    opt.competitor_samples, 0.7, 3, use_depth ? &near : nullptr);
-    const double sigma = 1.0 / focal;
-    // The evidence of every model on the same even subsample of ≤ 4000 correspondences (dense sets).
-    const size_t stride = std::max<size_t>(1, x1.size() / 2000);
-    std::vector<Eigen::Vector3d> e1, e2;
-    DepthSamples ed;
-    for (size_t i = 0; i < x1.size(); i += stride) {
-      e1.push_back(x1[i]);
-      e2.push_back(x2[i]);
-      if (!depth.ref.empty()) ed.ref.push_back(i < depth.ref.size() ? depth.ref[i] : 0.0);
-      if (!depth.query.empty()) ed.query.push_back(i < depth.query.size() ? depth.query[i] : 0.0);
-    }
-    auto evaluate = [&](const PoseRt& p) { return EvaluateRelativeModel(e1, e2, p, threshold_sq, ed, sigma); };
-    std::vector<PoseRt> models = {best};
-    std::vector<ModelEvidence> ev = {evaluate(best)};
-    for (const auto& r : rivals) {
-      models.push_back(r.pose);
-      ev.push_back(evaluate(r.pose));
-    }
-    // Depth: every model must have enough depth samples; the near-winner minimal-sample models join (a flat
-    // valley of near-equal Sampson support, where the depths pick the point the matches cannot).
-    bool by_depth = use_depth;
-    for (const auto& e : ev) by_depth &= e.depth_samples >= 10;
-    if (by_depth)
-      for (const auto& m : near)
-        if (m.inliers >= 0.9 * static_cast<double>(in.size())) {
-          models.push_back(m.pose);
-          ev.push_back(evaluate(m.pose));
-        }
-    if (models.size() > 1) {
-      const size_t n_rivals = rivals.size() + 1;  // models [0, n_rivals): RANSAC's winner and the refined rivals
-      auto evidence = [&](const ModelEvidence& e) {
-        return by_depth ? static_cast<double>(e.depth_reprojection_inliers) : static_cast<double>(e.in_front);
-      };
-      // RANSAC's winner stands unless the evidence beyond its score is clearly better elsewhere. (Not the lowest
-      // Sampson score among the refined rivals: a refinement can slide into a model that explains more matches
-      // with many of them behind a camera.)
-      size_t win = 0;
-      // The evidence beyond support overrules it when clearly better (10 % and 2 points), among the refined models
-      // — and, with depth, the near-winner ones.
-      const size_t pool = by_depth ? models.size() : n_rivals;
-      size_t best_ev = win;
-      for (size_t k = 0; k < pool; ++k)
-        if (evidence(ev[k]) > evidence(ev[best_ev])) best_ev = k;
-      const bool overruled = evidence(ev[best_ev]) > 1.1 * evidence(ev[win]) + 2;
-      if (overruled) win = best_ev;
-      // The runner-up: the most plausible refined model that is a different answer, and how plausible it stayed —
-      // exp(−Δ/√e): its evidence deficit in (Poisson) standard deviations of the winner's.
-      size_t runner = models.size();
-      for (size_t k = 0; k < n_rivals; ++k)
-        if (k != win && DistinctModels(models[k], models[win]) &&
-            (runner == models.size() || evidence(ev[k]) > evidence(ev[runner])))
-          runner = k;
-      const double e_win = std::max(evidence(ev[win]), 1.0);
-      res.status.competitors = static_cast<int>(rivals.size());
-      if (runner < models.size()) {
-        const double deficit = std::max(0.0, e_win - evidence(ev[runner]));
-        res.status.runner_up_plausibility = std::exp(-deficit / std::sqrt(e_win));
-        res.status.runner_up_inliers = ev[runner].inliers * static_cast<int>(stride);
-        res.runner_up = Rigid3d(models[runner].R, models[runner].t.normalized());
-      }
-      res.status.decided_by = overruled ? (by_depth ? CompetitorDecision::kDepth : CompetitorDecision::kCheirality)
-                                        : CompetitorDecision::kSupport;
-      if (win != 0) {
-        best = models[win];
-        collect(best);
-        // A refined rival was refined on a subsample of a dense set: once more on all its inliers. (A near-winner
-        // model picked by the depths stays as it is: the Sampson cost would slide it back along the valley.)
-        if (win <= rivals.size() && stride > 1 && in.size() >= 6 && opt.final_refinement) {
-          RefineRelativePose(x1, x2, in, th, opt.refinement_iterations, &best);
-          collect(best);
-        }
-      }
-    }
-  }
+  if (opt.competitor_samples > 0 && in.size() >= static_cast<size_t>(opt.min_inliers))
+    DecideCompetingModels(x1, x2, opt, depth, th, threshold_sq, focal, &best, &in, &res);
   // Keep the inliers in front of both cameras (cheirality on the refined pose).
   int n_in = 0;
   for (int i : in) {

@@ -13,6 +13,7 @@
 #include "freeloc/geometry/essential.h"
 #include "freeloc/geometry/estimator_status.h"
 #include "freeloc/geometry/ransac.h"
+#include "freeloc/geometry/refine_relative_pose.h"
 
 namespace freeloc::geometry {
 
@@ -44,11 +45,6 @@ RelativePoseResult EstimateRelativePose(const std::vector<Eigen::Vector2d>& px_r
                                         const std::vector<Eigen::Vector2d>& px_query, const Camera& ref,
                                         const Camera& query, const RelativePoseOptions& options = {},
                                         const DepthSamples& depth = {});
-
-// Robust (Cauchy, scale `loss_scale` in normalised units) Levenberg–Marquardt refinement of (R, unit t) on the
-// Sampson error over the correspondences `idx`. Returns the final cost.
-double RefineRelativePose(const std::vector<Eigen::Vector3d>& x1, const std::vector<Eigen::Vector3d>& x2,
-                          const std::vector<int>& idx, double loss_scale, int max_iterations, PoseRt* pose);
 
 // Degenerate support: the inliers lie on (almost) a line or a single pixel in either image (a 2-pixel band).
 bool InliersDegenerate(const std::vector<Eigen::Vector2d>& px_ref, const std::vector<Eigen::Vector2d>& px_query,

@@ -1,5 +1,5 @@
 // The metric scale of a window of cameras from every depth map's anchoring at once (the Multi Frame track,
-// pipeline/multi_frame.h). A window is an evaluated camera q and the frames j before it, each relocalized against a
+// pose/window_fusion.h). A window is an evaluated camera q and the frames j before it, each relocalized against a
 // reference camera and related to q. Directions are what the images give well: each camera's ray towards the
 // reference centre, and each frame's direction from q. Lengths come from depth maps, each of which may be off by its
 // own global factor (a monocular map: ±20 %): a frame's distance to the reference as the reference map and as its own

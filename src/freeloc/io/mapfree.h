@@ -1,4 +1,4 @@
-// The Map-free Relocalization dataset layout (spec/mapfree-protocol.md §1):
+// The Map-free Relocalization dataset layout (docs/formats.md "Map-free dataset"):
 //   <root>/<split>/sNNNNN/{intrinsics.txt, poses.txt, seq0/frame_00000.jpg, seq1/frame_XXXXX.jpg, …}
 // plus provided depth maps `frame_XXXXX.<suffix>.png` (uint16 mm, 0 invalid) and precomputed correspondences
 // `correspondences_<name>.npz`. This is the reader the pipeline uses; the evaluator parses the GT files with the
@@ -51,7 +51,7 @@ struct MapfreeScene {
   // Precomputed correspondences (x_ref, y_ref, x_query, y_query) per query, rows in `queries` order, NaN padding
   // dropped. `name` is SIFT, SG, LoFTR or any other suffix of correspondences_<name>.npz.
   std::vector<std::vector<Eigen::Vector4d>> LoadCorrespondences(const std::string& name) const;
-  // The Multi Frame track's device tracking poses (spec/mapfree-multiframe.md §3).
+  // The Multi Frame track's device tracking poses (docs/pipeline.md "Multi Frame").
   std::string DevicePosesPath() const { return dir + "/poses_device.txt"; }
 
   // Reads intrinsics.txt and poses.txt of one scene folder. Throws freeloc::Error naming the file and line.
@@ -63,7 +63,7 @@ std::string ResolveSplitDir(const std::string& root, const std::string& split);
 // Scene folder names (sNNNNN…) in sorted order; `only` restricts to the listed names (error if one is absent).
 std::vector<std::string> ListScenes(const std::string& split_dir, const std::vector<std::string>& only = {});
 
-// The Multi Frame track (spec/mapfree-multiframe.md §2): the frame number of "seq1/frame_00011.jpg" (11); -1 when
+// The Multi Frame track (docs/pipeline.md "Multi Frame"): the frame number of "seq1/frame_00011.jpg" (11); -1 when
 // the file name is not frame_<digits>.<ext>.
 int64_t FrameNumber(const std::string& name);
 

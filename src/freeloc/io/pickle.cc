@@ -436,240 +436,256 @@ class Unpickler {
       FREELOC_CHECK(p_ < end_, what_ << ": pickle stream ends without STOP; the file is truncated");
       const size_t pos = static_cast<size_t>(p_ - begin_);
       const uint8_t op = *p_++;
-      switch (op) {
-        case 0x80:
-          Need(1);
-          p_ += 1;
-          break;  // PROTO
-        case 0x95:
-          Need(8);
-          p_ += 8;
-          break;  // FRAME: framing is transparent here
-        case '.': {
-          FREELOC_CHECK(!stack_.empty(), what_ << ": pickle STOP with an empty stack; the file is damaged");
-          PyRef root = stack_.back();
-          CheckShape(root);
-          ok_ = true;
-          return root;
-        }
-        case '(':
-          FREELOC_CHECK(marks_.size() < limits_.max_objects,
-                        what_ << ": pickle opens more than " << limits_.max_objects << " MARKs; refused");
-          marks_.push_back(stack_.size());
-          break;
-        case '0': Pop(); break;
-        case '1': PopMark(); break;
-        case '2': Push(Top()); break;
-        case 'N': Push(PyObject::None()); break;
-        case 0x88: Push(PyObject::Bool(true)); break;
-        case 0x89: Push(PyObject::Bool(false)); break;
-        case 'J': {
-          Need(4);
-          int32_t v;
-          std::memcpy(&v, p_, 4);
-          p_ += 4;
-          Push(PyObject::Int(v));
-          break;
-        }
-        case 'K': {
-          Need(1);
-          Push(PyObject::Int(*p_++));
-          break;
-        }
-        case 'M': {
-          Need(2);
-          Push(PyObject::Int(p_[0] | (p_[1] << 8)));
-          p_ += 2;
-          break;
-        }
-        case 0x8a: {
-          Need(1);
-          const size_t n = *p_++;
-          PushLong(n);
-          break;
-        }
-        case 0x8b: {
-          const size_t n = ReadU32();
-          PushLong(n);
-          break;
-        }
-        case 'G': {
-          Need(8);
-          uint64_t bits = 0;
-          for (int k = 0; k < 8; ++k) bits = (bits << 8) | p_[k];  // big-endian
-          p_ += 8;
-          double v;
-          std::memcpy(&v, &bits, 8);
-          Push(PyObject::Float(v));
-          break;
-        }
-        case 'X': PushStr(ReadU32(), PyObject::Kind::kStr); break;
-        case 0x8c: {
-          Need(1);
-          const size_t n = *p_++;
-          PushStr(n, PyObject::Kind::kStr);
-          break;
-        }
-        case 0x8d: PushStr(ReadU64(), PyObject::Kind::kStr); break;
-        case 'T': PushStr(ReadU32(), PyObject::Kind::kStr); break;  // py2 str, decoded as text
-        case 'U': {
-          Need(1);
-          const size_t n = *p_++;
-          PushStr(n, PyObject::Kind::kStr);
-          break;
-        }
-        case 'B': PushStr(ReadU32(), PyObject::Kind::kBytes); break;
-        case 'C': {
-          Need(1);
-          const size_t n = *p_++;
-          PushStr(n, PyObject::Kind::kBytes);
-          break;
-        }
-        case 0x8e: PushStr(ReadU64(), PyObject::Kind::kBytes); break;
-        case 0x96: PushStr(ReadU64(), PyObject::Kind::kBytes); break;
-        case ')': Push(NewSeq(PyObject::Kind::kTuple, {})); break;
-        case 't': Push(NewSeq(PyObject::Kind::kTuple, PopMark())); break;
-        case 0x85: {
-          auto a = Pop();
-          Push(NewSeq(PyObject::Kind::kTuple, {a}));
-          break;
-        }
-        case 0x86: {
-          auto b = Pop();
-          auto a = Pop();
-          Push(NewSeq(PyObject::Kind::kTuple, {a, b}));
-          break;
-        }
-        case 0x87: {
-          auto c = Pop();
-          auto b = Pop();
-          auto a = Pop();
-          Push(NewSeq(PyObject::Kind::kTuple, {a, b, c}));
-          break;
-        }
-        case ']': Push(NewSeq(PyObject::Kind::kList, {})); break;
-        case 'l': Push(NewSeq(PyObject::Kind::kList, PopMark())); break;
-        case 'a': {
-          auto v = Pop();
-          Append(Top(), {v}, pos);
-          break;
-        }
-        case 'e': {
-          auto items = PopMark();
-          Append(Top(), items, pos);
-          break;
-        }
-        case 0x8f: Push(NewSeq(PyObject::Kind::kSet, {})); break;
-        case 0x90: {
-          auto items = PopMark();
-          Append(Top(), items, pos);
-          break;
-        }
-        case 0x91: Push(NewSeq(PyObject::Kind::kSet, PopMark())); break;
-        case '}': {
-          auto d = std::make_shared<PyObject>();
-          d->kind = PyObject::Kind::kDict;
-          Push(Track(d));
-          break;
-        }
-        case 'd': {
-          auto items = PopMark();
-          auto d = std::make_shared<PyObject>();
-          d->kind = PyObject::Kind::kDict;
-          Track(d);
-          SetItems(d, items, pos);
-          Push(d);
-          break;
-        }
-        case 's': {
-          auto v = Pop();
-          auto k = Pop();
-          SetItems(Top(), {k, v}, pos);
-          break;
-        }
-        case 'u': {
-          auto items = PopMark();
-          SetItems(Top(), items, pos);
-          break;
-        }
-        case 'c': {
-          const std::string module = ReadLine();
-          const std::string name = ReadLine();
-          Push(NewGlobal(module, name, pos));
-          break;
-        }
-        case 0x93: {
-          auto name = Pop();
-          auto module = Pop();
-          FREELOC_CHECK(module->is(PyObject::Kind::kStr) && name->is(PyObject::Kind::kStr),
-                        what_ << ": STACK_GLOBAL at byte " << pos << " needs two strings; the file is damaged");
-          Push(NewGlobal(module->s, name->s, pos));
-          break;
-        }
-        case 'R': {
-          auto args = Pop();
-          auto callable = Pop();
-          Push(Track(Call(callable, args, pos)));
-          break;
-        }
-        case 0x81: {
-          auto args = Pop();
-          auto cls = Pop();
-          Push(Track(Call(cls, args, pos)));
-          break;
-        }
-        case 0x92: {
-          Pop();
-          auto args = Pop();
-          auto cls = Pop();
-          Push(Track(Call(cls, args, pos)));
-          break;
-        }  // kwargs dropped
-        case 'b': {
-          auto state = Pop();
-          auto obj = Top();
-          if (obj->is(PyObject::Kind::kObject) || obj->is(PyObject::Kind::kDict)) {
-            obj->state = state;
-          }  // BUILD on a tensor (e.g. python-level attributes) or other value: nothing to keep.
-          break;
-        }
-        case 'q': {
-          Need(1);
-          Memo(*p_++);
-          break;
-        }
-        case 'r': {
-          const size_t k = ReadU32();
-          Memo(k);
-          break;
-        }
-        case 0x94: {
-          const size_t k = memo_.size();
-          Memo(k);
-          break;
-        }
-        case 'h': {
-          Need(1);
-          Push(MemoGet(*p_++, pos));
-          break;
-        }
-        case 'j': Push(MemoGet(ReadU32(), pos)); break;
-        case 'Q': {
-          auto pid = Pop();
-          FREELOC_CHECK(persistent_load_, what_ << ": persistent id at byte " << pos << " but no loader is set");
-          Push(Track(persistent_load_(pid)));
-          break;
-        }
-        default:
-          FREELOC_THROW(what_ << ": pickle opcode 0x" << std::hex << static_cast<int>(op) << std::dec << " ("
-                              << OpcodeName(op) << ") at byte " << pos
-                              << " is outside the subset freeloc reads; re-save the checkpoint with a current "
-                                 "torch.save (which writes protocol 2)");
+      if (op == '.') {
+        FREELOC_CHECK(!stack_.empty(), what_ << ": pickle STOP with an empty stack; the file is damaged");
+        PyRef root = stack_.back();
+        CheckShape(root);
+        ok_ = true;
+        return root;
       }
+      if (ScalarOp(op) || ContainerOp(op, pos) || ObjectOp(op, pos)) continue;
+      FREELOC_THROW(what_ << ": pickle opcode 0x" << std::hex << static_cast<int>(op) << std::dec << " ("
+                          << OpcodeName(op) << ") at byte " << pos
+                          << " is outside the subset freeloc reads; re-save the checkpoint with a current "
+                             "torch.save (which writes protocol 2)");
     }
   }
 
  private:
+  // Framing, constants, numbers, strings and bytes. False: not one of these opcodes.
+  bool ScalarOp(uint8_t op) {
+    switch (op) {
+      case 0x80:
+        Need(1);
+        p_ += 1;
+        return true;  // PROTO
+      case 0x95:
+        Need(8);
+        p_ += 8;
+        return true;  // FRAME: framing is transparent here
+      case 'N': Push(PyObject::None()); return true;
+      case 0x88: Push(PyObject::Bool(true)); return true;
+      case 0x89: Push(PyObject::Bool(false)); return true;
+      case 'J': {
+        Need(4);
+        int32_t v;
+        std::memcpy(&v, p_, 4);
+        p_ += 4;
+        Push(PyObject::Int(v));
+        return true;
+      }
+      case 'K': {
+        Need(1);
+        Push(PyObject::Int(*p_++));
+        return true;
+      }
+      case 'M': {
+        Need(2);
+        Push(PyObject::Int(p_[0] | (p_[1] << 8)));
+        p_ += 2;
+        return true;
+      }
+      case 0x8a: {
+        Need(1);
+        const size_t n = *p_++;
+        PushLong(n);
+        return true;
+      }
+      case 0x8b: {
+        const size_t n = ReadU32();
+        PushLong(n);
+        return true;
+      }
+      case 'G': {
+        Need(8);
+        uint64_t bits = 0;
+        for (int k = 0; k < 8; ++k) bits = (bits << 8) | p_[k];  // big-endian
+        p_ += 8;
+        double v;
+        std::memcpy(&v, &bits, 8);
+        Push(PyObject::Float(v));
+        return true;
+      }
+      case 'X': PushStr(ReadU32(), PyObject::Kind::kStr); return true;
+      case 0x8c: {
+        Need(1);
+        const size_t n = *p_++;
+        PushStr(n, PyObject::Kind::kStr);
+        return true;
+      }
+      case 0x8d: PushStr(ReadU64(), PyObject::Kind::kStr); return true;
+      case 'T': PushStr(ReadU32(), PyObject::Kind::kStr); return true;  // py2 str, decoded as text
+      case 'U': {
+        Need(1);
+        const size_t n = *p_++;
+        PushStr(n, PyObject::Kind::kStr);
+        return true;
+      }
+      case 'B': PushStr(ReadU32(), PyObject::Kind::kBytes); return true;
+      case 'C': {
+        Need(1);
+        const size_t n = *p_++;
+        PushStr(n, PyObject::Kind::kBytes);
+        return true;
+      }
+      case 0x8e: PushStr(ReadU64(), PyObject::Kind::kBytes); return true;
+      case 0x96: PushStr(ReadU64(), PyObject::Kind::kBytes); return true;
+      default: return false;
+    }
+  }
+  // Marks and the stack, tuples, lists, sets and dicts.
+  bool ContainerOp(uint8_t op, size_t pos) {
+    switch (op) {
+      case '(':
+        FREELOC_CHECK(marks_.size() < limits_.max_objects,
+                      what_ << ": pickle opens more than " << limits_.max_objects << " MARKs; refused");
+        marks_.push_back(stack_.size());
+        return true;
+      case '0': Pop(); return true;
+      case '1': PopMark(); return true;
+      case '2': Push(Top()); return true;
+      case ')': Push(NewSeq(PyObject::Kind::kTuple, {})); return true;
+      case 't': Push(NewSeq(PyObject::Kind::kTuple, PopMark())); return true;
+      case 0x85: {
+        auto a = Pop();
+        Push(NewSeq(PyObject::Kind::kTuple, {a}));
+        return true;
+      }
+      case 0x86: {
+        auto b = Pop();
+        auto a = Pop();
+        Push(NewSeq(PyObject::Kind::kTuple, {a, b}));
+        return true;
+      }
+      case 0x87: {
+        auto c = Pop();
+        auto b = Pop();
+        auto a = Pop();
+        Push(NewSeq(PyObject::Kind::kTuple, {a, b, c}));
+        return true;
+      }
+      case ']': Push(NewSeq(PyObject::Kind::kList, {})); return true;
+      case 'l': Push(NewSeq(PyObject::Kind::kList, PopMark())); return true;
+      case 'a': {
+        auto v = Pop();
+        Append(Top(), {v}, pos);
+        return true;
+      }
+      case 'e': {
+        auto items = PopMark();
+        Append(Top(), items, pos);
+        return true;
+      }
+      case 0x8f: Push(NewSeq(PyObject::Kind::kSet, {})); return true;
+      case 0x90: {
+        auto items = PopMark();
+        Append(Top(), items, pos);
+        return true;
+      }
+      case 0x91: Push(NewSeq(PyObject::Kind::kSet, PopMark())); return true;
+      case '}': {
+        auto d = std::make_shared<PyObject>();
+        d->kind = PyObject::Kind::kDict;
+        Push(Track(d));
+        return true;
+      }
+      case 'd': {
+        auto items = PopMark();
+        auto d = std::make_shared<PyObject>();
+        d->kind = PyObject::Kind::kDict;
+        Track(d);
+        SetItems(d, items, pos);
+        Push(d);
+        return true;
+      }
+      case 's': {
+        auto v = Pop();
+        auto k = Pop();
+        SetItems(Top(), {k, v}, pos);
+        return true;
+      }
+      case 'u': {
+        auto items = PopMark();
+        SetItems(Top(), items, pos);
+        return true;
+      }
+      default: return false;
+    }
+  }
+  // Globals, calls, BUILD, the memo and persistent ids.
+  bool ObjectOp(uint8_t op, size_t pos) {
+    switch (op) {
+      case 'c': {
+        const std::string module = ReadLine();
+        const std::string name = ReadLine();
+        Push(NewGlobal(module, name, pos));
+        return true;
+      }
+      case 0x93: {
+        auto name = Pop();
+        auto module = Pop();
+        FREELOC_CHECK(module->is(PyObject::Kind::kStr) && name->is(PyObject::Kind::kStr),
+                      what_ << ": STACK_GLOBAL at byte " << pos << " needs two strings; the file is damaged");
+        Push(NewGlobal(module->s, name->s, pos));
+        return true;
+      }
+      case 'R': {
+        auto args = Pop();
+        auto callable = Pop();
+        Push(Track(Call(callable, args, pos)));
+        return true;
+      }
+      case 0x81: {
+        auto args = Pop();
+        auto cls = Pop();
+        Push(Track(Call(cls, args, pos)));
+        return true;
+      }
+      case 0x92: {
+        Pop();
+        auto args = Pop();
+        auto cls = Pop();
+        Push(Track(Call(cls, args, pos)));
+        return true;
+      }  // kwargs dropped
+      case 'b': {
+        auto state = Pop();
+        auto obj = Top();
+        if (obj->is(PyObject::Kind::kObject) || obj->is(PyObject::Kind::kDict)) {
+          obj->state = state;
+        }  // BUILD on a tensor (e.g. python-level attributes) or other value: nothing to keep.
+        return true;
+      }
+      case 'q': {
+        Need(1);
+        Memo(*p_++);
+        return true;
+      }
+      case 'r': {
+        const size_t k = ReadU32();
+        Memo(k);
+        return true;
+      }
+      case 0x94: {
+        const size_t k = memo_.size();
+        Memo(k);
+        return true;
+      }
+      case 'h': {
+        Need(1);
+        Push(MemoGet(*p_++, pos));
+        return true;
+      }
+      case 'j': Push(MemoGet(ReadU32(), pos)); return true;
+      case 'Q': {
+        auto pid = Pop();
+        FREELOC_CHECK(persistent_load_, what_ << ": persistent id at byte " << pos << " but no loader is set");
+        Push(Track(persistent_load_(pid)));
+        return true;
+      }
+      default: return false;
+    }
+  }
   void Need(size_t n) {
     FREELOC_CHECK(static_cast<size_t>(end_ - p_) >= n, what_ << ": pickle stream truncated at byte " << (p_ - begin_));
   }

@@ -1,4 +1,4 @@
-// Map-free submissions (spec/mapfree-protocol.md §2): a ZIP with one `pose_sNNNNN.txt` per scene at its root, lines
+// Map-free submissions (docs/formats.md "Submissions"): a ZIP with one `pose_sNNNNN.txt` per scene at its root, lines
 // `seq1/frame_XXXXX.jpg qw qx qy qz tx ty tz confidence` (query_from_ref, w-first unit quaternion, metres).
 //   * Writer: exact official format, shortest round-trip numbers, deterministic bytes (sorted entries, fixed
 //     timestamps and attributes), atomic (temporary file in the same folder, then rename).

@@ -5,7 +5,7 @@
 
 namespace freeloc::io {
 
-// The benchmark's tracks (spec/mapfree-multiframe.md): single-frame — every query alone, scored on every 5th frame;
+// The benchmark's tracks (docs/pipeline.md "Multi Frame"): single-frame — every query alone, scored on every 5th frame;
 // multi-frame — each evaluated frame (linear positions 9, 19, … of the sorted seq1 frames) with the 8 frames before it.
 enum class Track { kSingleFrame, kMultiFrame };
 

@@ -1,4 +1,4 @@
-// Fast reciprocal NN (mast3r/fast_nn.py fast_reciprocal_NNs, naver/mast3r f5209af; spec/mast3r.md §4).
+// Fast reciprocal NN (mast3r/fast_nn.py fast_reciprocal_NNs, naver/mast3r f5209af).
 //
 // Exactness of the screened lookups. For a query q and database points x_j let s_j = q·x_j (real numbers) and ŝ_j
 // the kernel's screened value with |ŝ_j − s_j| ≤ ε(q) for every j (bounds below). Let m = max ŝ_j. The exact
@@ -712,7 +712,8 @@ void Database::ScreenFloatAll(const std::vector<const float*>& queries, int nt,
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// The iteration (spec/mast3r.md §4.3): per seed the current pair (p1, p2), the previous one (o1, o2), active.
+// The iteration (naver/mast3r mast3r/fast_nn.py): per seed the current pair (p1, p2), the previous one (o1, o2),
+// active.
 
 std::vector<PixelMatch> Run(const DescriptorView& v1, const DescriptorView& v2, const FastNnOptions& o,
                             FastNnStats* stats_out, bool exhaustive) {

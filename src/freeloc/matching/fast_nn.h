@@ -1,5 +1,5 @@
 // MASt3R's fast reciprocal nearest neighbours on dense descriptors (naver/mast3r mast3r/fast_nn.py
-// fast_reciprocal_NNs; spec/mast3r.md §4): seeds on a subsample grid of view 1, alternate NN₂ / NN₁ lookups until
+// fast_reciprocal_NNs): seeds on a subsample grid of view 1, alternate NN₂ / NN₁ lookups until
 // each seed holds a mutual nearest-neighbour pair (at most 10 rounds; unconverged seeds dropped), deduplicated and
 // sorted by (view-1 index, view-2 index) — upstream's output, row for row.
 //
@@ -58,7 +58,7 @@ std::vector<PixelMatch> FastReciprocalNN(const DescriptorView& view1, const Desc
 std::vector<PixelMatch> FastReciprocalNNBruteForce(const DescriptorView& view1, const DescriptorView& view2,
                                                    const FastNnOptions& options = {}, FastNnStats* stats = nullptr);
 
-// The filters applied after matching (spec/mast3r.md §4.6), order preserved: a match is kept iff
+// The filters applied after matching (naver/mast3r mast3r/fast_nn.py), order preserved: a match is kept iff
 // border ≤ x < W − border and border ≤ y < H − border in both images (each view's own size; upstream's demo: 3), and
 // min(conf1, conf2) ≥ min_conf (visloc: 1.001; 0 keeps everything).
 struct DescriptorMatchFilter {

@@ -1,6 +1,6 @@
 // MASt3R's fast reciprocal NN against upstream (../shared/fixtures/mast3r: every array of every case, exact) and
 // against its own exhaustive reference on seeded random descriptors (odd sizes, ties, NaN pixels, every kernel and
-// thread count), plus the 10-round limit (spec/mast3r.md §4.10 chain).
+// thread count), plus the 10-round limit (naver/mast3r mast3r/fast_nn.py).
 #include "freeloc/matching/fast_nn.h"
 
 #include <gtest/gtest.h>
@@ -158,8 +158,8 @@ TEST(FastNn, EqualsExhaustiveReferenceOnRandomDescriptors) {
   }
 }
 
-// spec/mast3r.md §4.10: a chain of K links after the seed converges in round K + 1; K = 10 exceeds the limit and the
-// seed is dropped.
+// naver/mast3r mast3r/fast_nn.py: a chain of K links after the seed converges in round K + 1; K = 10 exceeds the limit
+// and the seed is dropped.
 TEST(FastNn, TenRoundLimitDropsTheSeed) {
   for (int K : {9, 10}) {
     const int H = 33, W = 64, D = 3;

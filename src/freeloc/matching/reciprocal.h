@@ -1,5 +1,5 @@
 // Reciprocal nearest neighbours in 3D between two pointmaps (dust3r/utils/geometry.py find_reciprocal_matches,
-// spec/dust3r.md §8): pixel a of view 1 and pixel b of view 2 match iff each is the other's exact nearest
+// naver/dust3r): pixel a of view 1 and pixel b of view 2 match iff each is the other's exact nearest
 // neighbour, distances in double from the float32 points. Matches come out in the reference utility's order
 // (row-major over view 2's valid pixels) with their confidences. KD-trees (nanoflann), optional subsampling of
 // view 2 on a grid, deterministic for the same input.

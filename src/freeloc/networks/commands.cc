@@ -54,7 +54,8 @@ int Pointmap(const PointmapCommand& o) {
   }
   std::string match_info;
   if (o.matches && mast3r) {
-    // spec/mast3r.md §4: raw fast reciprocal NN (upstream order, no filter), then the border / desc_conf filter.
+    // naver/mast3r mast3r/fast_nn.py: raw fast reciprocal NN (upstream order, no filter), then the border / desc_conf
+    // filter.
     matching::FastNnOptions fo;
     fo.subsample = o.subsample > 0 ? o.subsample : 8;
     fo.threads = rt.threads;

@@ -38,7 +38,7 @@ class CachingDust3r {
   void Prime(const vision::Dust3rInput& ref);
   // The last pair run again swapped — its query as view 1, its reference as view 2, both encodings reused — with
   // only head 1: pts1/conf1 are the query's points in the query's own camera frame (MASt3R's query depth,
-  // spec/mast3r.md §5.5). Throws before any Run.
+  // docs/pipeline.md "The MASt3R routes"). Throws before any Run.
   matching::PairPointmaps RunSwappedLast();
   void Clear();
   int encoded() const { return encoded_; }  // reference-side encoder passes run

@@ -1,6 +1,6 @@
 // DUSt3R (AsymmetricCroCo3DStereo, naver/dust3r) inference in LibTorch: siamese ViT encoder with RoPE2D, two
 // decoders updated simultaneously with cross-attention, two DPT heads, pts3d/conf postprocessing
-// (spec/dust3r.md §4). The same class runs MASt3R (AsymmetricMASt3R, naver/mast3r; spec/mast3r.md §2): DUSt3R's
+// (naver/dust3r). The same class runs MASt3R (AsymmetricMASt3R, naver/mast3r): DUSt3R's
 // trunk plus the 'catmlp+dpt' local-feature head (per-token MLP on [encoder ‖ decoder] tokens, pixel-shuffled to
 // dense unit descriptors and their confidence), chosen from the checkpoint. Native portrait and mixed shapes; different
 // token counts per view. The encoder output of a view can be cached and reused against many others (`Encode` once,
@@ -38,7 +38,7 @@ struct Dust3rPrediction {
 };
 
 // What a decode computes (both decoders always run: they cross-attend at every block; each head reads only its own
-// decoder, so a route pays only for the outputs it uses — spec/mast3r.md §5.8).
+// decoder, so a route pays only for the outputs it uses — docs/pipeline.md "The MASt3R routes").
 struct DecodeOutputs {
   bool view1 = true;        // head 1: pts3d_1, conf_1 (and desc_1 with descriptors)
   bool view2 = true;        // head 2: pts3d_2, conf_2 (and desc_2)

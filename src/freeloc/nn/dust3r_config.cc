@@ -202,7 +202,7 @@ Dust3rConfig MakeDust3rConfig(const std::map<std::string, io::TensorView>& sd,
                   "DUSt3R: pos_embed '" << it->second << "' is not supported (only RoPE<base>, as released)");
     c.rope_base = std::stod(it->second.substr(4));
   }
-  // The head: DUSt3R's 'dpt' (output 'pts3d') or MASt3R's 'catmlp+dpt' (output 'pts3d+desc<D>', spec/mast3r.md §1).
+  // The head: DUSt3R's 'dpt' (output 'pts3d') or MASt3R's 'catmlp+dpt' (output 'pts3d+desc<D>', naver/mast3r).
   const bool has_local = sd.count("downstream_head1.head_local_features.fc1.weight") > 0;
   std::string head_type = has_local ? "catmlp+dpt" : "dpt";
   if (auto it = kw.find("head_type"); it != kw.end()) head_type = it->second;

@@ -1,4 +1,4 @@
-// DUSt3R / MASt3R model configuration (AsymmetricCroCo3DStereo, spec/dust3r.md §1; AsymmetricMASt3R, spec/mast3r.md
+// DUSt3R / MASt3R model configuration (AsymmetricCroCo3DStereo, naver/dust3r; AsymmetricMASt3R, naver/mast3r
 // §1): dimensions, depths, DPT and MLP widths come from tensor shapes; head counts, RoPE base, modes, the descriptor
 // size D and two_confs from the constructor arguments found with the weights — the official .pth's `args.model`
 // string, an HF config.json, or the fixture's config.json (`constructor_args`).

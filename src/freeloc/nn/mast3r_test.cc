@@ -175,7 +175,7 @@ TEST(Mast3r, TwoConfsFalseVariant) {
 }
 
 // A missing desc_conf_mode falls back to conf_mode ('exp', 1, inf): desc_conf = 1 + exp(x), i.e. the stored
-// exp(x) + 1 (spec/mast3r.md pitfall 3).
+// exp(x) + 1 (naver/mast3r).
 TEST(Mast3r, DescConfModeFallsBackToConfMode) {
   const io::SafetensorsFile w = io::SafetensorsFile::Open(Own("mast3r/model.safetensors"));
   std::map<std::string, io::TensorView> sd;

@@ -1,4 +1,4 @@
-// Metric3D v2 (YvanYin/Metric3D: DinoVisionTransformer with 4 registers + RAFTDepthNormalDPT5, spec/metric3d.md) in
+// Metric3D v2 (YvanYin/Metric3D: DinoVisionTransformer with 4 registers + RAFTDepthNormalDPT5) in
 // LibTorch: metric depth, confidence and surface normals from one image and its intrinsics. The ViT variants
 // (vit_small, vit_large: the final norm fed four times; vit_giant2: raw outputs of evenly spaced blocks, SwiGLU)
 // are read from the checkpoint's shapes and the config. Torch-free interface.

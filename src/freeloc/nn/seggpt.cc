@@ -229,7 +229,7 @@ struct SegGptModel::Impl {
 
 namespace {
 
-// HF (BAAI/seggpt-vit-large) names → original names (spec/seggpt.md §3, fixtures/seggpt/README §8).
+// HF (BAAI/seggpt-vit-large) names → original names (baaivision/Painter SegGPT, fixtures/seggpt/README §8).
 std::string FromHfName(const std::string& n) {
   static const std::vector<std::pair<std::string, std::string>> kPrefix = {
       {"model.embeddings.patch_embeddings.projection.", "patch_embed.proj."},

@@ -1,4 +1,4 @@
-// SegGPT (baaivision/Painter models_seggpt.SegGPT, spec/seggpt.md) in LibTorch: shared patch embedding of the image
+// SegGPT (baaivision/Painter models_seggpt.SegGPT) in LibTorch: shared patch embedding of the image
 // and mask streams, mask token on the target half of the mask stream, segment/type tokens, bicubic size-based
 // resize of the absolute position embedding, global attention with decomposed relative positions (unscaled q),
 // the original feature-ensemble schedule, stream merge after `merge_index`, the shared final norm at the

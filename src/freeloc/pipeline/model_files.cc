@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <sstream>
 
+#include "freeloc/core/env.h"
+
 namespace freeloc::pipeline {
 
 const char* NetworkName(Network n) {
@@ -44,7 +46,7 @@ std::vector<std::string> PublishedNames(Network n) {
 std::vector<std::string> ModelDirs(const std::string& models_dir) {
   std::vector<std::string> dirs;
   if (!models_dir.empty()) dirs.push_back(models_dir);
-  if (const char* env = std::getenv("FREELOC_MODELS")) {
+  if (const char* env = EnvSwitch("FREELOC_MODELS")) {
     std::stringstream ss(env);
     for (std::string d; std::getline(ss, d, ':');)
       if (!d.empty()) dirs.push_back(d);

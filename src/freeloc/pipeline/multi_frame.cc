@@ -1,552 +1,14 @@
+// The Multi Frame track's window (multi_frame.h): every frame through the Relocalizer, the relations to the
+// evaluated frame, then the fusion of pose/window_fusion.h.
 #include "freeloc/pipeline/multi_frame.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
-#include <cmath>
 
 #include "freeloc/core/error.h"
-#include "freeloc/core/logging.h"
-#include "freeloc/geometry/window_scale.h"
-#include "freeloc/pipeline/confidence.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/working_frame.h"
 
 namespace freeloc::pipeline {
-
-namespace {
-
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
-
-// Device poses against the images, per frame: a relation agrees when the rotations are within 1°, the translations'
-// directions within 8° or 2 cm across (when either is longer than 2 cm: an essential matrix over a few centimetres
-// is that uncertain in its direction) and, with a metric image relation, their lengths within a factor 1.6 (the
-// image relation's scale is a depth map's: only gross disagreement shows).
-constexpr double kAgreeRotationDeg = 1.0, kAgreeDirectionDeg = 8, kAgreeLateralM = 0.02, kAgreeMinLengthM = 0.02,
-                 kAgreeLengthRatio = 1.6;
-// A window trusts its device poses when at least two frames could be compared and 60 % of them agree.
-constexpr double kTrustFraction = 0.6;
-// Relative scale uncertainty of a tracker's metric baseline (visual-inertial odometry drifts by a few per cent), and
-// the rotation and position uncertainty of one of its relations within a window.
-constexpr double kTrackerScaleSigma = 0.02;
-constexpr double kDeviceRotationSigmaDeg = 0.3, kDevicePositionSigmaM = 0.005;
-// Floor of a frame's own predicted rotation error (a vote is never taken as exact).
-constexpr double kMinRotationSigmaDeg = 0.01;
-// The frames' own-map distances of good depth maps scatter by the relations' noise (about 1 %); beyond 3 % the maps
-// themselves are off, each by its own amount.
-constexpr double kConsistentMapSpread = 0.03;
-// Floor of any relative distance uncertainty, and of one ray's angular noise.
-constexpr double kMinRelSigma = 0.01;
-constexpr double kMinRaySigmaRad = 0.1 * kDeg;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
-// How a frame's device relation compares with its image relation.
-bool DeviceAgrees(const FrameEvidence& f) {
-  if (RotationAngleDeg(f.device.rotation, f.image_relation.rotation) > kAgreeRotationDeg) return false;
-  const Eigen::Vector3d& td = f.device.translation;
-  const Eigen::Vector3d& ti = f.image_relation.translation;
-  if (std::max(td.norm(), f.image_relation_metric ? ti.norm() : 0.0) < kAgreeMinLengthM) return true;
-  if (td.norm() < 1e-9 || ti.norm() < 1e-9) return false;
-  const double c = std::clamp(td.normalized().dot(ti.normalized()), -1.0, 1.0);
-  const double allowed = std::max(kAgreeDirectionDeg * kDeg, std::asin(std::min(1.0, kAgreeLateralM / td.norm())));
-  if (std::acos(c) > allowed) return false;
-  if (!f.image_relation_metric) return true;
-  const double ratio = td.norm() / ti.norm();
-  return ratio <= kAgreeLengthRatio && ratio >= 1 / kAgreeLengthRatio;
-}
-
-struct Vote {
-  size_t k = 0;                                  // index into the window
-  Eigen::Quaterniond q_from_r;                   // the evaluated frame's rotation as this frame votes it
-  bool metric_relation = false;                  // c is in metres
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();   // this frame's centre in the evaluated frame's coordinates
-  Eigen::Vector3d d = Eigen::Vector3d::UnitZ();  // unit ray from c towards the reference camera's centre
-  double range = 0;                              // metric: |t| of this frame's own answer (along d), else 0
-  double rel_sigma = 0;                          // its predicted relative error
-  double weight = 1;          // 1 / variance of its rotation and ray (degrees²): its own and its relation's
-  double position_sigma = 0;  // its relation's position error (metres)
-  double ref_anchor = 0, query_anchor = 0;  // its |t| anchored by the reference's / its own depth map alone (0: none)
-};
-
-Eigen::Quaterniond MeanRotation(const std::vector<Eigen::Quaterniond>& qs, const std::vector<double>& weights) {
-  Eigen::Vector4d acc = Eigen::Vector4d::Zero();
-  for (size_t i = 0; i < qs.size(); ++i)
-    acc += weights[i] * (qs[i].coeffs().dot(qs[0].coeffs()) < 0 ? -1.0 : 1.0) * qs[i].coeffs();
-  Eigen::Quaterniond m;
-  m.coeffs() = acc.normalized();
-  return m;
-}
-
-// The point closest to the rays (c_j, d_j) in the least-squares sense, its rays' angular noise (estimated from the
-// residuals, floored) and the relative standard deviation of its distance from the origin. False when the rays do
-// not meet in front of their origins.
-bool Triangulate(const std::vector<Eigen::Vector3d>& c, const std::vector<Eigen::Vector3d>& d, Eigen::Vector3d* p,
-                 double* rel_sigma, double* ray_sigma) {
-  const size_t n = c.size();
-  if (n < 2) return false;
-  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  for (size_t j = 0; j < n; ++j) {
-    const Eigen::Matrix3d A = Eigen::Matrix3d::Identity() - d[j] * d[j].transpose();
-    H += A;
-    b += A * c[j];
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(H);
-  if (eig.eigenvalues()(0) < 1e-14) return false;  // parallel rays from one line: no distance
-  *p = H.ldlt().solve(b);
-  if (!p->allFinite() || p->norm() < 1e-6) return false;
-  double ss = 0;
-  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
-  for (size_t j = 0; j < n; ++j) {
-    const Eigen::Vector3d v = *p - c[j];
-    if (v.dot(d[j]) <= 0) return false;  // behind this frame
-    const Eigen::Matrix3d A = Eigen::Matrix3d::Identity() - d[j] * d[j].transpose();
-    ss += (A * v).squaredNorm() / v.squaredNorm();
-    info += A / v.squaredNorm();
-  }
-  *ray_sigma = std::max(kMinRaySigmaRad, std::sqrt(ss / std::max<double>(1, 2.0 * n - 3)));
-  const Eigen::Vector3d u = p->normalized();
-  const double var = u.dot(info.ldlt().solve(u)) * (*ray_sigma) * (*ray_sigma);
-  if (!(var >= 0) || !std::isfinite(var)) return false;
-  *rel_sigma = std::sqrt(var) / p->norm();
-  return true;
-}
-
-double Miss(const Eigen::Vector3d& p, const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
-  return std::acos(std::clamp((p - c).normalized().dot(d), -1.0, 1.0));
-}
-
-// Triangulate on the rays that agree: every pair of rays proposes a point, the one that most rays pass within 3°
-// wins (ties: the smaller total miss), then the least-squares point of those rays, whose misses decide once more
-// (3° or three times the rays' noise). A ray whose frame answered wrongly cannot drag the rig's point away.
-bool RobustTriangulate(const std::vector<Eigen::Vector3d>& c, const std::vector<Eigen::Vector3d>& d, Eigen::Vector3d* p,
-                       double* rel_sigma, double* ray_sigma) {
-  const size_t n = c.size();
-  if (n < 2) return false;
-  constexpr double kTau = 3 * kDeg;
-  size_t best_count = 0;
-  double best_miss = 1e300;
-  Eigen::Vector3d best;
-  for (size_t a = 0; a < n; ++a)
-    for (size_t b = a + 1; b < n; ++b) {
-      Eigen::Vector3d x;
-      double rs = 0, ss = 0;
-      if (!Triangulate({c[a], c[b]}, {d[a], d[b]}, &x, &rs, &ss)) continue;
-      size_t count = 0;
-      double total = 0;
-      for (size_t j = 0; j < n; ++j) {
-        const double m = Miss(x, c[j], d[j]);
-        if (m <= kTau) ++count, total += m;
-      }
-      if (count > best_count || (count == best_count && total < best_miss))
-        best_count = count, best_miss = total, best = x;
-    }
-  if (best_count < 2) return false;
-  for (int round = 0; round < 2; ++round) {
-    std::vector<Eigen::Vector3d> ci, di;
-    for (size_t j = 0; j < n; ++j)
-      if (Miss(best, c[j], d[j]) <= std::max(kTau, round ? 3 * *ray_sigma : 0.0)) {
-        ci.push_back(c[j]);
-        di.push_back(d[j]);
-      }
-    if (!Triangulate(ci, di, p, rel_sigma, ray_sigma)) return false;
-    best = *p;
-  }
-  return true;
-}
-
-}  // namespace
-
-namespace {
-
-geometry::AnchoredLength Anchored(bool has, double log_length, double se) {
-  geometry::AnchoredLength a;
-  a.has = has;
-  a.log_length = log_length;
-  a.se = se;
-  return a;
-}
-
-// The window's distance from every depth map's anchoring at once (geometry/window_scale.h): the kept votes' rays,
-// their metric image relations' directions, each frame's two anchorings of its answer and of its relation.
-geometry::WindowScaleResult JointScale(const std::vector<FrameEvidence>& frames, const std::vector<Vote>& kept,
-                                       size_t qi, double ray_floor_rad) {
-  const auto self = std::find_if(kept.begin(), kept.end(), [&](const Vote& v) { return v.k == qi; });
-  if (self == kept.end() || !frames[qi].to_ref.metric()) return {};
-  const auto ray_sigma = [&](const Vote& v) { return std::max(ray_floor_rad, kDeg / std::sqrt(v.weight)); };
-  geometry::WindowScaleInput in;
-  const geometry::ScaleAnchors& qa = frames[qi].anchors;
-  in.ray = self->d;
-  in.ray_sigma_rad = ray_sigma(*self);
-  in.to_ref_by_ref = Anchored(qa.kept_ref >= 3, qa.log_ref, qa.se_ref);
-  in.to_ref_by_own = Anchored(qa.kept_query >= 3, qa.log_query, qa.se_query);
-  for (const Vote& v : kept) {
-    const FrameEvidence& f = frames[v.k];
-    if (v.k == qi || !v.metric_relation || !f.has_image_relation || v.c.norm() < 1e-6) continue;
-    geometry::WindowFrameGeometry g;
-    g.ray = v.d;
-    g.ray_sigma_rad = ray_sigma(v);
-    g.baseline = v.c;
-    g.baseline_sigma_rad = std::clamp(v.position_sigma / v.c.norm(), 0.5 * kDeg, 20 * kDeg);
-    const geometry::ScaleAnchors& a = f.anchors;
-    const bool metric = f.to_ref.metric();
-    g.to_ref_by_ref = Anchored(metric && a.kept_ref >= 3, a.log_ref, a.se_ref);
-    g.to_ref_by_own = Anchored(metric && a.kept_query >= 3, a.log_query, a.se_query);
-    const geometry::ScaleAnchors& ra = f.relation_anchors;
-    g.relation_by_q = Anchored(ra.kept_ref >= 3, ra.log_ref, ra.se_ref);
-    g.relation_by_own = Anchored(ra.kept_query >= 3, ra.log_query, ra.se_query);
-    in.frames.push_back(g);
-  }
-  return geometry::EstimateWindowScale(in);
-}
-
-}  // namespace
-
-QueryResult FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse use) {
-  FREELOC_CHECK(!frames.empty(), "FuseWindow: no frames");
-  const size_t n = frames.size(), qi = n - 1;
-  QueryResult out = frames[qi].to_ref;
-  out.frame = frames[qi].name;
-  WindowSummary& w = out.window;
-  w.frames = static_cast<int>(n);
-  w.votes.resize(n);
-  for (size_t k = 0; k < n; ++k) {
-    w.votes[k].frame = frames[k].name;
-    w.votes[k].status = frames[k].to_ref.status;
-  }
-
-  // 1. The device poses: off, absent, refused (the evaluated frame's line must be the identity), or checked
-  //    against the images (auto) — and per frame the relation that ties it to the evaluated frame.
-  bool device_ok = false;
-  int with_device = 0, comparable = 0, agree = 0;
-  std::vector<char> agrees(n, 0);
-  for (size_t k = 0; k + 1 < n; ++k) {
-    if (!frames[k].has_device) continue;
-    ++with_device;
-    if (!frames[k].has_image_relation) continue;
-    ++comparable;
-    agrees[k] = DeviceAgrees(frames[k]);
-    agree += agrees[k];
-  }
-  if (use == DevicePoseUse::kIgnore) {
-    w.device = "off";
-  } else if (with_device == 0) {
-    w.device = "absent";
-  } else if (frames[qi].has_device &&
-             (RotationAngleDeg(frames[qi].device.rotation, Eigen::Quaterniond::Identity()) > 1e-7 ||
-              frames[qi].device.translation.norm() > 1e-9)) {
-    w.device = "ignored (the evaluated frame's line is not the identity)";
-  } else if (use == DevicePoseUse::kUse) {
-    device_ok = true;
-    w.device = "used";
-  } else if (comparable < 2) {
-    w.device = "ignored (too few frames to check them against the images)";
-  } else if (agree >= kTrustFraction * comparable) {
-    device_ok = true;
-    w.device =
-        "used (" + std::to_string(agree) + " of " + std::to_string(comparable) + " frames agree with the images)";
-  } else {
-    w.device =
-        "ignored (" + std::to_string(agree) + " of " + std::to_string(comparable) + " frames agree with the images)";
-  }
-
-  // 2. Every answered frame with a relation votes for the evaluated frame's pose.
-  std::vector<Vote> votes;
-  for (size_t k = 0; k < n; ++k) {
-    const FrameEvidence& f = frames[k];
-    WindowVote& wv = w.votes[k];
-    Rigid3d rel;  // frame_from_query
-    bool metric_rel = true;
-    double rel_rot_deg = 0, rel_pos_m = 0;  // the relation's own uncertainty
-    if (k == qi) {
-      wv.relation = "self";
-    } else if (device_ok && f.has_device && (use == DevicePoseUse::kUse || agrees[k] || !f.has_image_relation)) {
-      // The tracker's relation where it agrees with the images: over a few centimetres it is the more precise
-      // (millimetres of drift against an essential matrix's degrees), and metric.
-      rel = f.device;
-      rel_rot_deg = kDeviceRotationSigmaDeg;
-      rel_pos_m = kDevicePositionSigmaM;
-      wv.relation = "device";
-    } else if (f.has_image_relation) {
-      rel = f.image_relation;
-      metric_rel = f.image_relation_metric;
-      rel_rot_deg = f.image_relation_rot_sigma_deg;
-      rel_pos_m = f.image_relation_position_sigma_m;
-      wv.relation = "images";
-    } else {
-      continue;
-    }
-    if (!f.to_ref.ok()) continue;
-    const Rigid3d& jr = f.to_ref.query_from_ref;  // frame_from_ref
-    const Eigen::Quaterniond q_from_j = rel.rotation.conjugate();
-    Vote v;
-    v.k = k;
-    v.q_from_r = (q_from_j * jr.rotation).normalized();
-    v.metric_relation = metric_rel;
-    v.c = rel.Center();
-    const double tn = jr.translation.norm();
-    if (tn < 1e-12) continue;
-    v.d = q_from_j * (jr.translation / tn);
-    if (f.to_ref.metric()) {
-      v.range = tn;
-      v.rel_sigma = f.to_ref.predicted_translation_m / tn;
-      if (f.anchors.kept_ref >= 3) v.ref_anchor = std::exp(f.anchors.log_ref);
-      if (f.anchors.kept_query >= 3) v.query_anchor = std::exp(f.anchors.log_query);
-    }
-    // Its rotation and ray errors: its own answer's, plus its relation's (a position error seen from the reference
-    // camera's distance).
-    const double own = std::max(kMinRotationSigmaDeg, f.to_ref.predicted_rotation_deg);
-    const double pos_deg = rel_pos_m / std::max(0.1, tn) / kDeg;
-    v.weight = 1 / (own * own + rel_rot_deg * rel_rot_deg + pos_deg * pos_deg);
-    v.position_sigma = rel_pos_m;
-    votes.push_back(v);
-  }
-  if (votes.size() < 2) {
-    // Nothing to fuse: the evaluated frame's own answer (or its failure), with the window's account.
-    for (const Vote& v : votes) w.votes[v.k].used = true;
-    w.used = static_cast<int>(votes.size());
-    return out;
-  }
-
-  // 3. Rotation: the medoid of the votes, then the mean of those near it.
-  const size_t nv = votes.size();
-  size_t medoid = 0;
-  double best = 1e300;
-  for (size_t a = 0; a < nv; ++a) {
-    double s = 0;
-    for (size_t b = 0; b < nv; ++b) s += std::min(10.0, RotationAngleDeg(votes[a].q_from_r, votes[b].q_from_r));
-    if (s < best) best = s, medoid = a;
-  }
-  std::vector<double> dev;
-  for (const Vote& v : votes) dev.push_back(RotationAngleDeg(v.q_from_r, votes[medoid].q_from_r));
-  const double keep_deg = std::max(2.0, 3.0 * Median(dev));
-  std::vector<Vote> kept;
-  std::vector<Eigen::Quaterniond> qs;
-  std::vector<double> qw;
-  for (size_t a = 0; a < nv; ++a)
-    if (dev[a] <= keep_deg) {
-      kept.push_back(votes[a]);
-      qs.push_back(votes[a].q_from_r);
-      qw.push_back(votes[a].weight);
-    }
-  const Eigen::Quaterniond R = MeanRotation(qs, qw);
-
-  // 4. Distance: the depth maps' (each metric frame's answer placed on its ray) and the rig's (the rays with metric
-  //    origins triangulated), fused in log space. A metric relation is needed for either.
-  std::vector<double> log_depth, rel_pred;
-  std::vector<Eigen::Vector3d> rc, rd;
-  std::vector<double> origin_sigma;  // the relations' position errors (the evaluated frame's own: none)
-  bool rig_device = false;
-  for (const Vote& v : kept) {
-    if (!v.metric_relation) continue;
-    rc.push_back(v.c);
-    rd.push_back(v.d);
-    if (v.k != qi) origin_sigma.push_back(v.position_sigma);
-    rig_device = rig_device || w.votes[v.k].relation == "device";
-    if (v.range > 0) {
-      const double rho = (v.c + v.range * v.d).norm();
-      w.votes[v.k].distance_m = rho;
-      log_depth.push_back(std::log(rho));
-      rel_pred.push_back(v.rel_sigma);
-    }
-  }
-  Eigen::Vector3d p_rig;
-  double rig_rel = 0, ray_sigma = kMinRaySigmaRad;
-  bool rig = RobustTriangulate(rc, rd, &p_rig, &rig_rel, &ray_sigma);
-  if (rig) {
-    // The rays' origins are only as good as the relations: an origin off by δ across the rays moves the point
-    // along them by about δ·distance/baseline, where the baseline is the rig's extent across the rays.
-    const Eigen::Vector3d u = p_rig.normalized();
-    double extent = 0;
-    for (const auto& c : rc) extent = std::max(extent, (c - u * u.dot(c)).norm());
-    rig_rel = extent > 0 ? std::hypot(rig_rel, Median(origin_sigma) / extent) : 1.0;
-  }
-  // A rig whose distance is not known to within 50 % carries nothing.
-  if (rig && rig_rel > 0.5) rig = false;
-  double log_dist = 0, log_sigma = 0;
-  bool metric = false;
-  const double scale_prior = rig_device ? kTrackerScaleSigma : 0;
-  double dep_sigma0 = 0;
-  double own_map_spread = -1;  // how much the frames' own-map distances scatter (−1: too few to say)
-  if (!log_depth.empty()) {
-    std::vector<double> absdev;
-    const double med = Median(log_depth);
-    for (double l : log_depth) absdev.push_back(std::abs(l - med));
-    const double spread = 1.4826 * Median(absdev);
-    dep_sigma0 = std::max({Median(rel_pred), spread, kMinRelSigma});
-    // Every frame's depth answer leans on the same reference depth map, so their errors are largely shared and
-    // averaging them gains little; the evaluated frame's own answer carries no relation error. It is the depth
-    // maps' distance when it is metric and not far from the others (the median otherwise).
-    const bool self_metric =
-        !kept.empty() && kept.back().k == qi && kept.back().range > 0 && kept.back().metric_relation;
-    const double self_log = self_metric ? log_depth.back() : med;
-    double dep_log = std::abs(self_log - med) <= std::max(3 * spread, 0.05) ? self_log : med;
-    // The query depth maps are the window's independent evidence: each frame's distance anchored by its own map
-    // alone. Their spread measures how good a map of this kind is; when they scatter beyond what good maps do (a
-    // monocular map's scale is off by its own amount in every frame), their mean — an error shrinking with the
-    // number of frames — is weighed against the reference map's anchoring (assumed as good as one query map).
-    std::vector<double> lq, lever;  // lever: how much of a relation's scale error reaches the distance (|c|/ρ)
-    for (const Vote& v : kept)
-      if (v.metric_relation && v.query_anchor > 0) {
-        const double rho = (v.c + v.query_anchor * v.d).norm();
-        lq.push_back(std::log(rho));
-        lever.push_back(v.c.norm() / rho);
-      }
-    if (lq.size() >= 3) {
-      std::vector<double> dq;
-      const double mq = Median(lq);
-      for (double l : lq) dq.push_back(std::abs(l - mq));
-      const double per_map = 1.4826 * Median(dq);
-      own_map_spread = per_map;
-      if (per_map > kConsistentMapSpread) {
-        // Each frame's own-map distance: its map's error, plus its relation's scale error (a depth map's too) times
-        // its lever; frames far off the median are left out.
-        double sw = 0, swl = 0;
-        for (size_t i = 0; i < lq.size(); ++i) {
-          if (dq[i] > 3 * per_map) continue;
-          const double var = per_map * per_map * (1 + lever[i] * lever[i]);
-          sw += 1 / var, swl += lq[i] / var;
-        }
-        const Vote* self = !kept.empty() && kept.back().k == qi ? &kept.back() : nullptr;
-        const double lr = self && self->ref_anchor > 0 ? std::log(self->ref_anchor) : dep_log;
-        const double vr = per_map * per_map;
-        dep_log = (lr / vr + swl) / (1 / vr + sw);
-        dep_sigma0 = std::max(kMinRelSigma, 1 / std::sqrt(1 / vr + sw));
-      }
-    }
-    w.depth_distance_m = std::exp(dep_log);
-  }
-  // How good the depth maps are — two measures of one map's error, with different noise: the frames' own-map distances
-  // placed through their relations (above), and each frame's two anchorings of its own |t| (the reference map's and its
-  // own: both maps' errors, whatever ties the frame to the others; a robust spread over √2). The maps are good when
-  // either is within 3 % — a monocular map fails both by far.
-  std::vector<double> halves_apart;
-  for (const FrameEvidence& f : frames)
-    if (f.to_ref.metric() && f.anchors.kept_ref >= 3 && f.anchors.kept_query >= 3)
-      halves_apart.push_back(std::abs(f.anchors.log_ref - f.anchors.log_query));
-  const double halves_spread = halves_apart.size() >= 3 ? 1.4826 * Median(halves_apart) / std::sqrt(2.0) : -1;
-  const bool good_maps = (own_map_spread >= 0 && own_map_spread <= kConsistentMapSpread) ||
-                         (halves_spread >= 0 && halves_spread <= kConsistentMapSpread);
-  if (rig) {
-    // The rig's baseline is the tracker's (a few per cent of scale drift on top) or the images' (the relations'
-    // own predicted errors, already in rig_rel).
-    const double s_rig = std::hypot(rig_rel, scale_prior);
-    w.rig_distance_m = p_rig.norm();
-    const double l_rig = std::log(p_rig.norm());
-    if (log_depth.empty()) {
-      log_dist = l_rig, log_sigma = s_rig;
-      w.scale = rig_device ? "tracker" : "images";
-    } else {
-      const double l_dep = std::log(w.depth_distance_m);
-      const double D = l_dep - l_rig;
-      double s_dep = dep_sigma0, s_r = s_rig;
-      if (rig_device) {
-        // An independent metric baseline: a disagreement beyond twice its uncertainty is the depth maps' error.
-        s_dep = std::sqrt(std::max(dep_sigma0 * dep_sigma0, D * D - 4 * s_rig * s_rig));
-      } else if (D * D > 4 * (dep_sigma0 * dep_sigma0 + s_rig * s_rig)) {
-        // Two depth-made estimates that disagree: neither can be preferred, each is charged half the disagreement.
-        s_dep = std::sqrt(dep_sigma0 * dep_sigma0 + 0.5 * D * D);
-        s_r = std::sqrt(s_rig * s_rig + 0.5 * D * D);
-      }
-      const double wd = 1 / (s_dep * s_dep), wr = 1 / (s_r * s_r);
-      if (good_maps || (dep_sigma0 <= s_rig && D * D <= 4 * (dep_sigma0 * dep_sigma0 + s_rig * s_rig))) {
-        // Good maps, or maps that predict a smaller error than the rig's and that the rig does not contradict: the
-        // depth distance is already the better one, and stands (a tracker drifts by per cents; good maps do not).
-        log_dist = l_dep, log_sigma = dep_sigma0;
-        w.scale = std::string("depth (") + (rig_device ? "tracker" : "images") + " agrees)";
-      } else {
-        log_dist = (wd * l_dep + wr * l_rig) / (wd + wr);
-        log_sigma = 1 / std::sqrt(wd + wr);
-        w.scale = std::string("depth+") + (rig_device ? "tracker" : "images");
-      }
-    }
-    metric = true;
-  } else if (!log_depth.empty()) {
-    log_dist = std::log(w.depth_distance_m);
-    log_sigma = dep_sigma0;
-    w.scale = "depth";
-    metric = true;
-  }
-  // Without a tracker every length is a depth map's: when the maps disagree, all of them at once, each map's error
-  // shared by every length it anchors (geometry/window_scale.h).
-  if (!rig_device) {
-    const geometry::WindowScaleResult joint = JointScale(frames, kept, qi, ray_sigma);
-    if (joint.ok && joint.map_sigma > kConsistentMapSpread) {
-      log_dist = std::log(joint.distance);
-      log_sigma = joint.log_sigma;
-      w.depth_distance_m = joint.distance;
-      w.scale = "maps (" + std::to_string(joint.maps) + " jointly)";
-      metric = true;
-    }
-  }
-
-  // 5. Direction: the points of the rays at the fused distance, averaged (rays without metric origins: their
-  //    directions). Rays far off the mean are left out.
-  const double dist = metric ? std::exp(log_dist) : 1.0;
-  // The point of a ray at the fused distance from the evaluated frame (|c + λ·d| = dist; the ray's closest point
-  // when it does not reach that far).
-  auto point_of = [&](const Vote& v) -> Eigen::Vector3d {
-    if (!(metric && v.metric_relation)) return dist * v.d;
-    const double cd = v.c.dot(v.d), disc = cd * cd - v.c.squaredNorm() + dist * dist;
-    const double lambda = disc > 0 ? -cd + std::sqrt(disc) : std::max(0.0, -cd);
-    return v.c + lambda * v.d;
-  };
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const Vote& v : kept) sum += v.weight * point_of(v).normalized();
-  Eigen::Vector3d u = sum.normalized();
-  std::vector<double> ang;
-  for (const Vote& v : kept) ang.push_back(std::acos(std::clamp(point_of(v).normalized().dot(u), -1.0, 1.0)));
-  const double keep_rad = std::max({3 * kDeg, 4 * ray_sigma, 3 * Median(ang)});
-  sum.setZero();
-  int used = 0;
-  double ss_ang = 0, ss_rot = 0;
-  std::vector<double> rot_pred;
-  for (size_t a = 0; a < kept.size(); ++a) {
-    if (ang[a] > keep_rad) continue;
-    sum += kept[a].weight * point_of(kept[a]).normalized();
-    w.votes[kept[a].k].used = true;
-    ++used;
-    ss_ang += ang[a] * ang[a];
-    const double rd_deg = RotationAngleDeg(kept[a].q_from_r, R);
-    ss_rot += rd_deg * rd_deg;
-    rot_pred.push_back(frames[kept[a].k].to_ref.predicted_rotation_deg);
-  }
-  for (const Vote& v : votes) w.votes[v.k].rotation_dev_deg = RotationAngleDeg(v.q_from_r, R);
-  w.used = used;
-  if (used == 0) return out;
-  u = sum.normalized();
-
-  out.status = metric ? QueryStatus::kOk : QueryStatus::kOkUnitTranslation;
-  out.submitted_unsolved = false;
-  out.message.clear();
-  out.query_from_ref = Rigid3d(R, dist * u);
-  out.route = (frames[qi].to_ref.route.empty() ? std::string("window") : frames[qi].to_ref.route) + "+window";
-  const double nu = used;
-  PredictedError pe;
-  pe.rotation_deg = std::max({std::sqrt(ss_rot / nu) / std::sqrt(nu), Median(rot_pred) / std::sqrt(nu), 0.01});
-  const double dir = std::max(std::sqrt(ss_ang / nu), ray_sigma) / std::sqrt(nu);
-  pe.translation_m = std::max(1e-3, dist * std::sqrt(log_sigma * log_sigma + dir * dir));
-  out.predicted_rotation_deg = pe.rotation_deg;
-  out.predicted_translation_m = metric ? pe.translation_m : 0;
-  out.confidence = metric ? ConfidenceFromPredictedError(pe) : used;
-  // Good maps make the evaluated frame's own answer as good as they allow: the window replaces it only when it shows
-  // that answer wrong — a move beyond twice its predicted error.
-  const QueryResult& self = frames[qi].to_ref;
-  if (good_maps && self.metric() && metric &&
-      (out.query_from_ref.Center() - self.query_from_ref.Center()).norm() <= 2 * self.predicted_translation_m) {
-    const WindowSummary account = out.window;
-    out = self;
-    out.frame = frames[qi].name;
-    out.window = account;
-    out.window.scale = "single frame (the window agrees)";
-  }
-  return out;
-}
 
 namespace {
 
@@ -569,80 +31,93 @@ geometry::ScaleAnchors AnchorInliers(const matching::Correspondences& c, const Q
   return geometry::AnchorScales(pr, pq, r.query_from_ref, depth_ref, depth_query, kr, kq);
 }
 
+// The evaluated frame's relations to the other frames of its window, from the images: the evaluated frame as the
+// reference of a local relocalizer (SIFT where the run's matches are precomputed: those exist only against the
+// scene's reference). Returns the time it took.
+double ImageRelations(const PipelineOptions& o, const std::vector<WindowFrame>& frames,
+                      std::vector<pose::FrameEvidence>* ev) {
+  const size_t qi = frames.size() - 1;
+  PipelineOptions lo = o;
+  lo.track = io::Track::kSingleFrame;
+  if (lo.UsesPrecomputed()) lo.matcher = MatcherSpec{};
+  Relocalizer local(lo, Relocalizer::kOptionsValidated);  // the run validated them
+  FrameInputs qin;
+  qin.depth = frames[qi].inputs.depth;
+  qin.intrinsics_source = frames[qi].inputs.intrinsics_source;
+  local.SetReference(frames[qi].image, frames[qi].camera, std::move(qin));
+  double ms = local.stats().reference_ms;
+  for (size_t k = 0; k < qi; ++k) {
+    if (frames[k].image.empty()) continue;
+    FrameInputs in;
+    in.depth = frames[k].inputs.depth;
+    in.intrinsics_source = frames[k].inputs.intrinsics_source;
+    matching::Correspondences rc;
+    const QueryResult rel = local.Relocalize(frames[k].image, frames[k].camera, std::move(in), &rc);
+    ms += rel.timings.depth_ms + rel.timings.match_ms + rel.timings.solve_ms;
+    if (!rel.ok()) continue;
+    pose::FrameEvidence& e = (*ev)[k];
+    if (rel.metric()) {
+      const Camera kq = local.reference_intrinsics().known() ? local.reference_intrinsics().camera : frames[qi].camera;
+      const Camera kj = rel.query_intrinsics.known() ? rel.query_intrinsics.camera : frames[k].camera;
+      e.relation_anchors = AnchorInliers(rc, rel, local.reference_depth(), local.last_query_depth(), kq, kj);
+    }
+    e.has_image_relation = true;
+    e.image_relation_metric = rel.metric();
+    e.image_relation = rel.query_from_ref;
+    e.image_relation_rot_sigma_deg = rel.predicted_rotation_deg;
+    e.image_relation_position_sigma_m = rel.predicted_translation_m;
+  }
+  return ms;
+}
+
 }  // namespace
 
 QueryResult RelocalizeWindow(Relocalizer& reloc, std::vector<WindowFrame> frames, matching::Correspondences* matches) {
   FREELOC_CHECK(!frames.empty() && frames.size() <= 9, "a window holds 1 to 9 frames, got " << frames.size());
   const PipelineOptions& o = reloc.options();
   const size_t n = frames.size(), qi = n - 1;
-  std::vector<FrameEvidence> ev(n);
+  std::vector<QueryResult> to_ref(n);  // each frame against the reference, as a query
+  std::vector<pose::FrameEvidence> ev(n);
   for (size_t k = 0; k < n; ++k) {
     WindowFrame& f = frames[k];
     ev[k].name = f.name;
     ev[k].has_device = f.has_device && o.multi_frame.device_poses != DevicePoseUse::kIgnore;
     ev[k].device = f.device_from_query;
     if (f.image.empty()) {  // the caller could not read it: it only loses its vote
-      ev[k].to_ref.status = QueryStatus::kError;
+      to_ref[k].status = QueryStatus::kError;
       continue;
     }
     matching::Correspondences c;
-    ev[k].to_ref = reloc.Relocalize(f.image, f.camera, f.inputs, &c);
-    ev[k].to_ref.frame = f.name;
-    const QueryResult& r = ev[k].to_ref;
+    to_ref[k] = reloc.Relocalize(f.image, f.camera, f.inputs, &c);
+    to_ref[k].frame = f.name;
+    const QueryResult& r = to_ref[k];
     if (r.metric()) {
       // The two depth maps' anchorings of this frame's |t| apart (the fusion weighs them separately).
       const Camera kr = reloc.reference_intrinsics().known() ? reloc.reference_intrinsics().camera : f.camera;
       const Camera kq = r.query_intrinsics.known() ? r.query_intrinsics.camera : f.camera;
       ev[k].anchors = AnchorInliers(c, r, reloc.reference_depth(), reloc.last_query_depth(), kr, kq);
     }
+    ev[k].to_ref = r;
     if (k == qi && matches) *matches = std::move(c);
   }
-  if (n == 1) return ev[0].to_ref;
-  // The relations from the images: the evaluated frame as the reference of a local relocalizer (SIFT where the
-  // run's matches are precomputed: those exist only against the scene's reference).
-  const bool need_images = o.multi_frame.device_poses != DevicePoseUse::kUse ||
-                           std::any_of(ev.begin(), ev.end() - 1, [](const FrameEvidence& e) { return !e.has_device; });
-  double relation_ms = 0;
-  if (need_images && !frames[qi].image.empty()) {
-    PipelineOptions lo = o;
-    lo.track = io::Track::kSingleFrame;
-    if (lo.UsesPrecomputed()) lo.matcher = MatcherSpec{};
-    Relocalizer local(lo, Relocalizer::kOptionsValidated);  // the run validated them
-    FrameInputs qin;
-    qin.depth = frames[qi].inputs.depth;
-    qin.intrinsics_source = frames[qi].inputs.intrinsics_source;
-    local.SetReference(frames[qi].image, frames[qi].camera, std::move(qin));
-    relation_ms += local.stats().reference_ms;
-    for (size_t k = 0; k < qi; ++k) {
-      if (frames[k].image.empty()) continue;
-      FrameInputs in;
-      in.depth = frames[k].inputs.depth;
-      in.intrinsics_source = frames[k].inputs.intrinsics_source;
-      matching::Correspondences rc;
-      const QueryResult rel = local.Relocalize(frames[k].image, frames[k].camera, std::move(in), &rc);
-      relation_ms += rel.timings.depth_ms + rel.timings.match_ms + rel.timings.solve_ms;
-      if (!rel.ok()) continue;
-      if (rel.metric()) {
-        const Camera kq =
-            local.reference_intrinsics().known() ? local.reference_intrinsics().camera : frames[qi].camera;
-        const Camera kj = rel.query_intrinsics.known() ? rel.query_intrinsics.camera : frames[k].camera;
-        ev[k].relation_anchors = AnchorInliers(rc, rel, local.reference_depth(), local.last_query_depth(), kq, kj);
-      }
-      ev[k].has_image_relation = true;
-      ev[k].image_relation_metric = rel.metric();
-      ev[k].image_relation = rel.query_from_ref;
-      ev[k].image_relation_rot_sigma_deg = rel.predicted_rotation_deg;
-      ev[k].image_relation_position_sigma_m = rel.predicted_translation_m;
-    }
-  }
-  QueryResult r = FuseWindow(ev, o.multi_frame.device_poses);
+  if (n == 1) return to_ref[0];
+  const bool need_images =
+      o.multi_frame.device_poses != DevicePoseUse::kUse ||
+      std::any_of(ev.begin(), ev.end() - 1, [](const pose::FrameEvidence& e) { return !e.has_device; });
+  const double relation_ms = need_images && !frames[qi].image.empty() ? ImageRelations(o, frames, &ev) : 0.0;
+  const pose::FusedWindow fused = pose::FuseWindow(ev, o.multi_frame.device_poses);
+  QueryResult r = to_ref[qi];
+  r.frame = frames[qi].name;
+  static_cast<pose::PoseEstimate&>(r) = fused;
+  r.window = fused.window;
+  if (r.ok()) r.submitted_unsolved = false;
   // The cost of the whole window: every frame's stages, the relations counted as solving.
   r.timings.depth_ms = r.timings.match_ms = r.timings.instance_ms = r.timings.solve_ms = 0;
-  for (const FrameEvidence& e : ev) {
-    r.timings.depth_ms += e.to_ref.timings.depth_ms;
-    r.timings.match_ms += e.to_ref.timings.match_ms;
-    r.timings.instance_ms += e.to_ref.timings.instance_ms;
-    r.timings.solve_ms += e.to_ref.timings.solve_ms;
+  for (const QueryResult& e : to_ref) {
+    r.timings.depth_ms += e.timings.depth_ms;
+    r.timings.match_ms += e.timings.match_ms;
+    r.timings.instance_ms += e.timings.instance_ms;
+    r.timings.solve_ms += e.timings.solve_ms;
   }
   r.timings.solve_ms += relation_ms;
   AnswerUnsolved(o, &r);  // (a solved answer only checked for finite values)

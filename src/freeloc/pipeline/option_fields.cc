@@ -5,27 +5,19 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <optional>
 #include <type_traits>
 #include <utility>
 
 #include "freeloc/core/error.h"
+#include "freeloc/core/option_family.h"
 #include "freeloc/pipeline/options.h"
 
 namespace freeloc::pipeline {
 
 // The shortest text that reads back as `v` exactly (0.3, not 0.29999999999999999; 100, not 1e+02): for people and
-// for the records alike.
-std::string NumberText(double v) {
-  char buf[32];
-  // At least the integer digits, so that 100 is "100", not "1e+02".
-  const int first =
-      std::abs(v) >= 1 && std::abs(v) < 1e15 ? static_cast<int>(std::floor(std::log10(std::abs(v)))) + 1 : 1;
-  for (int digits = first; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
+// for the records alike (core/option_family.h).
+std::string NumberText(double v) { return NumberToText(v); }
 
 namespace {
 
@@ -55,6 +47,9 @@ int ParseInt(const std::string& name, const std::string& text) {
 std::string Format(const std::string& v) { return v; }
 std::string Format(int v) { return std::to_string(v); }
 std::string Format(double v) { return Real(v); }
+// A number whose absence means "the component's own default" (solve.threshold_px): the word `default`.
+constexpr const char* kDefaultText = "default";
+std::string Format(const std::optional<double>& v) { return v ? Real(*v) : kDefaultText; }
 std::string Format(const MatcherSpec& v) { return v.ToString(); }
 std::string Format(const DepthSpec& v) { return v.ToString(); }
 template <typename E, typename = std::enable_if_t<std::is_enum_v<E>>>
@@ -65,6 +60,14 @@ std::string Format(E v) {
 void Parse(const char*, const std::string& text, std::string* out) { *out = text; }
 void Parse(const char* name, const std::string& text, int* out) { *out = ParseInt(name, text); }
 void Parse(const char* name, const std::string& text, double* out) { *out = ParseReal(name, text); }
+// `default` (or -1, the spelling of records before 0.2) unsets it.
+void Parse(const char* name, const std::string& text, std::optional<double>* out) {
+  if (text == kDefaultText || text == "-1") {
+    out->reset();
+    return;
+  }
+  *out = ParseReal(name, text);
+}
 void Parse(const char*, const std::string& text, MatcherSpec* out) { *out = MatcherSpec::FromString(text); }
 void Parse(const char*, const std::string& text, DepthSpec* out) { *out = DepthSpec::FromString(text); }
 template <typename E, typename = std::enable_if_t<std::is_enum_v<E>>>
@@ -74,7 +77,9 @@ void Parse(const char* name, const std::string& text, E* out) {
 
 template <typename T>
 OptionType TypeOf() {
-  return std::is_same_v<T, int> ? OptionType::kInt : std::is_same_v<T, double> ? OptionType::kReal : OptionType::kText;
+  return std::is_same_v<T, int>                                                  ? OptionType::kInt
+         : std::is_same_v<T, double> || std::is_same_v<T, std::optional<double>> ? OptionType::kReal
+                                                                                 : OptionType::kText;
 }
 template <typename T>
 std::string ChoicesOf() {
@@ -178,7 +183,8 @@ std::string OptionTableMarkdown() {
       "|---|---|---|---|---|\n";
   for (const Row& r : Rows()) {
     std::string value = r.get(defaults);
-    if (r.field.type == OptionType::kReal) value = NumberText(std::strtod(value.c_str(), nullptr));
+    if (r.field.type == OptionType::kReal && value != kDefaultText)
+      value = NumberText(std::strtod(value.c_str(), nullptr));
     const char* type = r.field.type == OptionType::kInt    ? "integer"
                        : r.field.type == OptionType::kReal ? "number"
                                                            : "text";

@@ -71,16 +71,9 @@ std::string QueryResult::StatusText() const {
 }
 
 void SolveOptions::Validate() const {
-  FREELOC_OPTION_CHECK("threshold_px", threshold_px == -1 || (std::isfinite(threshold_px) && threshold_px > 0),
-                       ": " << threshold_px << " is not a positive number of pixels (or -1 for the solver's default)");
-  FREELOC_OPTION_CHECK("reprojection_px", std::isfinite(reprojection_px) && reprojection_px > 0,
-                       ": " << reprojection_px << " is not a positive number of pixels");
-  FREELOC_OPTION_CHECK("depth_shifts", depth_shifts == 0 || depth_shifts == 1,
-                       ": " << depth_shifts << " is not 0 or 1");
+  pose::SolveOptions::Validate();
   FREELOC_OPTION_CHECK("always_answer", always_answer == 0 || always_answer == 1,
                        ": " << always_answer << " is not 0 or 1");
-  FREELOC_OPTION_CHECK("sprt_min_matches", sprt_min_matches >= 0,
-                       ": " << sprt_min_matches << " is negative (0: always the full search)");
 }
 
 void PointmapMatchOptions::Validate() const {
@@ -158,7 +151,7 @@ std::string PipelineOptions::Summary() const {
                   (solver == SolverKind::kHybrid ? ", reprojection " + NumberText(solve.reprojection_px) + " px" +
                                                        (solve.depth_shifts ? ", depth shifts" : "")
                                                  : "") +
-                  (solve.threshold_px > 0 ? ", threshold " + NumberText(solve.threshold_px) + " px" : "");
+                  (solve.threshold_px ? ", threshold " + NumberText(*solve.threshold_px) + " px" : "");
   if (UsesDust3r()) s += ", dust3r " + models.dust3r_model + " at " + std::to_string(pointmap.dust3r_size);
   if (UsesMast3r())
     s += ", mast3r " + models.mast3r_model + " at " + std::to_string(pointmap.dust3r_size) + " (subsample " +

@@ -13,6 +13,8 @@
 #include "freeloc/matching/proposal_options.h"
 #include "freeloc/nn/instance_segmenter_options.h"
 #include "freeloc/nn/runtime.h"
+#include "freeloc/pose/solve_options.h"
+#include "freeloc/pose/window_fusion.h"
 
 namespace freeloc::pipeline {
 
@@ -24,11 +26,8 @@ enum class MatcherKind { kSift, kDust3r, kDust3rInstances, kMast3r, kMast3rInsta
 // own metric pointmaps of the pair: the reference's z from the (reference, query) pass, the query's from the swapped
 // pass) | none.
 enum class DepthKind { kProvided, kMetric3d, kMast3r, kNone };
-// essential (5-point LO-RANSAC + metric scale from both depths) | pnp (reference depth) | procrustes (both) |
-// hybrid (depth-aware hybrid LO-RANSAC, geometry/hybrid_pose.h; metric scale anchored on the reference depth, on
-// both when they agree; falls back to the essential route, with the `scale` method, when the depth model fits worse
-// or fails).
-enum class SolverKind { kEssential, kPnp, kProcrustes, kHybrid };
+// The pose solver (pose/solve_options.h): essential | pnp | procrustes | hybrid.
+using pose::SolverKind;
 // Where dust3r+instances / mast3r+instances get their instance masks: kPropagate — the reference's given labels or
 // proposals from its own pointmap, propagated into each query by SegGPT; kGiven — label images given for both frames
 // (no SegGPT).
@@ -38,9 +37,8 @@ using freeloc::io::Track;
 // The unit of integer depth maps handed in (16-bit PNGs, uint16 arrays): mm (the map-free convention), cm or m.
 // Float maps are metres whatever this says.
 enum class DepthUnit { kMillimetre, kCentimetre, kMetre };
-// Multi-frame: the phone's tracking poses (poses_device.txt). auto — used where they agree with the images, per
-// window; use — trusted in the documented convention; ignore — never read.
-enum class DevicePoseUse { kAuto, kUse, kIgnore };
+// Multi-frame: the phone's tracking poses (pose/window_fusion.h): auto | use | ignore.
+using pose::DevicePoseUse;
 
 // A name that becomes part of a file name (precomputed:<name>, provided:<suffix>): letters, digits, '_', '-', '.', '+',
 // at most 64, not starting with '.' and without "..": never a path.
@@ -72,22 +70,13 @@ struct DepthSpec {
 
 struct PipelineOptions;
 
-// How a pose is solved from the correspondences and the depths.
-struct SolveOptions {
-  // essential (and hybrid's fallback): anchored — the depths anchor |t| (the vote's error grows with
-  // depth ÷ baseline); robust — freeloc's scale vote; official — the benchmark's vote.
-  geometry::ScaleMethod scale = geometry::ScaleMethod::kAnchored;
-  double threshold_px = -1;     // < 0: the solver's default
-  double reprojection_px = 16;  // hybrid: two-way reprojection threshold through the depths, pixels
-  int depth_shifts = 0;         // hybrid: 1 = also estimate an additive shift of each depth map
+// How a pose is solved from the correspondences and the depths (pose/solve_options.h: scale, threshold_px,
+// reprojection_px, depth_shifts, sprt_min_matches), and the always-answer rule.
+struct SolveOptions : pose::SolveOptions {
   // Every query gets a pose in the submission: a weak-support model is submitted with its pose and a confidence
   // below every ok answer; a query with no model at all with the prior pose (the reference camera's: identity
   // rotation, zero translation) and confidence 0; the status still says which. 0 = submit ok queries only.
   int always_answer = 1;
-  // Robust searches over at least this many matches check each hypothesis sequentially and give up on a set with no
-  // consensus (geometry/ransac.h, docs/geometry.md "Dense sets"); the hybrid route's essential guard applies the rule
-  // to every set (stages.cc GuardOptions). 0: never — the full search to its budget.
-  int sprt_min_matches = 2000;
   void Validate() const;  // throws freeloc::Error naming the option
 };
 
@@ -108,8 +97,8 @@ struct PointmapMatchOptions {
   int dust3r_size = 512;            // load_images size (long side)
   double match_conf_threshold = 0;  // reciprocal matching: a pixel is valid if conf >= this
   int match_subsample = 1;          // keep every k-th query pixel
-  // MASt3R descriptor matching (spec/mast3r.md §4): seed grid step S of the fast reciprocal NN, the border filter
-  // (pixels from each network image's edge) and the minimum desc_conf of both pixels (0: none; visloc: 1.001).
+  // MASt3R descriptor matching (naver/mast3r mast3r/fast_nn.py): seed grid step S of the fast reciprocal NN, the border
+  // filter (pixels from each network image's edge) and the minimum desc_conf of both pixels (0: none; visloc: 1.001).
   int mast3r_subsample = 8;
   int mast3r_border = 3;
   double mast3r_conf_threshold = 0;
@@ -216,14 +205,6 @@ struct EnumTable<pipeline::DepthKind> {
                                                                 {pipeline::DepthKind::kNone, "none"}};
 };
 template <>
-struct EnumTable<pipeline::SolverKind> {
-  static constexpr const char* kField = "solver";
-  static constexpr EnumEntry<pipeline::SolverKind> kEntries[] = {{pipeline::SolverKind::kEssential, "essential"},
-                                                                 {pipeline::SolverKind::kPnp, "pnp"},
-                                                                 {pipeline::SolverKind::kProcrustes, "procrustes"},
-                                                                 {pipeline::SolverKind::kHybrid, "hybrid"}};
-};
-template <>
 struct EnumTable<pipeline::InstanceSource> {
   static constexpr const char* kField = "instance_source";
   static constexpr EnumEntry<pipeline::InstanceSource> kEntries[] = {
@@ -235,13 +216,6 @@ struct EnumTable<pipeline::DepthUnit> {
   static constexpr EnumEntry<pipeline::DepthUnit> kEntries[] = {{pipeline::DepthUnit::kMillimetre, "mm"},
                                                                 {pipeline::DepthUnit::kCentimetre, "cm"},
                                                                 {pipeline::DepthUnit::kMetre, "m"}};
-};
-template <>
-struct EnumTable<pipeline::DevicePoseUse> {
-  static constexpr const char* kField = "device_poses";
-  static constexpr EnumEntry<pipeline::DevicePoseUse> kEntries[] = {{pipeline::DevicePoseUse::kAuto, "auto"},
-                                                                    {pipeline::DevicePoseUse::kUse, "use"},
-                                                                    {pipeline::DevicePoseUse::kIgnore, "ignore"}};
 };
 }  // namespace freeloc
 

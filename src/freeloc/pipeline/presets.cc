@@ -12,7 +12,7 @@ struct Preset {
   MatcherKind matcher;
   DepthKind depth;
   SolverKind solver;
-  double threshold_px;  // < 0: the solver's default
+  std::optional<double> threshold_px;  // unset: the solver's default
 };
 
 // The benchmark's SIFT baseline uses a 3 px essential threshold; dense DUSt3R matches the solver default (1 px).
@@ -20,18 +20,19 @@ struct Preset {
 // keeps the benchmark's essential + depth scale (with the anchored scale) unless told --solver hybrid.
 constexpr Preset kPresets[] = {
     {"sift-essential", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kEssential, 3.0},
-    {"sift-pnp", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kPnp, -1},
-    {"sift-procrustes", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kProcrustes, -1},
-    {"seed", MatcherKind::kDust3rInstances, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
-    {"seed-no-instance", MatcherKind::kDust3r, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
-    {"seed-provided-depth", MatcherKind::kDust3rInstances, DepthKind::kProvided, SolverKind::kHybrid, -1},
-    {"dust3r", MatcherKind::kDust3r, DepthKind::kProvided, SolverKind::kHybrid, -1},
-    // MASt3R routes (spec/mast3r.md §5): descriptor matches with its own metric depth (hybrid solver), PnP on the
-    // reference pointmap, Metric3D depth instead, and the paper's method with MASt3R in place of DUSt3R.
-    {"mast3r", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kHybrid, -1},
-    {"mast3r-pnp", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kPnp, -1},
-    {"mast3r-metric3d", MatcherKind::kMast3r, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
-    {"seed-mast3r", MatcherKind::kMast3rInstances, DepthKind::kMetric3d, SolverKind::kHybrid, -1},
+    {"sift-pnp", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kPnp, std::nullopt},
+    {"sift-procrustes", MatcherKind::kSift, DepthKind::kProvided, SolverKind::kProcrustes, std::nullopt},
+    {"seed", MatcherKind::kDust3rInstances, DepthKind::kMetric3d, SolverKind::kHybrid, std::nullopt},
+    {"seed-no-instance", MatcherKind::kDust3r, DepthKind::kMetric3d, SolverKind::kHybrid, std::nullopt},
+    {"seed-provided-depth", MatcherKind::kDust3rInstances, DepthKind::kProvided, SolverKind::kHybrid, std::nullopt},
+    {"dust3r", MatcherKind::kDust3r, DepthKind::kProvided, SolverKind::kHybrid, std::nullopt},
+    // MASt3R routes (docs/pipeline.md "The MASt3R routes"): descriptor matches with its own metric depth (hybrid
+    // solver), PnP on the reference pointmap, Metric3D depth instead, and the paper's method with MASt3R in place of
+    // DUSt3R.
+    {"mast3r", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kHybrid, std::nullopt},
+    {"mast3r-pnp", MatcherKind::kMast3r, DepthKind::kMast3r, SolverKind::kPnp, std::nullopt},
+    {"mast3r-metric3d", MatcherKind::kMast3r, DepthKind::kMetric3d, SolverKind::kHybrid, std::nullopt},
+    {"seed-mast3r", MatcherKind::kMast3rInstances, DepthKind::kMetric3d, SolverKind::kHybrid, std::nullopt},
 };
 const char kPrecomputedForm[] = "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes|hybrid>";
 

@@ -1,6 +1,8 @@
 #include "freeloc/pipeline/record.h"
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 
 #include "freeloc/core/error.h"
@@ -19,7 +21,12 @@ Json OptionsObject(const PipelineOptions& o) {
     switch (f.type) {
       case OptionType::kText: j[f.name] = v; break;
       case OptionType::kInt: j[f.name] = std::stoll(v); break;
-      case OptionType::kReal: j[f.name] = std::stod(v); break;
+      case OptionType::kReal:  // a number, or the word `default` (solve.threshold_px unset)
+        if (std::isdigit(static_cast<unsigned char>(v.back())))
+          j[f.name] = std::stod(v);
+        else
+          j[f.name] = v;
+        break;
     }
   }
   return j;
@@ -105,7 +112,7 @@ std::string QueryRecordJson(const std::string& scene, const QueryResult& r, cons
   j["solved"] = r.solved();
   j["submitted"] = r.submitted();  // solved, or unsolved under always_answer (weak-support pose, or the prior)
   j["metric"] = r.metric();
-  if (!r.route.empty()) j["route"] = r.route;
+  if (const std::string route = r.RouteText(); !route.empty()) j["route"] = route;
   j["qvec"] = {q[0], q[1], q[2], q[3]};
   j["tvec"] = {t.x(), t.y(), t.z()};
   // The same pose as COLMAP and hloc users read it: the query camera's centre in the reference frame (metres, or a
@@ -184,7 +191,8 @@ QueryResult QueryResultFromJson(const std::string& json, std::string* scene) {
     r.scale_inliers = j.value("scale_inliers", 0);
     // "answered": the name in logs written before "submitted" (0.x); both mean the same for an unsolved query.
     r.submitted_unsolved = !r.ok() && (j.value("submitted", false) || j.value("answered", false));
-    r.route = j.value("route", std::string());
+    FREELOC_CHECK(r.SetRouteText(j.value("route", std::string())),
+                  "route: '" << j.value("route", std::string()) << "' is not a route freeloc writes");
     r.predicted_translation_m = j.value("predicted_translation_m", 0.0);
     r.predicted_rotation_deg = j.value("predicted_rotation_deg", 0.0);
     r.timings.decode_ms = j.value("decode_ms", 0.0);
@@ -267,6 +275,48 @@ bool SameResultOptions(const std::string& header_json, const PipelineOptions& op
       return false;
     }
   return true;
+}
+
+namespace {
+
+// A JSON value as an option's text form: strings as they are, numbers exactly, lists comma-joined, null empty.
+std::string ValueText(const std::string& name, const Json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_boolean()) return v.get<bool>() ? "1" : "0";
+  if (v.is_number_integer()) return std::to_string(v.get<long long>());
+  if (v.is_number()) return NumberText(v.get<double>());
+  if (v.is_null()) return "";
+  if (v.is_array()) {
+    std::string s;
+    for (const auto& e : v) s += (s.empty() ? "" : ",") + ValueText(name, e);
+    return s;
+  }
+  FREELOC_THROW(name << ": expected a string, a number or a list");
+}
+
+}  // namespace
+
+OptionsFile ReadOptionsFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  FREELOC_CHECK(in, path << ": cannot read the options file; give a run's <submission>.json, its log or a JSON object");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  FREELOC_CHECK(text.size() <= (16u << 20), path << ": more than 16 MB is not an options file");
+  // A log: its first line is the run header.
+  Json j = Json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) j = Json::parse(text.substr(0, text.find('\n')), nullptr, false);
+  FREELOC_CHECK(!j.is_discarded() && j.is_object(),
+                path << ": not a JSON object (nor a log whose first line is one); give a run's <submission>.json");
+  OptionsFile f;
+  const bool nested = j.contains("options") && j.at("options").is_object();
+  try {
+    for (const auto& [name, value] : (nested ? j.at("options") : j).items()) f.options[name] = ValueText(name, value);
+    if (nested)
+      for (const auto& [name, value] : j.items())
+        if (name != "options" && !value.is_object()) f.run[name] = ValueText(name, value);
+  } catch (const Error& e) {
+    FREELOC_THROW(path << ": " << e.what());
+  }
+  return f;
 }
 
 }  // namespace freeloc::pipeline

@@ -4,6 +4,7 @@
 // JSON so this header stays light; the .cc uses nlohmann::json.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -37,5 +38,15 @@ std::string RunHeaderJson(const RunHeader& h, const std::string& extra = "");
 // Whether a header line (RunHeaderJson) was written with options that give the same results as `options`
 // (every field but `threads`); `why` receives the first differing field.
 bool SameResultOptions(const std::string& header_json, const PipelineOptions& options, std::string* why);
+
+// An options file (`--options FILE`): a run's provenance read back — the sidecar `<submission>.json`, a log (its
+// first line, the run header), a `relocalize --json`/`pose --json` record — or a hand-written object. `options`:
+// the pipeline options by name (the file's "options" object, or the object itself when it has none); `run`: the run
+// fields at the top (data, split, scenes, shard, …), as text (a list comma-joined). Throws naming the file.
+struct OptionsFile {
+  std::map<std::string, std::string> options;  // name → text (SetOption's form)
+  std::map<std::string, std::string> run;      // run field → text (SetRunField's form), names as written
+};
+OptionsFile ReadOptionsFile(const std::string& path);
 
 }  // namespace freeloc::pipeline

@@ -10,7 +10,8 @@
 #include "freeloc/io/image_io.h"
 #include "freeloc/matching/fast_nn.h"
 #include "freeloc/nn/dust3r.h"
-#include "freeloc/pipeline/confidence.h"
+#include "freeloc/pipeline/relocalize_scene.h"
+#include "freeloc/pose/confidence.h"
 #include "freeloc/vision/dust3r_preprocess.h"
 #include "testing/synthetic_scene.h"
 #include "testing/testing.h"
@@ -214,7 +215,7 @@ TEST(Relocalizer, HybridSolverFallbackAndAlwaysAnswer) {
   reloc.SetReference(Image(320, 240), scene.ref, scene.depth_ref);
   QueryResult r = reloc.Relocalize(Image(320, 240), scene.query, scene.depth_query, &rows);
   ASSERT_TRUE(r.ok()) << r.StatusText();
-  EXPECT_EQ(r.route, "hybrid");
+  EXPECT_EQ(r.route, pose::Route::kHybrid);
   EXPECT_FALSE(r.submitted_unsolved);
   EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.02);
   EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 0.2);
@@ -224,7 +225,7 @@ TEST(Relocalizer, HybridSolverFallbackAndAlwaysAnswer) {
   std::fill(holes.data.begin(), holes.data.end(), 0.f);
   r = reloc.Relocalize(Image(320, 240), scene.query, holes, &rows);
   ASSERT_TRUE(r.ok()) << r.StatusText();
-  EXPECT_EQ(r.route, "hybrid>essential");
+  EXPECT_EQ(r.route, pose::Route::kHybridFellBack);
   EXPECT_LT((r.query_from_ref.Center() - scene.query_from_ref.Center()).norm(), 0.05);
   // Unrelated matches.
   std::vector<Eigen::Vector4d> noise;
@@ -276,7 +277,7 @@ TEST(Relocalizer, WeakSupportIsALowConfidenceAnswerNotThePrior) {
     EXPECT_FALSE(r.ok());
     EXPECT_TRUE(r.submitted_unsolved && r.submitted() && !r.prior());
     EXPECT_GT(r.confidence, 0);
-    EXPECT_LT(r.confidence, kWeakSupportCeiling);
+    EXPECT_LT(r.confidence, pose::kWeakSupportCeiling);
     EXPECT_GT(r.query_from_ref.translation.norm(), 0.1);  // its own metric pose, not the prior
     EXPECT_LT(RotationAngleDeg(r.query_from_ref.rotation, scene.query_from_ref.rotation), 5.0);
     o.solve.always_answer = 0;

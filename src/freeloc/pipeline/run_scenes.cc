@@ -5,47 +5,11 @@
 #include <filesystem>
 
 #include "freeloc/core/error.h"
-#include "freeloc/pipeline/relocalizer.h"
-#include "freeloc/pipeline/run_controller.h"
+#include "freeloc/pipeline/relocalize_scene.h"
 
 namespace freeloc::pipeline {
 
 namespace fs = std::filesystem;
-
-Shard Shard::FromString(const std::string& text) {
-  Shard s;
-  char tail = 0;
-  FREELOC_OPTION_CHECK("shard",
-                       std::sscanf(text.c_str(), "%d/%d%c", &s.index, &s.count, &tail) == 2 && s.count >= 1 &&
-                           s.index >= 1 && s.index <= s.count,
-                       ": '" << text << "' is not i/n with 1 <= i <= n (e.g. 2/4)");
-  return s;
-}
-
-std::string Shard::ToString() const { return whole() ? "" : std::to_string(index) + "/" + std::to_string(count); }
-
-std::vector<std::string> Shard::Select(const std::vector<std::string>& scenes) const {
-  if (whole()) return scenes;
-  std::vector<std::string> mine;
-  for (size_t k = static_cast<size_t>(index - 1); k < scenes.size(); k += static_cast<size_t>(count))
-    mine.push_back(scenes[k]);
-  return mine;
-}
-
-void RunSpec::Validate() const {
-  FREELOC_OPTION_CHECK("data", !data.empty(), ": give the dataset root or a split folder");
-  FREELOC_OPTION_CHECK("out", !out.empty(), ": give the submission ZIP to write");
-  FREELOC_OPTION_CHECK("shard", shard.whole() || (shard.index >= 1 && shard.index <= shard.count),
-                       ": " << shard.index << "/" << shard.count << " is not i/n with 1 <= i <= n");
-}
-
-std::vector<std::string> ResolveScenes(const std::string& data, const std::string& split,
-                                       const std::vector<std::string>& only, std::string* split_dir) {
-  *split_dir = io::ResolveSplitDir(data, split);
-  std::vector<std::string> scenes = io::ListScenes(*split_dir, only);
-  FREELOC_CHECK(!scenes.empty(), *split_dir << ": no scene folders to process");
-  return scenes;
-}
 
 std::map<std::string, io::MapfreeScene> LoadScenes(const std::string& split_dir, const std::vector<std::string>& scenes,
                                                    const PipelineOptions& o) {

@@ -2,8 +2,10 @@
 
 namespace freeloc::service {
 
-const char* PageHtml() {
-  return R"PAGE(<!doctype html>
+namespace {
+
+// The page, one file: markup, style and script (served gzipped, server.cc).
+constexpr const char kPageHtml[] = R"PAGE(<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>freeloc serve</title>
 <style>
 body{font-family:system-ui,sans-serif;margin:16px;background:#fafafa;color:#222}
@@ -185,6 +187,9 @@ function draw3d(view) {
 })();
 </script></body></html>
 )PAGE";
-}
+
+}  // namespace
+
+const char* PageHtml() { return kPageHtml; }
 
 }  // namespace freeloc::service

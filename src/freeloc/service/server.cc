@@ -30,19 +30,15 @@
 #include "freeloc/service/http.h"
 #include "freeloc/service/job_threads.h"
 #include "freeloc/service/page.h"
+#include "freeloc/service/service_fields.h"
 
 namespace freeloc::service {
 
 using Json = nlohmann::json;
 
 void ServiceOptions::Validate() const {
-  FREELOC_CHECK(port >= 0 && port <= 65535, "port: " << port << " is not 0-65535");
-  FREELOC_CHECK(workers >= 1 && workers <= 256, "workers: " << workers << " is not 1-256");
-  FREELOC_CHECK(max_queue >= 0 && max_queue <= 100000, "max_queue: " << max_queue << " is not 0-100000");
-  FREELOC_CHECK(max_upload_mb >= 1 && max_upload_mb <= 4096, "max_upload_mb: " << max_upload_mb << " is not 1-4096");
-  FREELOC_CHECK(max_upload_mp >= 1 && max_upload_mp <= 1000, "max_upload_mp: " << max_upload_mp << " is not 1-1000");
-  FREELOC_CHECK(max_anchors >= 1, "max_anchors: " << max_anchors << " must be at least 1");
-  FREELOC_CHECK(queue_timeout_s > 0, "queue_timeout_s: " << queue_timeout_s << " must be positive");
+  // Every field against its row's range (service_fields.cc), as the flags are checked at parse.
+  for (const FamilyField& f : ServiceFamily().fields) CheckFieldText(f, GetServiceField(*this, f.name));
   pipeline.Validate();
 }
 

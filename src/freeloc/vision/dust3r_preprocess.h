@@ -1,4 +1,4 @@
-// DUSt3R's `load_images` policy (dust3r/utils/image.py, spec/dust3r.md §3): long side to `size` (or short side
+// DUSt3R's `load_images` policy (dust3r/utils/image.py, naver/dust3r): long side to `size` (or short side
 // to ≈224 in 224 mode), Python round-half-even sizes, LANCZOS when shrinking else BICUBIC (Pillow-exact), centre
 // crop to multiples of 16 (square images to 3/4 height unless square_ok; a centred square in 224 mode), and
 // normalisation (u8/255 − 0.5)/0.5 in float32. Also records how to map network pixels back to the original image.

@@ -1,6 +1,6 @@
 // Pillow-compatible image resampling (Pillow 9.x `Image.resize`, libImaging/Resample.c semantics): separable,
 // horizontal pass first, fixed-point coefficients with 22 fractional bits, a uint8 intermediate. Bit-exact with
-// Pillow for BICUBIC and LANCZOS (spec/dust3r.md §3), and BILINEAR.
+// Pillow for BICUBIC and LANCZOS (naver/dust3r), and BILINEAR.
 #pragma once
 
 #include "freeloc/core/image.h"

@@ -1,5 +1,5 @@
 // SegGPT's input preparation (Painter SegGPT_inference seggpt_engine.inference_image + run_one_image,
-// spec/seggpt.md §1): every image resized to S×S ignoring aspect (Pillow BICUBIC), prompt masks with Pillow
+// baaivision/Painter SegGPT): every image resized to S×S ignoring aspect (Pillow BICUBIC), prompt masks with Pillow
 // NEAREST; per prompt k, [prompt image ; target image] and [prompt mask ; prompt mask] stacked along the height;
 // /255 and ImageNet normalisation (in double, cast to float32); and the post-processing back to a binary mask.
 #pragma once

@@ -11,6 +11,7 @@
 #include <oneapi/dnnl/dnnl.hpp>
 #include <vector>
 
+#include "freeloc/core/env.h"
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 
@@ -154,7 +155,7 @@ const Bf16Decision& CpuBf16Decision() {
     Bf16Decision r;
     const auto isa = dnnl::get_effective_cpu_isa();
     r.native = isa == dnnl::cpu_isa::avx512_core_bf16 || isa == dnnl::cpu_isa::avx512_core_amx;
-    const char* env = std::getenv("FREELOC_BF16");
+    const char* env = EnvSwitch("FREELOC_BF16");
     const bool force = env && std::strcmp(env, "force") == 0;
     torch::InferenceMode guard;
     const int64_t M = 768, K = 1024, N = 1024;

@@ -9,6 +9,7 @@
 #include <oneapi/dnnl/dnnl.hpp>
 #include <vector>
 
+#include "freeloc/core/env.h"
 #include "freeloc/core/error.h"
 #include "freeloc/nn/internal/fused_attention_kernel.h"
 
@@ -48,7 +49,7 @@ const ak::Entry& EntryFor(AttentionIsa isa) {
 
 bool UseFusedAttention(const torch::Device& device) {
   static const bool unfused = [] {
-    const char* env = std::getenv("FREELOC_ATTENTION");
+    const char* env = EnvSwitch("FREELOC_ATTENTION");
     return env && std::strcmp(env, "unfused") == 0;
   }();
   return device.is_cpu() && !unfused;

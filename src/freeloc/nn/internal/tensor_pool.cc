@@ -10,6 +10,8 @@
 #include <cstring>
 #include <new>
 
+#include "freeloc/core/env.h"
+
 namespace freeloc::nn::internal {
 
 namespace {
@@ -173,7 +175,7 @@ TensorPool* InstalledTensorPool() { return g_pool.load(std::memory_order_acquire
 void InstallTensorPool() {
   static std::once_flag once;
   std::call_once(once, [] {
-    const char* env = std::getenv("FREELOC_TENSOR_POOL");
+    const char* env = EnvSwitch("FREELOC_TENSOR_POOL");
     if (env && std::strcmp(env, "off") == 0) return;
     g_fallback = c10::GetCPUAllocator();
     // Lives as long as the process: tensors may outlive any owner.

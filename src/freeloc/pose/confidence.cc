@@ -1,9 +1,9 @@
-#include "freeloc/pipeline/confidence.h"
+#include "freeloc/pose/confidence.h"
 
 #include <algorithm>
 #include <cmath>
 
-namespace freeloc::pipeline {
+namespace freeloc::pose {
 
 PredictedError PredictPoseError(const PoseEvidence& e) {
   constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
@@ -43,4 +43,4 @@ double WeakSupportConfidence(double c) {
   return kWeakSupportCeiling * (0.001 + 0.998 * r);  // strictly inside (0, kWeakSupportCeiling)
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::pose

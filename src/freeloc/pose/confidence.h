@@ -14,7 +14,7 @@
 // units of the benchmark's pose thresholds. bench/confidence compares its AUCs with those of the raw inlier count.
 #pragma once
 
-namespace freeloc::pipeline {
+namespace freeloc::pose {
 
 struct PoseEvidence {
   int matches = 0;               // correspondences into the essential estimator
@@ -48,4 +48,4 @@ double ConfidenceFromPredictedError(const PredictedError& p);
 constexpr double kWeakSupportCeiling = 1e-3;
 double WeakSupportConfidence(double c);
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::pose

@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/confidence.h"
+#include "freeloc/pose/confidence.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 
 #include "testing/confidence_study.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::pose {
 namespace {
 
 PoseEvidence Typical() {
@@ -103,4 +103,4 @@ TEST(Confidence, RanksBetterThanTheInlierCountOnSyntheticQueries) {
 }
 
 }  // namespace
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::pose

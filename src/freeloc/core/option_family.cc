@@ -1,0 +1,118 @@
+#include "freeloc/core/option_family.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+namespace freeloc {
+
+const char* FieldTypeText(FieldType type) {
+  switch (type) {
+    case FieldType::kText: return "text";
+    case FieldType::kInteger: return "integer";
+    case FieldType::kNumber: return "number";
+    case FieldType::kSwitch: return "switch";
+    case FieldType::kList: return "list";
+  }
+  return "text";
+}
+
+const FamilyField& OptionFamily::Find(const std::string& field) const {
+  for (const FamilyField& f : fields)
+    if (f.name == field) return f;
+  std::string names;
+  for (const FamilyField& f : fields) names += (names.empty() ? "" : ", ") + f.name;
+  FREELOC_THROW(field << ": not a " << name << " option; the " << name << " options are " << names);
+}
+
+std::string NumberToText(double v) {
+  char buf[32];
+  // At least the integer digits, so that 120 is "120", not "1.2e+02".
+  const int first =
+      std::abs(v) >= 1 && std::abs(v) < 1e15 ? static_cast<int>(std::floor(std::log10(std::abs(v)))) + 1 : 1;
+  for (int digits = first; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+double TextToNumber(const std::string& text) { return std::strtod(text.c_str(), nullptr); }
+
+std::vector<std::string> SplitList(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::string JoinList(const std::vector<std::string>& items) {
+  std::string s;
+  for (const auto& i : items) s += (s.empty() ? "" : ",") + i;
+  return s;
+}
+
+void CheckFieldText(const FamilyField& f, const std::string& text) {
+  if (f.type == FieldType::kSwitch) {
+    FREELOC_OPTION_CHECK(f.name, text == "0" || text == "1" || text == "true" || text == "false",
+                         ": '" << SafeText(text, 40) << "' is not 0 or 1");
+    return;
+  }
+  if (f.type != FieldType::kInteger && f.type != FieldType::kNumber) return;
+  errno = 0;
+  char* end = nullptr;
+  const double v = f.type == FieldType::kInteger ? static_cast<double>(std::strtoll(text.c_str(), &end, 10))
+                                                 : std::strtod(text.c_str(), &end);
+  FREELOC_OPTION_CHECK(
+      f.name, !text.empty() && end && *end == 0 && errno == 0 && std::isfinite(v),
+      ": '" << SafeText(text, 40) << "' is not " << (f.type == FieldType::kInteger ? "an integer" : "a finite number"));
+  FREELOC_OPTION_CHECK(f.name, v >= f.min && v <= f.max,
+                       ": " << SafeText(text, 40) << " is out of range (" << NumberToText(f.min) << " to "
+                            << NumberToText(f.max) << ")");
+}
+
+namespace {
+std::string Cell(const std::string& text) {  // a Markdown table cell: "|" would end it
+  std::string out;
+  for (char c : text) out += c == '|' ? std::string("\\|") : std::string(1, c);
+  return out;
+}
+std::string Range(const FamilyField& f) {
+  if (std::isinf(f.min) && std::isinf(f.max)) return "";
+  if (std::isinf(f.max)) return " (≥ " + NumberToText(f.min) + ")";
+  return " (" + NumberToText(f.min) + "–" + NumberToText(f.max) + ")";
+}
+std::string Quote(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+}  // namespace
+
+std::string FamilyMarkdown(const OptionFamily& family) {
+  std::string md = "| name | flag | type | default | what it sets |\n|---|---|---|---|---|\n";
+  for (const FamilyField& f : family.fields)
+    md += "| `" + f.name + "` | " + (f.flag.empty() ? "–" : "`" + f.flag + "`") + " | " + FieldTypeText(f.type) +
+          " | " + (f.default_text.empty() ? "–" : "`" + f.default_text + "`") + " | " + Cell(f.help + Range(f)) +
+          " |\n";
+  return md;
+}
+
+std::string FamilyJson(const OptionFamily& family) {
+  std::string j = "{\"name\":" + Quote(family.name) + ",\"set_by\":" + Quote(family.set_by) + ",\"fields\":[";
+  for (size_t i = 0; i < family.fields.size(); ++i) {
+    const FamilyField& f = family.fields[i];
+    j += std::string(i ? "," : "") + "{\"name\":" + Quote(f.name) + ",\"flag\":" + Quote(f.flag) +
+         ",\"type\":" + Quote(FieldTypeText(f.type)) + ",\"default\":" + Quote(f.default_text) +
+         ",\"help\":" + Quote(f.help) + "}";
+  }
+  return j + "]}";
+}
+
+}  // namespace freeloc
