@@ -24,9 +24,9 @@
 #include "freeloc/core/limits.h"
 #include "freeloc/core/version.h"
 #include "freeloc/eval/report.h"
+#include "freeloc/inputs/intrinsics.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/pipeline/intrinsics.h"
 #include "freeloc/pipeline/multi_frame.h"
 #include "freeloc/pipeline/networks.h"
 #include "freeloc/pipeline/record.h"
@@ -329,7 +329,7 @@ class PyRelocalizer {
 
  private:
   // An image (a path: decoded upright, with its EXIF; an array: as is) and its intrinsics by freeloc's order
-  // (pipeline/intrinsics.h): `k` when given, else the photo's EXIF, else the pointmap's focal (dust3r/mast3r
+  // (inputs/intrinsics.h): `k` when given, else the photo's EXIF, else the pointmap's focal (dust3r/mast3r
   // presets), else a ValueError naming the keyword.
   Camera PhotoOf(const py::handle& image, const py::handle& k, const char* image_name, const char* k_name, Image* out,
                  pipeline::FrameInputs* in) const {
@@ -337,9 +337,9 @@ class PyRelocalizer {
     *out = IsPath(image) ? io::ReadImage(PathOf(image), &exif) : ImageOf(image, image_name);
     Camera given;
     if (!k.is_none()) given = CameraOf(k, k_name, out->width, out->height);
-    const pipeline::IntrinsicsChoice c =
-        pipeline::ChooseIntrinsics(k.is_none() ? nullptr : &given, pipeline::IntrinsicsSource::kGiven, exif, *out,
-                                   options_.UsesPointmapModel(), image_name);
+    const inputs::IntrinsicsChoice c =
+        inputs::ChooseIntrinsics(k.is_none() ? nullptr : &given, pipeline::IntrinsicsSource::kGiven, exif, *out,
+                                 options_.UsesPointmapModel(), image_name);
     if (c.source == pipeline::IntrinsicsSource::kNone)
       BadValue(std::string(k_name) + ": not given, and " + image_name + " has no usable EXIF focal length (" + c.why +
                "); pass " + k_name +
@@ -612,8 +612,8 @@ void BindFiles(py::module_& m) {
         io::ExifInfo exif;
         const std::string p = PathOf(path);
         const Image im = io::ReadImage(p, &exif);
-        const pipeline::IntrinsicsChoice c =
-            pipeline::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, im, false, p);
+        const inputs::IntrinsicsChoice c =
+            inputs::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, im, false, p);
         py::dict d;
         d["width"] = im.width;
         d["height"] = im.height;

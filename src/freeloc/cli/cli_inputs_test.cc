@@ -1,4 +1,4 @@
-// Plausible inputs through the command line (pipeline/input_checks.h, docs/formats.md "Plausible inputs"): the
+// Plausible inputs through the command line (inputs/input_checks.h, docs/formats.md "Plausible inputs"): the
 // mistakes people make first with well-formed files — depth in metres or centimetres, a transposed depth map,
 // normalised or reordered intrinsics, the same photo twice, a missing depth map — on the bundled TUM pair s00003.
 // Each is refused naming the input and the fix, answered with a status and a message, or answered right (within 5 %

@@ -1,6 +1,6 @@
 // `freeloc intrinsics IMG…`: what freeloc would use for each photo's intrinsics and why — its size as decoded, the
-// EXIF orientation applied, the EXIF fields read and the camera they give (pipeline/intrinsics.h, io/exif.h).
-#include "freeloc/pipeline/intrinsics.h"
+// EXIF orientation applied, the EXIF fields read and the camera they give (inputs/intrinsics.h, io/exif.h).
+#include "freeloc/inputs/intrinsics.h"
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -10,6 +10,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/io/exif.h"
 #include "freeloc/io/image_io.h"
+#include "freeloc/pipeline/query_result.h"
 
 namespace freeloc::cli {
 
@@ -59,8 +60,8 @@ int RunIntrinsics(const IntrinsicsArgs& a) {
       ++failed;
       continue;
     }
-    const pipeline::IntrinsicsChoice c =
-        pipeline::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, image, true, path, false);
+    const inputs::IntrinsicsChoice c =
+        inputs::ChooseIntrinsics(nullptr, pipeline::IntrinsicsSource::kGiven, exif, image, true, path, false);
     const bool exif_k = c.source == pipeline::IntrinsicsSource::kExif;
     if (a.json) {
       nlohmann::json j = {{"image", path},

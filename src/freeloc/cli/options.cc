@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <nlohmann/json.hpp>
 
 #include "freeloc/cli/commands.h"
 #include "freeloc/core/env.h"
@@ -38,7 +39,14 @@ const OptionFamily& Family(const std::string& name) {
 int RunFamilyListing(const OptionsArgs& a) {
   const OptionFamily& f = Family(a.family);
   if (a.json) {
-    std::printf("%s\n", FamilyJson(f).c_str());
+    nlohmann::ordered_json j = {{"name", f.name}, {"set_by", f.set_by}, {"fields", nlohmann::ordered_json::array()}};
+    for (const FamilyField& x : f.fields)
+      j["fields"].push_back({{"name", x.name},
+                             {"flag", x.flag},
+                             {"type", FieldTypeText(x.type)},
+                             {"default", x.default_text},
+                             {"help", x.help}});
+    std::printf("%s\n", j.dump().c_str());
   } else if (a.markdown) {
     std::printf("%s", FamilyMarkdown(f).c_str());
   } else {
@@ -53,12 +61,10 @@ int RunFamilyListing(const OptionsArgs& a) {
 int RunOptions(const OptionsArgs& a) {
   if (!a.family.empty() && a.family != "pipeline") return RunFamilyListing(a);
   if (a.json) {
-    std::string j = "{\"name\":\"pipeline\",\"fields\":[";
-    for (size_t i = 0; i < pipeline::OptionFields().size(); ++i) {
-      const auto& f = pipeline::OptionFields()[i];
-      j += std::string(i ? "," : "") + "{\"name\":\"" + f.name + "\",\"flag\":\"" + (f.flag ? f.flag : "") + "\"}";
-    }
-    std::printf("%s]}\n", j.c_str());
+    nlohmann::ordered_json j = {{"name", "pipeline"}, {"fields", nlohmann::ordered_json::array()}};
+    for (const auto& f : pipeline::OptionFields())
+      j["fields"].push_back({{"name", f.name}, {"flag", f.flag ? f.flag : ""}, {"help", f.help}});
+    std::printf("%s\n", j.dump().c_str());
     return 0;
   }
   if (a.markdown) {

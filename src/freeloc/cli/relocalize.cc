@@ -10,10 +10,10 @@
 #include "freeloc/core/logging.h"
 #include "freeloc/core/progress.h"
 #include "freeloc/core/timing.h"
+#include "freeloc/inputs/intrinsics.h"
 #include "freeloc/io/correspondence_file.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/pipeline/intrinsics.h"
 #include "freeloc/pipeline/record.h"
 #include "freeloc/pipeline/relocalizer.h"
 #include "freeloc/pipeline/report_recorder.h"
@@ -47,11 +47,11 @@ Camera CameraFromFile(const std::string& file, const std::string& image) {
   return by_name->camera;
 }
 
-// One photo with the intrinsics freeloc's order gives it (pipeline/intrinsics.h): --<frame>-intrinsics or
+// One photo with the intrinsics freeloc's order gives it (inputs/intrinsics.h): --<frame>-intrinsics or
 // --intrinsics FILE > EXIF > the pointmap's focal > a one-line error naming the flags.
 struct Photo {
   Image image;
-  pipeline::IntrinsicsChoice intrinsics;
+  inputs::IntrinsicsChoice intrinsics;
 };
 
 Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref) {
@@ -70,8 +70,7 @@ Photo LoadPhoto(const RelocArgs& a, const pipeline::PipelineOptions& o, bool ref
   Photo p;
   io::ExifInfo exif;
   p.image = io::ReadImage(path, &exif, o.WorkingMaxSide());
-  p.intrinsics =
-      pipeline::ChooseIntrinsics(have ? &given : nullptr, source, exif, p.image, o.UsesPointmapModel(), path);
+  p.intrinsics = inputs::ChooseIntrinsics(have ? &given : nullptr, source, exif, p.image, o.UsesPointmapModel(), path);
   FREELOC_CHECK(p.intrinsics.source != pipeline::IntrinsicsSource::kNone,
                 path << ": no intrinsics (its EXIF: " << p.intrinsics.why << "); give " << flag
                      << " fx,fy,cx,cy or --intrinsics FILE, or use a dust3r or mast3r preset (they estimate the focal "

@@ -10,7 +10,7 @@ namespace freeloc {
 
 // How a provided map's values were stored: as float metres (arrays, the networks' estimates) or as integers (16-bit
 // PNGs, uint16 arrays), which the readers turn into metres as millimetres — the map-free convention — until the
-// pipeline applies the unit the options name (`depth_unit`, pipeline/input_checks.h, docs/formats.md "Depth maps").
+// pipeline applies the unit the options name (`depth_unit`, inputs/input_checks.h, docs/formats.md "Depth maps").
 enum class DepthStorage : uint8_t { kMetres, kInteger };
 
 struct DepthMap {

@@ -1,16 +1,20 @@
-// The environment switches freeloc reads (docs/formats.md "Option families"): one registry, so that a variable is
+// The environment switches freeloc reads (docs/formats.md "Option families"): one table, so that a variable is
 // declared once with its help and every read goes through it. EnvSwitch("FREELOC_MODELS") is std::getenv for a
-// registered name; an unregistered one is a programming error (it throws).
+// registered name; an unregistered one is a programming error (tests/docs/test_option_families.py finds every read;
+// at run time it ends the process with a message). The family "environment" (option_family.h) is made from the table.
 #pragma once
 
 #include <string>
-
-#include "freeloc/core/option_family.h"
+#include <vector>
 
 namespace freeloc {
 
-// The family "environment": each variable (its name is the field's name and its "flag") with its values and help.
-const OptionFamily& EnvironmentFamily();
+struct EnvVariable {
+  const char* name;  // FREELOC_MODELS; FREELOC_LIMIT_<NAME> stands for every limit's
+  const char* type;  // switch | text | list | integer
+  const char* help;
+};
+const std::vector<EnvVariable>& EnvVariables();
 
 // The variable's value, or nullptr when it is not set.
 const char* EnvSwitch(const std::string& name);

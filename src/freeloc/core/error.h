@@ -29,7 +29,7 @@ class OptionError : public Error {
   std::string field_, detail_;
 };
 
-// An input that means something else than it is read as (pipeline/input_checks.h), whose fix is an option's value:
+// An input that means something else than it is read as (inputs/input_checks.h), whose fix is an option's value:
 // the message names the option as `field=value` ("set depth_unit=m"); the CLI adds the flag that sets it.
 class InputFixError : public Error {
  public:

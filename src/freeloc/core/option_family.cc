@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "freeloc/core/env.h"
+
 namespace freeloc {
 
 const char* FieldTypeText(FieldType type) {
@@ -85,15 +87,28 @@ std::string Range(const FamilyField& f) {
   if (std::isinf(f.max)) return " (≥ " + NumberToText(f.min) + ")";
   return " (" + NumberToText(f.min) + "–" + NumberToText(f.max) + ")";
 }
-std::string Quote(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
 }  // namespace
+
+const OptionFamily& EnvironmentFamily() {
+  static const OptionFamily family = [] {
+    OptionFamily f;
+    f.name = "environment";
+    f.set_by = "the environment of freeloc, its Python module and the service";
+    for (const EnvVariable& v : EnvVariables()) {
+      FamilyField x;
+      x.name = x.flag = v.name;
+      const std::string t = v.type;
+      x.type = t == "list"      ? FieldType::kList
+               : t == "integer" ? FieldType::kInteger
+               : t == "switch"  ? FieldType::kSwitch
+                                : FieldType::kText;
+      x.help = v.help;
+      f.fields.push_back(x);
+    }
+    return f;
+  }();
+  return family;
+}
 
 std::string FamilyMarkdown(const OptionFamily& family) {
   std::string md = "| name | flag | type | default | what it sets |\n|---|---|---|---|---|\n";
@@ -102,17 +117,6 @@ std::string FamilyMarkdown(const OptionFamily& family) {
           " | " + (f.default_text.empty() ? "–" : "`" + f.default_text + "`") + " | " + Cell(f.help + Range(f)) +
           " |\n";
   return md;
-}
-
-std::string FamilyJson(const OptionFamily& family) {
-  std::string j = "{\"name\":" + Quote(family.name) + ",\"set_by\":" + Quote(family.set_by) + ",\"fields\":[";
-  for (size_t i = 0; i < family.fields.size(); ++i) {
-    const FamilyField& f = family.fields[i];
-    j += std::string(i ? "," : "") + "{\"name\":" + Quote(f.name) + ",\"flag\":" + Quote(f.flag) +
-         ",\"type\":" + Quote(FieldTypeText(f.type)) + ",\"default\":" + Quote(f.default_text) +
-         ",\"help\":" + Quote(f.help) + "}";
-  }
-  return j + "]}";
 }
 
 }  // namespace freeloc

@@ -33,10 +33,11 @@ struct OptionFamily {
   const FamilyField& Find(const std::string& name) const;  // throws naming the family's fields
 };
 
+// The family "environment": the table of env.h, each variable's name its field name and its "flag".
+const OptionFamily& EnvironmentFamily();
+
 // One Markdown table of a family (the docs' tables are these, `freeloc options --family NAME --markdown`).
 std::string FamilyMarkdown(const OptionFamily& family);
-// One JSON object: {"name", "set_by", "fields": [{"name", "flag", "type", "default", "help", "min", "max"}]}.
-std::string FamilyJson(const OptionFamily& family);
 const char* FieldTypeText(FieldType type);
 
 // A field's value checked against its row: a number in range, an integer, a switch 0/1; throws

@@ -61,7 +61,7 @@ DepthMap MapfreeScene::LoadDepth(const MapfreeFrame& f, const std::string& suffi
   std::error_code ec;
   FREELOC_CHECK(fs::exists(path, ec), path << ": provided depth '" << suffix << "' not found for " << f.name
                                            << " in scene " << name << "; check the depth suffix");
-  // Its size against the photo's is the pipeline's rule (pipeline/input_checks.h): resampled or refused there.
+  // Its size against the photo's is the pipeline's rule (inputs/input_checks.h): resampled or refused there.
   return ReadDepthPng(path);
 }
 

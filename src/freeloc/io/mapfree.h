@@ -46,7 +46,7 @@ struct MapfreeScene {
   // `max_side` > 0: at that working resolution (image_io.h).
   Image LoadImage(const MapfreeFrame& f, int max_side = 0) const;
   // Provided depth as stored (integers read as mm / 1000, DepthStorage::kInteger), 0 = invalid. Throws naming the file
-  // when absent or damaged; its unit and size are the pipeline's rule (pipeline/input_checks.h).
+  // when absent or damaged; its unit and size are the pipeline's rule (inputs/input_checks.h).
   DepthMap LoadDepth(const MapfreeFrame& f, const std::string& suffix) const;
   // Precomputed correspondences (x_ref, y_ref, x_query, y_query) per query, rows in `queries` order, NaN padding
   // dropped. `name` is SIFT, SG, LoFTR or any other suffix of correspondences_<name>.npz.

@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/input_checks.h"
+#include "freeloc/inputs/input_checks.h"
 
 #include <gtest/gtest.h>
 
@@ -18,10 +18,10 @@ namespace {
 
 Camera K(double fx, double fy, double cx, double cy) { return Camera{fx, fy, cx, cy}; }
 
-// The message CheckIntrinsics throws for `k` on a 640×480 photo ("" when it passes).
-std::string IntrinsicsError(const Camera& k, const InputOptions& o = {}, InputNotes* notes = nullptr) {
+// The message inputs::CheckIntrinsics throws for `k` on a 640×480 photo ("" when it passes).
+std::string IntrinsicsError(const Camera& k, const InputOptions& o = {}, inputs::InputNotes* notes = nullptr) {
   try {
-    CheckIntrinsics(k, 640, 480, o, "query intrinsics", notes);
+    inputs::CheckIntrinsics(k, 640, 480, o, "query intrinsics", notes);
   } catch (const Error& e) {
     return e.what();
   }
@@ -66,13 +66,13 @@ TEST(InputChecks, IntrinsicsMistakesAreNamedWithTheirFix) {
 TEST(InputChecks, ALoosenedBoundIsNotedAndLowersTheConfidence) {
   InputOptions o;
   o.focal_aspect_max = 1.5;
-  InputNotes notes;
+  inputs::InputNotes notes;
   EXPECT_EQ(IntrinsicsError(K(535, 430, 320, 240), o, &notes), "");
   ASSERT_EQ(notes.notes.size(), 1u);
   EXPECT_TRUE(Has(notes.notes[0], "accepted only by a loosened bound")) << notes.notes[0];
-  EXPECT_DOUBLE_EQ(notes.confidence_factor, kLoosenedBoundFactor);
+  EXPECT_DOUBLE_EQ(notes.confidence_factor, inputs::kLoosenedBoundFactor);
   // Within the default bounds the loosening changes nothing.
-  InputNotes none;
+  inputs::InputNotes none;
   EXPECT_EQ(IntrinsicsError(K(535, 539, 320, 240), o, &none), "");
   EXPECT_TRUE(none.notes.empty());
 }
@@ -89,10 +89,10 @@ DepthMap StoredDepth(double unit_per_m, uint32_t seed = 7) {
   return d;
 }
 
-std::string DepthError(DepthMap d, int w, int h, const InputOptions& o = {}, InputNotes* notes = nullptr,
+std::string DepthError(DepthMap d, int w, int h, const InputOptions& o = {}, inputs::InputNotes* notes = nullptr,
                        DepthMap* out = nullptr) {
   try {
-    DepthMap r = CheckProvidedDepth(std::move(d), w, h, w, h, o, "query depth", notes);
+    DepthMap r = inputs::CheckProvidedDepth(std::move(d), w, h, w, h, o, "query depth", notes);
     if (out) *out = std::move(r);
   } catch (const Error& e) {
     return e.what();
@@ -126,7 +126,7 @@ TEST(InputChecks, DepthInAnotherUnitIsRefusedWithTheUnitThatFitsIt) {
   // A scene really that close: the message says how to loosen the bound, and the loosened answer is noted.
   o = InputOptions();
   o.depth_median_min_m = 0.0005;
-  InputNotes notes;
+  inputs::InputNotes notes;
   EXPECT_EQ(DepthError(StoredDepth(1), 64, 48, o, &notes), "");
   EXPECT_EQ(notes.notes.size(), 1u);
 }
@@ -136,7 +136,7 @@ TEST(InputChecks, DepthOfAnotherShapeIsResampledOrRefused) {
   std::string e = DepthError(StoredDepth(1000), 48, 64);
   EXPECT_TRUE(Has(e, "the depth map is 64x48 but the photo is 48x64 as displayed (transposed")) << e;
   // The same aspect ratio at another size: resampled, noted, its values the map's.
-  InputNotes notes;
+  inputs::InputNotes notes;
   DepthMap out;
   const DepthMap small = StoredDepth(1000);
   EXPECT_EQ(DepthError(small, 256, 192, {}, &notes, &out), "");
@@ -144,7 +144,7 @@ TEST(InputChecks, DepthOfAnotherShapeIsResampledOrRefused) {
   ASSERT_EQ(out.height, 192);
   EXPECT_EQ(notes.notes.size(), 1u);
   EXPECT_TRUE(Has(notes.notes[0], "resampled from 64x48 to 256x192")) << notes.notes[0];
-  EXPECT_DOUBLE_EQ(notes.confidence_factor, kResampledDepthFactor);
+  EXPECT_DOUBLE_EQ(notes.confidence_factor, inputs::kResampledDepthFactor);
   // Pixel centres: output (4k + 1.5) sits on input pixel k's centre; a hole stays a hole (nearest), never blended.
   EXPECT_NEAR(out.at(4 * 5 + 1, 4 * 5 + 1) + out.at(4 * 5 + 2, 4 * 5 + 2), 2 * small.at(5, 5), 0.02);
   EXPECT_EQ(out.at(41, 41), 0.f);

@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/model_files.h"
+#include "freeloc/inputs/model_files.h"
 
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -43,14 +43,16 @@ TEST(Models, FoundByPublishedNamesInModelsDirThenEnvironment) {
   testing::WriteText(b.File("seggpt-vit-large/model.safetensors"), "x");
   testing::WriteText(b.File("metric_depth_vit_small_800k.pth"), "x");
   testing::WriteText(b.File("metric_depth_vit_large_800k.pth"), "x");
-  EXPECT_EQ(FindModel(Network::kDust3r, ModelDirs(a.path())), a.File("DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth"));
-  EXPECT_EQ(FindModel(Network::kSegGpt, ModelDirs(a.path())), "");
+  EXPECT_EQ(inputs::FindModel(inputs::Network::kDust3r, inputs::ModelDirs(a.path())),
+            a.File("DUSt3R_ViTLarge_BaseDecoder_512_dpt.pth"));
+  EXPECT_EQ(inputs::FindModel(inputs::Network::kSegGpt, inputs::ModelDirs(a.path())), "");
   ScopedModelsEnv set(("/nonexistent:" + b.path()).c_str());
-  const auto dirs = ModelDirs(a.path());
+  const auto dirs = inputs::ModelDirs(a.path());
   ASSERT_EQ(dirs.size(), 3u);
   EXPECT_EQ(dirs[0], a.path());
-  EXPECT_EQ(FindModel(Network::kSegGpt, dirs), b.File("seggpt-vit-large/model.safetensors"));
-  EXPECT_EQ(FindModel(Network::kMetric3d, dirs), b.File("metric_depth_vit_large_800k.pth"));  // large before small
+  EXPECT_EQ(inputs::FindModel(inputs::Network::kSegGpt, dirs), b.File("seggpt-vit-large/model.safetensors"));
+  EXPECT_EQ(inputs::FindModel(inputs::Network::kMetric3d, dirs),
+            b.File("metric_depth_vit_large_800k.pth"));  // large before small
 
   PipelineOptions o = ResolvePreset("seed");
   o.models.models_dir = a.path();

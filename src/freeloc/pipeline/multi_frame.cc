@@ -5,8 +5,8 @@
 #include <algorithm>
 
 #include "freeloc/core/error.h"
+#include "freeloc/inputs/working_frame.h"
 #include "freeloc/pipeline/relocalizer.h"
-#include "freeloc/pipeline/working_frame.h"
 
 namespace freeloc::pipeline {
 
@@ -23,7 +23,7 @@ geometry::ScaleAnchors AnchorInliers(const matching::Correspondences& c, const Q
   // The depth maps are at the working resolution (working_frame.h): points and cameras into their pixels.
   const auto to_depth = [](const DepthMap& d, const Camera& k, std::vector<Eigen::Vector2d>* p) {
     if (k.width <= 0 || k.height <= 0 || d.empty() || (d.width == k.width && d.height == k.height)) return k;
-    const PixelScale s{static_cast<double>(k.width) / d.width, static_cast<double>(k.height) / d.height};
+    const inputs::PixelScale s{static_cast<double>(k.width) / d.width, static_cast<double>(k.height) / d.height};
     for (auto& x : *p) x = s.ToWorking(x);
     return k.Scaled(d.width, d.height);
   };

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "freeloc/core/error.h"
-#include "freeloc/pipeline/model_files.h"
+#include "freeloc/inputs/model_files.h"
 #include "freeloc/pipeline/query_result.h"
 
 namespace freeloc::pipeline {
@@ -101,28 +101,16 @@ void MultiFrameOptions::Validate() const {
                        ": " << frames << " is not in 1..9 (a window holds 9 frames)");
 }
 
-void InputOptions::Validate() const {
-  FREELOC_OPTION_CHECK("max_side", max_side == 0 || (max_side >= 64 && max_side <= 1 << 16),
-                       ": " << max_side << " is not 0 (full resolution) or a long side of 64 to 65536 pixels");
-  FREELOC_OPTION_CHECK("network_max_side",
-                       network_max_side == 0 || (network_max_side >= 512 && network_max_side <= 1 << 16),
-                       ": " << network_max_side << " is not 0 (full resolution) or a long side of 512 to 65536 pixels");
-  FREELOC_OPTION_CHECK(
-      "depth_median_min_m", depth_median_min_m > 0 && depth_median_min_m < depth_median_max_m,
-      ": " << depth_median_min_m << " must be > 0 and below depth_median_max_m (" << depth_median_max_m << ")");
-  FREELOC_OPTION_CHECK("focal_min", focal_min > 0 && focal_min < focal_max,
-                       ": " << focal_min << " must be > 0 and below focal_max (" << focal_max << ")");
-  FREELOC_OPTION_CHECK("focal_aspect_max", focal_aspect_max >= 1, ": " << focal_aspect_max << " must be >= 1");
-  FREELOC_OPTION_CHECK("principal_point_margin", principal_point_margin >= 0,
-                       ": " << principal_point_margin << " must be >= 0");
-}
-
 void ModelFiles::Validate(const PipelineOptions& o) const {
-  const auto dirs = ModelDirs(models_dir);
-  FREELOC_CHECK(!o.UsesDust3r() || !dust3r_model.empty(), MissingModelMessage(Network::kDust3r, o.preset, dirs));
-  FREELOC_CHECK(!o.UsesMast3r() || !mast3r_model.empty(), MissingModelMessage(Network::kMast3r, o.preset, dirs));
-  FREELOC_CHECK(!o.UsesSegGpt() || !seggpt_model.empty(), MissingModelMessage(Network::kSegGpt, o.preset, dirs));
-  FREELOC_CHECK(!o.UsesMetric3d() || !metric3d_model.empty(), MissingModelMessage(Network::kMetric3d, o.preset, dirs));
+  const auto dirs = inputs::ModelDirs(models_dir);
+  FREELOC_CHECK(!o.UsesDust3r() || !dust3r_model.empty(),
+                inputs::MissingModelMessage(inputs::Network::kDust3r, o.preset, dirs));
+  FREELOC_CHECK(!o.UsesMast3r() || !mast3r_model.empty(),
+                inputs::MissingModelMessage(inputs::Network::kMast3r, o.preset, dirs));
+  FREELOC_CHECK(!o.UsesSegGpt() || !seggpt_model.empty(),
+                inputs::MissingModelMessage(inputs::Network::kSegGpt, o.preset, dirs));
+  FREELOC_CHECK(!o.UsesMetric3d() || !metric3d_model.empty(),
+                inputs::MissingModelMessage(inputs::Network::kMetric3d, o.preset, dirs));
 }
 
 void PipelineOptions::Validate() const {

@@ -8,6 +8,7 @@
 
 #include "freeloc/core/enum_table.h"
 #include "freeloc/geometry/scale_method.h"
+#include "freeloc/inputs/input_options.h"
 #include "freeloc/io/track.h"
 #include "freeloc/matching/instance_mode.h"
 #include "freeloc/matching/proposal_options.h"
@@ -34,9 +35,9 @@ using pose::SolverKind;
 enum class InstanceSource { kPropagate, kGiven };
 // The benchmark track (io/mapfree.h): multi-frame answers each evaluated frame from its window (multi_frame.h).
 using freeloc::io::Track;
-// The unit of integer depth maps handed in (16-bit PNGs, uint16 arrays): mm (the map-free convention), cm or m.
-// Float maps are metres whatever this says.
-enum class DepthUnit { kMillimetre, kCentimetre, kMetre };
+// The unit of integer depth maps and what inputs must look like (inputs/input_options.h).
+using inputs::DepthUnit;
+using inputs::InputOptions;
 // Multi-frame: the phone's tracking poses (pose/window_fusion.h): auto | use | ignore.
 using pose::DevicePoseUse;
 
@@ -118,27 +119,6 @@ struct InstanceOptions {
   void Validate() const;
 };
 
-// What inputs handed in must look like to be taken as they say (pipeline/input_checks.h, docs/formats.md "Plausible
-// inputs"): the unit of integer depth maps and the bounds that refuse a well-formed file meaning something else —
-// depth in the wrong unit, intrinsics normalised or in another order. Loosening a bound is recorded with the answer
-// and lowers its confidence where the input needed it.
-struct InputOptions {
-  // The working resolution: photos are decoded and matched at most this many pixels on their long side (JPEG's
-  // scaled decoding where it reaches); intrinsics, depth maps, matches and answers stay in the photo's own pixels.
-  // 0: full resolution. max_side for SIFT, network_max_side for the DUSt3R/MASt3R matchers (their networks see 512
-  // px; Metric3D's ViT about 1064). Chosen by measurement (docs/pipeline.md "Phone photos").
-  int max_side = 1600;
-  int network_max_side = 1024;
-  DepthUnit depth_unit = DepthUnit::kMillimetre;
-  double depth_median_min_m = 0.4;  // the valid depths' median, metres: below it the map is refused
-  double depth_median_max_m = 100;  // … and above it
-  double focal_min = 0.1;           // given focal lengths, in multiples of the image's long side
-  double focal_max = 20;
-  double focal_aspect_max = 1.1;      // max(fx, fy) / min(fx, fy)
-  double principal_point_margin = 0;  // how far outside the image the principal point may lie, fraction of its size
-  void Validate() const;
-};
-
 // The Multi Frame track's windows (multi_frame.h).
 struct MultiFrameOptions {
   int frames = 9;  // the last `frames` (1–9) frames of each window
@@ -209,13 +189,6 @@ struct EnumTable<pipeline::InstanceSource> {
   static constexpr const char* kField = "instance_source";
   static constexpr EnumEntry<pipeline::InstanceSource> kEntries[] = {
       {pipeline::InstanceSource::kPropagate, "propagate"}, {pipeline::InstanceSource::kGiven, "given"}};
-};
-template <>
-struct EnumTable<pipeline::DepthUnit> {
-  static constexpr const char* kField = "depth_unit";
-  static constexpr EnumEntry<pipeline::DepthUnit> kEntries[] = {{pipeline::DepthUnit::kMillimetre, "mm"},
-                                                                {pipeline::DepthUnit::kCentimetre, "cm"},
-                                                                {pipeline::DepthUnit::kMetre, "m"}};
 };
 }  // namespace freeloc
 

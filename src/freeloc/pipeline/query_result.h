@@ -9,6 +9,7 @@
 #include "freeloc/core/camera.h"
 #include "freeloc/core/enum_table.h"
 #include "freeloc/core/rigid3d.h"
+#include "freeloc/inputs/input_options.h"
 #include "freeloc/pose/pose_estimate.h"
 #include "freeloc/pose/window_fusion.h"
 
@@ -17,18 +18,9 @@ namespace freeloc::pipeline {
 // What happened to a query (pose/pose_estimate.h: one text form each, EnumTable<pose::Status>).
 using QueryStatus = pose::Status;
 
-// Where a frame's intrinsics came from, in the order freeloc prefers them: handed in (flags, Python), a file
-// (intrinsics.txt), the photo's EXIF, the pointmap's focal (DUSt3R/MASt3R). docs/geometry.md "Intrinsics without a
-// calibration".
-enum class IntrinsicsSource { kNone, kGiven, kFile, kExif, kPointmap };
-
-struct FrameIntrinsics {
-  Camera camera;  // all zero while kNone
-  IntrinsicsSource source = IntrinsicsSource::kNone;
-  int orientation = 0;        // the EXIF orientation the decoder applied to the photo (0: no tag, 1: as stored)
-  double pointmap_focal = 0;  // the pointmap's focal when one was estimated (estimate or check), else 0
-  bool known() const { return source != IntrinsicsSource::kNone; }
-};
+// Where a frame's intrinsics came from and what they are (inputs/input_options.h).
+using inputs::FrameIntrinsics;
+using inputs::IntrinsicsSource;
 
 // Multi-frame: how an evaluated frame's window voted (pose/window_fusion.h).
 using pose::WindowSummary;
@@ -82,15 +74,4 @@ struct CacheStats {
 
 }  // namespace freeloc::pipeline
 
-namespace freeloc {
-template <>
-struct EnumTable<pipeline::IntrinsicsSource> {
-  static constexpr const char* kField = "intrinsics source";
-  static constexpr EnumEntry<pipeline::IntrinsicsSource> kEntries[] = {
-      {pipeline::IntrinsicsSource::kNone, "none"},
-      {pipeline::IntrinsicsSource::kGiven, "given"},
-      {pipeline::IntrinsicsSource::kFile, "file"},
-      {pipeline::IntrinsicsSource::kExif, "exif"},
-      {pipeline::IntrinsicsSource::kPointmap, "pointmap"}};
-};
-}  // namespace freeloc
+namespace freeloc {}  // namespace freeloc

@@ -9,19 +9,22 @@
 #include "freeloc/core/logging.h"
 #include "freeloc/core/progress.h"
 #include "freeloc/core/timing.h"
-#include "freeloc/pipeline/input_checks.h"
-#include "freeloc/pipeline/model_files.h"
-#include "freeloc/pipeline/working_frame.h"
+#include "freeloc/inputs/input_checks.h"
+#include "freeloc/inputs/model_files.h"
+#include "freeloc/inputs/working_frame.h"
 
 namespace freeloc::pipeline {
 
 void FindModels(PipelineOptions* o) {
-  const auto dirs = ModelDirs(o->models.models_dir);
-  if (o->UsesDust3r() && o->models.dust3r_model.empty()) o->models.dust3r_model = FindModel(Network::kDust3r, dirs);
-  if (o->UsesMast3r() && o->models.mast3r_model.empty()) o->models.mast3r_model = FindModel(Network::kMast3r, dirs);
-  if (o->UsesSegGpt() && o->models.seggpt_model.empty()) o->models.seggpt_model = FindModel(Network::kSegGpt, dirs);
+  const auto dirs = inputs::ModelDirs(o->models.models_dir);
+  if (o->UsesDust3r() && o->models.dust3r_model.empty())
+    o->models.dust3r_model = inputs::FindModel(inputs::Network::kDust3r, dirs);
+  if (o->UsesMast3r() && o->models.mast3r_model.empty())
+    o->models.mast3r_model = inputs::FindModel(inputs::Network::kMast3r, dirs);
+  if (o->UsesSegGpt() && o->models.seggpt_model.empty())
+    o->models.seggpt_model = inputs::FindModel(inputs::Network::kSegGpt, dirs);
   if (o->UsesMetric3d() && o->models.metric3d_model.empty())
-    o->models.metric3d_model = FindModel(Network::kMetric3d, dirs);
+    o->models.metric3d_model = inputs::FindModel(inputs::Network::kMetric3d, dirs);
 }
 
 void LoadModels(const PipelineOptions& o) {
@@ -41,9 +44,9 @@ struct Relocalizer::Impl {
   CacheStats stats;
   Camera k_ref;
   FrameIntrinsics ref_intrinsics;
-  InputNotes ref_notes;        // what the input checks did to the reference's inputs
-  PixelScale ref_scale;        // the reference's photo pixels per working pixel
-  std::string ref_depth_name;  // the reference's depth source (or the file expected), for messages
+  inputs::InputNotes ref_notes;  // what the input checks did to the reference's inputs
+  inputs::PixelScale ref_scale;  // the reference's photo pixels per working pixel
+  std::string ref_depth_name;    // the reference's depth source (or the file expected), for messages
   DepthMap d_ref, d_query;
   bool have_ref = false;
   void UpdateStats() {
@@ -82,25 +85,25 @@ bool IsZero(const Camera& c) { return c.fx == 0 && c.fy == 0 && c.cx == 0 && c.c
 // Intrinsics handed in (flags, Python, an intrinsics file) must fit the image (input_checks.h): a focal length of
 // 1e308, normalised or reordered values are mistakes, not a camera. EXIF and pointmap intrinsics are checked where
 // they are made.
-void CheckCameraFitsImage(const Camera& camera, const FrameInputs& in, const WorkingFrame& wf, const InputOptions& o,
-                          const char* what, InputNotes* notes) {
+void CheckCameraFitsImage(const Camera& camera, const FrameInputs& in, const inputs::WorkingFrame& wf,
+                          const InputOptions& o, const char* what, inputs::InputNotes* notes) {
   // No image, or no intrinsics at all (a default Camera: `freeloc match`, whose matchers need none).
   if (wf.image().empty() || IsZero(camera)) return;
   if (in.intrinsics_source != IntrinsicsSource::kGiven && in.intrinsics_source != IntrinsicsSource::kFile) return;
-  CheckIntrinsics(camera, wf.photo_width(), wf.photo_height(), o, what, notes);
+  inputs::CheckIntrinsics(camera, wf.photo_width(), wf.photo_height(), o, what, notes);
 }
 
 // The frame's provided depth through the input rule when the depth stage reads it (a map the stages ignore is not
 // judged), at the working size.
-DepthMap CheckedDepth(DepthMap d, const WorkingFrame& wf, const PipelineOptions& o, const char* frame,
-                      InputNotes* notes) {
+DepthMap CheckedDepth(DepthMap d, const inputs::WorkingFrame& wf, const PipelineOptions& o, const char* frame,
+                      inputs::InputNotes* notes) {
   if (!o.UsesProvidedDepth()) return d;
-  return CheckProvidedDepth(std::move(d), wf.photo_width(), wf.photo_height(), wf.image().width, wf.image().height,
-                            o.inputs, frame, notes);
+  return inputs::CheckProvidedDepth(std::move(d), wf.photo_width(), wf.photo_height(), wf.image().width,
+                                    wf.image().height, o.inputs, frame, notes);
 }
 
 // Intrinsics resolved in working pixels, as reported: in the photo's own pixels (the camera handed in as it was).
-FrameIntrinsics InPhotoPixels(FrameIntrinsics fi, const Camera& given, const WorkingFrame& wf) {
+FrameIntrinsics InPhotoPixels(FrameIntrinsics fi, const Camera& given, const inputs::WorkingFrame& wf) {
   if (!wf.scaled()) return fi;
   fi.camera = fi.source == IntrinsicsSource::kPointmap ? wf.ToPhoto(fi.camera) : given;
   fi.pointmap_focal *= wf.scale().sx;
@@ -108,8 +111,8 @@ FrameIntrinsics InPhotoPixels(FrameIntrinsics fi, const Camera& given, const Wor
 }
 
 // The frame's inputs in working pixels: its labels and handed-in correspondences (kept alive in `labels`, `rows`).
-void InputsToWorking(const WorkingFrame& wf, const PixelScale* ref, FrameInputs* in, std::vector<uint16_t>* labels,
-                     std::vector<Eigen::Vector4d>* rows) {
+void InputsToWorking(const inputs::WorkingFrame& wf, const inputs::PixelScale* ref, FrameInputs* in,
+                     std::vector<uint16_t>* labels, std::vector<Eigen::Vector4d>* rows) {
   if (in->instance_labels && wf.scaled()) in->instance_labels = &(*labels = wf.ToWorking(*in->instance_labels));
   if (ref && in->correspondences && (wf.scaled() || ref->scaled()))
     in->correspondences = &(*rows = wf.ToWorking(*in->correspondences, *ref));
@@ -129,7 +132,7 @@ std::string NoDepthMessage(bool ref_missing, const std::string& ref_source, bool
 }
 
 // The input checks' notes onto an answer: listed with it, its confidence (and predicted error) scaled.
-void ApplyInputNotes(const InputNotes& notes, QueryResult* r) {
+void ApplyInputNotes(const inputs::InputNotes& notes, QueryResult* r) {
   r->input_notes = notes.notes;
   if (notes.confidence_factor == 1 || r->confidence <= 0) return;
   r->confidence *= notes.confidence_factor;
@@ -187,10 +190,10 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameIn
   Impl& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   m.have_ref = false;
-  m.ref_notes = InputNotes();
+  m.ref_notes = inputs::InputNotes();
   m.ref_depth_name = in.depth.source;
   SetStage("reference: preparing");
-  const WorkingFrame wf(image, m.o.WorkingMaxSide());  // the stages keep what they need of the reference
+  const inputs::WorkingFrame wf(image, m.o.WorkingMaxSide());  // the stages keep what they need of the reference
   m.ref_scale = wf.scale();
   CheckCameraFitsImage(camera, in, wf, m.o.inputs, "reference intrinsics", &m.ref_notes);
   in.depth = CheckedDepth(std::move(in.depth), wf, m.o, "reference depth", &m.ref_notes);
@@ -213,7 +216,7 @@ void Relocalizer::SetReference(const Image& image, const Camera& camera, FrameIn
 matching::Correspondences Relocalizer::Match(const Image& image, const Camera& camera, const FrameInputs& in,
                                              QueryResult* r) {
   FREELOC_CHECK(impl_->have_ref, "Relocalizer::Match before SetReference");
-  const WorkingFrame wf(image, impl_->o.WorkingMaxSide());
+  const inputs::WorkingFrame wf(image, impl_->o.WorkingMaxSide());
   FrameInputs work = in;
   std::vector<uint16_t> labels;
   std::vector<Eigen::Vector4d> rows;
@@ -256,8 +259,8 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   QueryResult r;
   const auto tp = std::chrono::steady_clock::now();
   SetStage("query: preparing");
-  InputNotes notes = m.ref_notes;
-  const WorkingFrame wf(image, m.o.WorkingMaxSide());
+  inputs::InputNotes notes = m.ref_notes;
+  const inputs::WorkingFrame wf(image, m.o.WorkingMaxSide());
   CheckCameraFitsImage(camera, in, wf, m.o.inputs, "query intrinsics", &notes);
   m.d_query = DepthMap();
   r.ref_intrinsics = m.ref_intrinsics;
@@ -309,7 +312,7 @@ QueryResult Relocalizer::Solve(const Image& image, const Camera& camera, FrameIn
   SetStage("query: solving");
   m.solver->Solve(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
   if (m.o.UsesProvidedDepth() && m.o.solver != SolverKind::kPnp)
-    CheckDepthAgreement(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
+    inputs::CheckDepthAgreement(c, m.k_ref, k_query, m.d_ref, m.d_query, &r);
   ApplyInputNotes(notes, &r);
   if (matches) {
     wf.ToPhoto(&c, m.ref_scale);
@@ -341,14 +344,14 @@ QueryResult SolveCorrespondences(const matching::Correspondences& c, const Camer
   int wr, hr, wq, hq;
   size_of(d_ref, c.ref, &wr, &hr);
   size_of(d_query, c.query, &wq, &hq);
-  InputNotes notes;
-  CheckIntrinsics(k_ref, wr, hr, o.inputs, "reference intrinsics", &notes);
-  CheckIntrinsics(k_query, wq, hq, o.inputs, "query intrinsics", &notes);
-  d_ref = CheckProvidedDepth(std::move(d_ref), 0, 0, 0, 0, o.inputs, "reference depth", &notes);
-  d_query = CheckProvidedDepth(std::move(d_query), 0, 0, 0, 0, o.inputs, "query depth", &notes);
+  inputs::InputNotes notes;
+  inputs::CheckIntrinsics(k_ref, wr, hr, o.inputs, "reference intrinsics", &notes);
+  inputs::CheckIntrinsics(k_query, wq, hq, o.inputs, "query intrinsics", &notes);
+  d_ref = inputs::CheckProvidedDepth(std::move(d_ref), 0, 0, 0, 0, o.inputs, "reference depth", &notes);
+  d_query = inputs::CheckProvidedDepth(std::move(d_query), 0, 0, 0, 0, o.inputs, "query depth", &notes);
   QueryResult r;
   MakePoseSolver(o)->Solve(c, k_ref, k_query, d_ref, d_query, &r);
-  if (o.solver != SolverKind::kPnp) CheckDepthAgreement(c, k_ref, k_query, d_ref, d_query, &r);
+  if (o.solver != SolverKind::kPnp) inputs::CheckDepthAgreement(c, k_ref, k_query, d_ref, d_query, &r);
   ApplyInputNotes(notes, &r);
   AnswerUnsolved(o, &r);
   return r;

@@ -14,6 +14,7 @@
 #include "freeloc/core/camera.h"
 #include "freeloc/core/depth_map.h"
 #include "freeloc/core/image.h"
+#include "freeloc/inputs/intrinsics.h"
 #include "freeloc/matching/correspondences.h"
 #include "freeloc/pipeline/options.h"
 #include "freeloc/pipeline/query_result.h"
@@ -89,5 +90,12 @@ class PoseSolver {
 std::unique_ptr<Matcher> MakeMatcher(const PipelineOptions& options);
 std::unique_ptr<DepthEstimator> MakeDepthEstimator(const PipelineOptions& options);
 std::unique_ptr<PoseSolver> MakePoseSolver(const PipelineOptions& options);
+
+// The choice as the Relocalizer takes it: the camera to hand in, and the frame's source and orientation.
+inline Camera ApplyIntrinsics(const inputs::IntrinsicsChoice& c, FrameInputs* in) {
+  in->intrinsics_source = c.source;
+  in->orientation = c.orientation;
+  return c.camera;
+}
 
 }  // namespace freeloc::pipeline

@@ -8,11 +8,11 @@
 #include "freeloc/core/error.h"
 #include "freeloc/core/logging.h"
 #include "freeloc/core/timing.h"
+#include "freeloc/inputs/input_checks.h"
 #include "freeloc/io/exif.h"
 #include "freeloc/io/file_util.h"
 #include "freeloc/io/image_io.h"
 #include "freeloc/io/mapfree.h"
-#include "freeloc/pipeline/input_checks.h"
 
 namespace freeloc::service {
 
@@ -34,7 +34,7 @@ DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOpti
   Camera given;
   const bool has_k = !upload.intrinsics.empty();
   if (has_k) given = Camera::FromString(upload.intrinsics, frame + " intrinsics");
-  const pipeline::IntrinsicsChoice c = pipeline::ChooseIntrinsics(
+  const inputs::IntrinsicsChoice c = inputs::ChooseIntrinsics(
       has_k ? &given : nullptr, pipeline::IntrinsicsSource::kGiven, exif, p.image, o.UsesPointmapModel(), frame);
   FREELOC_CHECK(c.source != pipeline::IntrinsicsSource::kNone,
                 frame << " intrinsics: none given and the photo's EXIF has no usable focal length (" << c.why
@@ -45,13 +45,13 @@ DecodedPhoto DecodePhoto(const PhotoUpload& upload, const pipeline::PipelineOpti
     p.inputs.depth = io::DecodeDepthPng(upload.depth, frame + " depth");
     p.inputs.depth.source.clear();  // the messages say "<frame> depth" already
     // A unit sent with the map applies to it; otherwise the Relocalizer applies the server's (its size, unit and
-    // plausibility are the pipeline's one rule, pipeline/input_checks.h).
+    // plausibility are the pipeline's one rule, inputs/input_checks.h).
     if (!upload.depth_unit.empty()) {
       pipeline::DepthUnit unit;
       FREELOC_CHECK(TryParseEnum(upload.depth_unit, &unit), frame << " depth_unit: '" << SafeText(upload.depth_unit, 20)
                                                                   << "' is not one of "
                                                                   << EnumNames<pipeline::DepthUnit>());
-      pipeline::ApplyDepthUnit(unit, &p.inputs.depth);
+      inputs::ApplyDepthUnit(unit, &p.inputs.depth);
     }
   }
   return p;

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "freeloc/core/image.h"
-#include "freeloc/pipeline/intrinsics.h"
+#include "freeloc/inputs/intrinsics.h"
 #include "freeloc/pipeline/options.h"
 #include "freeloc/pipeline/relocalizer.h"
 

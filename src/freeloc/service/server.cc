@@ -30,17 +30,10 @@
 #include "freeloc/service/http.h"
 #include "freeloc/service/job_threads.h"
 #include "freeloc/service/page.h"
-#include "freeloc/service/service_fields.h"
 
 namespace freeloc::service {
 
 using Json = nlohmann::json;
-
-void ServiceOptions::Validate() const {
-  // Every field against its row's range (service_fields.cc), as the flags are checked at parse.
-  for (const FamilyField& f : ServiceFamily().fields) CheckFieldText(f, GetServiceField(*this, f.name));
-  pipeline.Validate();
-}
 
 namespace {
 

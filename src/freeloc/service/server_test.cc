@@ -294,7 +294,7 @@ TEST(Service, BadInputIsAClearClientError) {
   EXPECT_EQ(r->status, 200);
 }
 
-// The plausible-input rule (pipeline/input_checks.h) through the service: depth in another unit and a transposed
+// The plausible-input rule (inputs/input_checks.h) through the service: depth in another unit and a transposed
 // depth map refused naming the fix, a `depth_unit` field taken with its map, normalised intrinsics refused.
 TEST(Service, PlausibleInputsAreRefusedWithTheFixOrTakenAsSaid) {
   const Tum t;

@@ -44,4 +44,10 @@ std::string GetServiceField(const ServiceOptions& options, const std::string& na
   return FindRow(Rows(), "service", name).get(options);
 }
 
+void ServiceOptions::Validate() const {
+  // Every field against its row's range (service_fields.cc), as the flags are checked at parse.
+  for (const FamilyField& f : ServiceFamily().fields) CheckFieldText(f, GetServiceField(*this, f.name));
+  pipeline.Validate();
+}
+
 }  // namespace freeloc::service

@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/input_checks.h"
+#include "freeloc/inputs/input_checks.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include "freeloc/core/error.h"
 #include "freeloc/geometry/metric_scale.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 namespace {
 
@@ -272,8 +272,8 @@ void CheckIntrinsics(const Camera& k, int width, int height, const InputOptions&
   throw InputFixError(m.str(), option, "…");
 }
 
-void CheckDepthAgreement(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query,
-                         const DepthMap& d_ref, const DepthMap& d_query, QueryResult* r) {
+void CheckDepthAgreement(const Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
+                         const DepthMap& d_query, pose::PoseEstimate* r) {
   if (d_ref.empty() || d_query.empty() || !(r->ok() || r->weak()) || r->inlier_mask.size() != c.size()) return;
   std::vector<double> ratio;
   for (size_t i = 0; i < c.size(); ++i) {
@@ -289,11 +289,11 @@ void CheckDepthAgreement(const matching::Correspondences& c, const Camera& k_ref
   std::nth_element(ratio.begin(), mid, ratio.end());
   const double m = *mid;
   if (m <= kDepthAgreementRatio && m >= 1 / kDepthAgreementRatio) return;
-  r->status = QueryStatus::kScaleNoConsensus;
+  r->status = pose::Status::kScaleNoConsensus;
   r->message = "the depth maps disagree: at " + std::to_string(ratio.size()) + " inliers the query depth" +
                (d_query.source.empty() ? "" : " (" + d_query.source + ")") + " is " + Num(m) +
                " times what the reference depth" + (d_ref.source.empty() ? "" : " (" + d_ref.source + ")") +
                " and the pose predict; give both in the same unit (depth_unit), each map with its own photo";
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs

@@ -1,8 +1,8 @@
-#include "freeloc/pipeline/intrinsics.h"
+#include "freeloc/inputs/intrinsics.h"
 
 #include "freeloc/core/logging.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_source, const io::ExifInfo& exif,
                                   const Image& image, bool pointmap, const std::string& what, bool warn) {
@@ -34,4 +34,4 @@ IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_so
   return c;
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs

@@ -1,4 +1,4 @@
-#include "freeloc/pipeline/model_files.h"
+#include "freeloc/inputs/model_files.h"
 
 #include <cstdlib>
 #include <filesystem>
@@ -6,7 +6,7 @@
 
 #include "freeloc/core/env.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 const char* NetworkName(Network n) {
   switch (n) {
@@ -75,4 +75,4 @@ std::string MissingModelMessage(Network n, const std::string& preset, const std:
          "precomputed:<SIFT|SG|LoFTR>-<essential|pnp|procrustes|hybrid>";
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs

@@ -1,11 +1,11 @@
-#include "freeloc/pipeline/working_frame.h"
+#include "freeloc/inputs/working_frame.h"
 
 #include <algorithm>
 
 #include "freeloc/core/logging.h"
 #include "freeloc/io/image_io.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 WorkingFrame::WorkingFrame(const Image& image, int max_side)
     : image_(&image), photo_w_(image.PhotoWidth()), photo_h_(image.PhotoHeight()) {
@@ -38,7 +38,7 @@ Camera WorkingFrame::ToPhoto(const Camera& k) const {
   return c.Scaled(photo_w_, photo_h_);
 }
 
-void WorkingFrame::ToPhoto(matching::Correspondences* c, const PixelScale& ref) const {
+void WorkingFrame::ToPhoto(Correspondences* c, const PixelScale& ref) const {
   if (ref.scaled())
     for (auto& p : c->ref) p = ref.ToPhoto(p);
   if (scaled())
@@ -68,4 +68,4 @@ std::vector<uint16_t> WorkingFrame::ToWorking(const std::vector<uint16_t>& label
   return out;
 }
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs

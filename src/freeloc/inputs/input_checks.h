@@ -10,12 +10,12 @@
 #include <vector>
 
 #include "freeloc/core/camera.h"
+#include "freeloc/core/correspondences.h"
 #include "freeloc/core/depth_map.h"
-#include "freeloc/matching/correspondences.h"
-#include "freeloc/pipeline/options.h"
-#include "freeloc/pipeline/query_result.h"
+#include "freeloc/inputs/input_options.h"
+#include "freeloc/pose/pose_estimate.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 // What the checks did to a frame's inputs, carried to the query's answer: one line each ("query depth: resampled
 // from 256x192 to 640x480"), and the factor its confidence is multiplied by (1: nothing).
@@ -61,8 +61,8 @@ void CheckIntrinsics(const Camera& camera, int width, int height, const InputOpt
 // against those the reference map and the pose predict. A median ratio beyond 1.5 (either way) — one map in another
 // unit, or a map of another photo — turns an ok or weak answer into scale-no-consensus with a message naming both
 // maps. Needs at least 10 inliers with depth in both; `r` carries the pose and inlier mask of `c`.
-void CheckDepthAgreement(const matching::Correspondences& c, const Camera& k_ref, const Camera& k_query,
-                         const DepthMap& d_ref, const DepthMap& d_query, QueryResult* r);
+void CheckDepthAgreement(const Correspondences& c, const Camera& k_ref, const Camera& k_query, const DepthMap& d_ref,
+                         const DepthMap& d_query, pose::PoseEstimate* r);
 inline constexpr double kDepthAgreementRatio = 1.5;
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 enum class Network { kDust3r, kMast3r, kSegGpt, kMetric3d };
 const char* NetworkName(Network n);    // "DUSt3R", "MASt3R", "SegGPT", "Metric3D v2"
@@ -26,4 +26,4 @@ std::string FindModel(Network n, const std::vector<std::string>& dirs);
 // presets run without it.
 std::string MissingModelMessage(Network n, const std::string& preset, const std::vector<std::string>& dirs);
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs

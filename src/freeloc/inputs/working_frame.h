@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "freeloc/core/camera.h"
+#include "freeloc/core/correspondences.h"
 #include "freeloc/core/image.h"
-#include "freeloc/matching/correspondences.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 // Photo pixels per working pixel, and the maps between the two frames.
 struct PixelScale {
@@ -39,7 +39,7 @@ class WorkingFrame {
   Camera ToWorking(const Camera& photo) const;  // a zero camera (none given) stays zero
   Camera ToPhoto(const Camera& working) const;
   // Correspondences → photo pixels: the query side this frame's, the reference side `ref`'s.
-  void ToPhoto(matching::Correspondences* c, const PixelScale& ref) const;
+  void ToPhoto(Correspondences* c, const PixelScale& ref) const;
   // Rows (x_ref, y_ref, x_query, y_query) in photo pixels → working pixels, the query side this frame's.
   std::vector<Eigen::Vector4d> ToWorking(const std::vector<Eigen::Vector4d>& rows, const PixelScale& ref) const;
   // A label image of the photo's size → the working size (nearest); other sizes are left as they are.
@@ -52,4 +52,4 @@ class WorkingFrame {
   PixelScale scale_;
 };
 
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs

@@ -8,12 +8,10 @@
 
 #include "freeloc/core/camera.h"
 #include "freeloc/core/image.h"
+#include "freeloc/inputs/input_options.h"
 #include "freeloc/io/exif.h"
-#include "freeloc/pipeline/options.h"
-#include "freeloc/pipeline/query_result.h"
-#include "freeloc/pipeline/stages.h"
 
-namespace freeloc::pipeline {
+namespace freeloc::inputs {
 
 struct IntrinsicsChoice {
   Camera camera;  // all zero for kPointmap (the Relocalizer fills it) and kNone
@@ -29,11 +27,4 @@ struct IntrinsicsChoice {
 IntrinsicsChoice ChooseIntrinsics(const Camera* given, IntrinsicsSource given_source, const io::ExifInfo& exif,
                                   const Image& image, bool pointmap, const std::string& what, bool warn = true);
 
-// The choice as the Relocalizer takes it: the camera to hand in, and the frame's source and orientation.
-inline Camera ApplyIntrinsics(const IntrinsicsChoice& c, FrameInputs* in) {
-  in->intrinsics_source = c.source;
-  in->orientation = c.orientation;
-  return c.camera;
-}
-
-}  // namespace freeloc::pipeline
+}  // namespace freeloc::inputs
