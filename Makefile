@@ -11,7 +11,7 @@ FUZZ_DIR ?= build-fuzz
 FUZZ_SECONDS ?= 60
 FUZZ_RUNS ?= -1
 SANITIZE_DIR ?= build-sanitize
-FUZZ_TARGETS = pickle checkpoint safetensors npy image exif mapfree_text submission correspondence pth_structured header_structured tracking_poses multipart service_fields
+FUZZ_TARGETS = pickle checkpoint safetensors npy image exif mapfree_text submission correspondence pth_structured header_structured tracking_poses multipart service_fields options_file
 
 .PHONY: all deps configure build test demo bench clean format fuzz sanitize
 

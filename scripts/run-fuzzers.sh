@@ -10,7 +10,7 @@ seconds=${2:-60}
 runs=${3:--1}
 shift $(( $# < 3 ? $# : 3 ))
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(pickle checkpoint safetensors npy image exif mapfree_text submission correspondence pth_structured header_structured tracking_poses multipart service_fields)
+[ ${#targets[@]} -eq 0 ] && targets=(pickle checkpoint safetensors npy image exif mapfree_text submission correspondence pth_structured header_structured tracking_poses multipart service_fields options_file)
 src=$(cd "$(dirname "$0")/.." && pwd)
 echo "| target | seconds | executions | exec/s | coverage (edges) | features | findings |"
 echo "|---|---:|---:|---:|---:|---:|---:|"

@@ -89,7 +89,8 @@ int RunOptions(const OptionsArgs& a) {
 
 void RegisterOptions(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run) {
   auto a = std::make_shared<OptionsArgs>();
-  auto* sub = app.add_subcommand("options", "List every pipeline option: name (for --set), value, meaning, flag");
+  auto* sub = app.add_subcommand(
+      "options", "List every pipeline option: name (for --set), value, meaning, flag (--family: the other families)");
   sub->add_option("--preset", a->preset, "show the values this preset resolves to (default: the defaults)");
   sub->add_option("--family", a->family,
                   "another option family: run, service, limits or environment (default: the pipeline's)");

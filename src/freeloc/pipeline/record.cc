@@ -286,9 +286,12 @@ std::string ValueText(const std::string& name, const Json& v) {
   if (v.is_number_integer()) return std::to_string(v.get<long long>());
   if (v.is_number()) return NumberText(v.get<double>());
   if (v.is_null()) return "";
-  if (v.is_array()) {
+  if (v.is_array()) {  // a list of names (scenes): strings and numbers only, nothing nested
     std::string s;
-    for (const auto& e : v) s += (s.empty() ? "" : ",") + ValueText(name, e);
+    for (const auto& e : v) {
+      FREELOC_CHECK(!e.is_array() && !e.is_object(), name << ": a list holds names, not lists or objects");
+      s += (s.empty() ? "" : ",") + ValueText(name, e);
+    }
     return s;
   }
   FREELOC_THROW(name << ": expected a string, a number or a list");
