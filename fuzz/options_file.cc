@@ -10,9 +10,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   fuzz::Expect([&] {
     const pipeline::OptionsFile f = pipeline::ReadOptionsFile(fuzz::AsFile(data, size, ".json"));
     pipeline::PipelineOptions o;
-    for (const auto& [name, value] : f.options) fuzz::Expect([&] { pipeline::SetOption(&o, name, value); });
+    for (const auto& kv : f.options) fuzz::Expect([&] { pipeline::SetOption(&o, kv.first, kv.second); });
     pipeline::RunSpec spec;
-    for (const auto& [name, value] : f.run) fuzz::Expect([&] { pipeline::SetRunField(&spec, name, value); });
+    for (const auto& kv : f.run) fuzz::Expect([&] { pipeline::SetRunField(&spec, kv.first, kv.second); });
     o.Validate();
   });
   return 0;

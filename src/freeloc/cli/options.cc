@@ -93,7 +93,8 @@ void RegisterOptions(CLI::App& app, const GlobalOptions& /*global*/, RunFn* run)
       "options", "List every pipeline option: name (for --set), value, meaning, flag (--family: the other families)");
   sub->add_option("--preset", a->preset, "show the values this preset resolves to (default: the defaults)");
   sub->add_option("--family", a->family,
-                  "another option family: run, service, limits or environment (default: the pipeline's)");
+                  "another option family: run, service, limits or environment (default: the pipeline's)")
+      ->check(CLI::IsMember({"pipeline", "run", "service", "limits", "environment"}));
   sub->add_flag("--markdown", a->markdown, "the option table as Markdown (as docs/formats.md shows it)");
   sub->add_flag("--json", a->json, "the family's fields as JSON (name, flag, type, default, help)");
   sub->callback([a, run] { *run = [a] { return RunOptions(*a); }; });
