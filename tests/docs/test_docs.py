@@ -166,3 +166,118 @@ def test_one_word_for_solved_and_submitted():
             if re.search(r"queries relocalized|\"relocalized\"|[`\"]answered[`\"]|\.answered\b", line):
                 bad.append(f"{os.path.relpath(f, SOURCE)}:{n}: {line.strip()[:120]}")
     assert not bad, "old words for solved/submitted:\n" + "\n".join(bad)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The house's shape (docs/architecture.md §3.2): which way includes go, and how long a function may grow.
+
+INCLUDE = re.compile(r'#include "freeloc/([a-z_]+)/([a-z_0-9]+)\.(?:h|def)"')
+# What a lower module may include besides itself (the rest of §3.2 is kept by the link dependencies).
+MAY_INCLUDE = {"core": {"core"}, "geometry": {"core", "geometry"}, "pose": {"core", "geometry", "pose"},
+               "inputs": {"core", "io", "geometry", "pose", "inputs"}}
+
+
+def include_graph():
+    """{module/stem: {module/stem included}} over the library's non-test sources (a .h and its .cc are one node)."""
+    graph = {}
+    for f in files([os.path.join("src", "freeloc")], (".h", ".cc", ".def")):
+        if f.endswith("_test.cc"):
+            continue
+        parts = os.path.relpath(f, os.path.join(SOURCE, "src", "freeloc")).split(os.sep)
+        if len(parts) != 2:  # module/internal/… files belong to their module's internals
+            node = parts[0] + "/" + "/".join(parts[1:]).split(".")[0]
+        else:
+            node = parts[0] + "/" + parts[1].split(".")[0]
+        for m in INCLUDE.finditer(open(f, encoding="utf-8").read()):
+            target = m.group(1) + "/" + m.group(2)
+            if target != node:
+                graph.setdefault(node, set()).add(target)
+    return graph
+
+
+def test_no_include_runs_back_up():
+    graph = include_graph()
+    upward = [f"{n} includes {t}" for n, ts in graph.items() for t in ts
+              if n.split("/")[0] in MAY_INCLUDE and t.split("/")[0] not in MAY_INCLUDE[n.split("/")[0]]]
+    assert not upward, "\n".join(upward)
+    # No cycle between files (Tarjan's strongly connected components).
+    index, low, stack, on, cycles, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                cycles.append(sorted(comp))
+
+    for v in sorted(set(graph) | {t for ts in graph.values() for t in ts}):
+        if v not in index:
+            visit(v)
+    assert not cycles, "includes that run back up (a cycle):\n" + "\n".join(" <-> ".join(c) for c in cycles)
+
+
+def function_lengths(path):
+    """(lines, first line, header) of each function defined at namespace or class level in a clang-formatted file."""
+    text = open(path, encoding="utf-8").read().split("\n")
+    code = [re.sub(r'"(\\.|[^"\\])*"', '""', re.sub(r"'(\\.|[^'\\])'", "''", re.sub(r"//.*", "", line)))
+            for line in text]
+    control = re.compile(r"(namespace|class|struct|enum|union|if|for|while|switch|else|do|try|catch|extern|case|"
+                         r"default|template|return)\b")
+    out, i = [], 0
+    while i < len(text):
+        stripped = code[i].strip()
+        if stripped.endswith("{") and not stripped.startswith("}"):
+            k = i
+            while (k > 0 and len(text[k]) - len(text[k].lstrip()) > 4 and text[k - 1].strip()
+                   and not code[k - 1].strip().endswith((";", "{", "}"))):
+                k -= 1
+            indent = len(text[k]) - len(text[k].lstrip())
+            head = " ".join(c.strip() for c in code[k:i + 1])
+            lambda_or_init = re.search(r"=\s*(\[[^\]]*\])?\s*(\(.*\))?\s*\{$", head) or re.search(
+                r"\]\s*(\(.*\))?\s*(mutable\s*)?(->[^{]*)?\{$", head)
+            if indent <= 4 and "(" in head and not control.match(head) and not lambda_or_init:
+                depth, j = 0, i
+                while j < len(text):
+                    depth += code[j].count("{") - code[j].count("}")
+                    if depth <= 0:
+                        break
+                    j += 1
+                out.append((j - k + 1, k + 1, text[k].strip()[:80]))
+                i = j
+        i += 1
+    return out
+
+
+def test_the_function_scanner_measures_what_it_must():
+    import tempfile
+    with tempfile.NamedTemporaryFile("w", suffix=".cc", delete=False) as f:
+        f.write("int Short(int a,\n          int b) {\n  return a;\n}\n\nvoid Long() {\n" + "  x();\n" * 200 + "}\n")
+    try:
+        assert sorted(n for n, _, _ in function_lengths(f.name)) == [4, 202]
+    finally:
+        os.remove(f.name)
+
+
+def test_no_library_function_is_longer_than_150_lines():
+    long = []
+    for f in files([os.path.join("src", "freeloc"), os.path.join("python", "src")], (".cc",)):
+        if f.endswith("_test.cc"):
+            continue
+        long += [f"{os.path.relpath(f, SOURCE)}:{line}: {n} lines: {head}"
+                 for n, line, head in function_lengths(f) if n > 150]
+    assert not long, "split these into named steps:\n" + "\n".join(long)
