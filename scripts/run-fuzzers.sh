@@ -12,6 +12,17 @@ shift $(( $# < 3 ? $# : 3 ))
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(pickle checkpoint safetensors npy image exif mapfree_text submission correspondence pth_structured header_structured tracking_poses multipart service_fields options_file)
 src=$(cd "$(dirname "$0")/.." && pwd)
+# A folder without the targets (a mistyped build folder, or a target name given first) would give a table of zeros.
+if [ ! -d "$build/fuzz" ]; then
+  echo "run-fuzzers.sh: $build has no fuzz/ folder: give the fuzz build folder first (make fuzz builds build-fuzz)" >&2
+  exit 2
+fi
+for t in "${targets[@]}"; do
+  if [ ! -x "$build/fuzz/fuzz_$t" ]; then
+    echo "run-fuzzers.sh: $build/fuzz/fuzz_$t is not built: build it (cmake --build $build --target fuzz_$t)" >&2
+    exit 2
+  fi
+done
 echo "| target | seconds | executions | exec/s | coverage (edges) | features | findings |"
 echo "|---|---:|---:|---:|---:|---:|---:|"
 for t in "${targets[@]}"; do
