@@ -20,12 +20,10 @@ const char* FieldTypeText(FieldType type) {
   return "text";
 }
 
-const FamilyField& OptionFamily::Find(const std::string& field) const {
-  for (const FamilyField& f : fields)
-    if (f.name == field) return f;
-  std::string names;
-  for (const FamilyField& f : fields) names += (names.empty() ? "" : ", ") + f.name;
-  FREELOC_THROW(field << ": not a " << name << " option; the " << name << " options are " << names);
+std::string MarkdownCell(const std::string& text) {
+  std::string out;
+  for (char c : text) out += c == '|' ? std::string("\\|") : std::string(1, c);
+  return out;
 }
 
 std::string NumberToText(double v) {
@@ -77,11 +75,6 @@ void CheckFieldText(const FamilyField& f, const std::string& text) {
 }
 
 namespace {
-std::string Cell(const std::string& text) {  // a Markdown table cell: "|" would end it
-  std::string out;
-  for (char c : text) out += c == '|' ? std::string("\\|") : std::string(1, c);
-  return out;
-}
 std::string Range(const FamilyField& f) {
   if (std::isinf(f.min) && std::isinf(f.max)) return "";
   if (std::isinf(f.max)) return " (≥ " + NumberToText(f.min) + ")";
@@ -114,8 +107,8 @@ std::string FamilyMarkdown(const OptionFamily& family) {
   std::string md = "| name | flag | type | default | what it sets |\n|---|---|---|---|---|\n";
   for (const FamilyField& f : family.fields)
     md += "| `" + f.name + "` | " + (f.flag.empty() ? "–" : "`" + f.flag + "`") + " | " + FieldTypeText(f.type) +
-          " | " + (f.default_text.empty() ? "–" : "`" + f.default_text + "`") + " | " + Cell(f.help + Range(f)) +
-          " |\n";
+          " | " + (f.default_text.empty() ? "–" : "`" + f.default_text + "`") + " | " +
+          MarkdownCell(f.help + Range(f)) + " |\n";
   return md;
 }
 

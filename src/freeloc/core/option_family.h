@@ -9,6 +9,7 @@
 #include <cmath>
 #include <functional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "freeloc/core/error.h"
@@ -30,12 +31,13 @@ struct OptionFamily {
   std::string name;    // run | service | limits | environment
   std::string set_by;  // how a user sets it: "freeloc run flags, freeloc.run keywords, an options file"
   std::vector<FamilyField> fields;
-  const FamilyField& Find(const std::string& name) const;  // throws naming the family's fields
 };
 
 // The family "environment": the table of env.h, each variable's name its field name and its "flag".
 const OptionFamily& EnvironmentFamily();
 
+// `text` as one Markdown table cell ("|" would end it); every generated options table uses it.
+std::string MarkdownCell(const std::string& text);
 // One Markdown table of a family (the docs' tables are these, `freeloc options --family NAME --markdown`).
 std::string FamilyMarkdown(const OptionFamily& family);
 const char* FieldTypeText(FieldType type);

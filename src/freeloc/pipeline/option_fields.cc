@@ -166,16 +166,6 @@ const OptionField* FindOptionFieldOrNull(const std::string& name) {
   return r ? &r->field : nullptr;
 }
 
-namespace {
-
-std::string EscapeCell(const std::string& text) {  // a Markdown table cell: "|" would end it
-  std::string out;
-  for (char c : text) out += c == '|' ? std::string("\\|") : std::string(1, c);
-  return out;
-}
-
-}  // namespace
-
 std::string OptionTableMarkdown() {
   const PipelineOptions defaults;
   std::string md =
@@ -192,7 +182,7 @@ std::string OptionTableMarkdown() {
     if (r.field.alias) flag += std::string(", `") + r.field.alias + "`";
     const std::string help = r.field.help + (r.field.choices.empty() ? "" : "; one of " + r.field.choices);
     md += std::string("| `") + r.field.name + "` | " + flag + " | " + type + " | " +
-          (value.empty() ? "–" : "`" + value + "`") + " | " + EscapeCell(help) + " |\n";
+          (value.empty() ? "–" : "`" + value + "`") + " | " + MarkdownCell(help) + " |\n";
   }
   return md;
 }

@@ -14,8 +14,8 @@
 #include "freeloc/matching/proposal_options.h"
 #include "freeloc/nn/instance_segmenter_options.h"
 #include "freeloc/nn/runtime.h"
+#include "freeloc/pose/device_pose_use.h"
 #include "freeloc/pose/solve_options.h"
-#include "freeloc/pose/window_fusion.h"
 
 namespace freeloc::pipeline {
 
@@ -38,7 +38,7 @@ using freeloc::io::Track;
 // The unit of integer depth maps and what inputs must look like (inputs/input_options.h).
 using inputs::DepthUnit;
 using inputs::InputOptions;
-// Multi-frame: the phone's tracking poses (pose/window_fusion.h): auto | use | ignore.
+// Multi-frame: the phone's tracking poses (pose/device_pose_use.h): auto | use | ignore.
 using pose::DevicePoseUse;
 
 // A name that becomes part of a file name (precomputed:<name>, provided:<suffix>): letters, digits, '_', '-', '.', '+',

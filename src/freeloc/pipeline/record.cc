@@ -32,21 +32,30 @@ Json OptionsObject(const PipelineOptions& o) {
   return j;
 }
 
+// A JSON value as an option's text form: strings as they are, numbers exactly, lists comma-joined, null empty.
+std::string ValueText(const std::string& name, const Json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_boolean()) return v.get<bool>() ? "1" : "0";
+  if (v.is_number_integer()) return std::to_string(v.get<long long>());
+  if (v.is_number()) return NumberText(v.get<double>());
+  if (v.is_null()) return "";
+  if (v.is_array()) {  // a list of names (scenes): strings and numbers only, nothing nested
+    std::string s;
+    for (const auto& e : v) {
+      FREELOC_CHECK(!e.is_array() && !e.is_object(), name << ": a list holds names, not lists or objects");
+      s += (s.empty() ? "" : ",") + ValueText(name, e);
+    }
+    return s;
+  }
+  FREELOC_THROW(name << ": expected a string, a number or a list");
+}
+
 PipelineOptions OptionsFromObject(const Json& j) {
   FREELOC_CHECK(j.is_object(), "options: expected a JSON object");
   PipelineOptions o;
   for (const auto& [name, value] : j.items()) {
-    if (value.is_string()) {
-      SetOption(&o, name, value.get<std::string>());
-    } else if (value.is_number_integer()) {
-      SetOption(&o, name, std::to_string(value.get<long long>()));
-    } else if (value.is_number()) {
-      char buf[32];
-      std::snprintf(buf, sizeof(buf), "%.17g", value.get<double>());
-      SetOption(&o, name, buf);
-    } else {
-      FREELOC_THROW(name << ": expected a string or a number in the options");
-    }
+    FREELOC_CHECK(value.is_string() || value.is_number(), name << ": expected a string or a number in the options");
+    SetOption(&o, name, ValueText(name, value));
   }
   return o;
 }
@@ -276,28 +285,6 @@ bool SameResultOptions(const std::string& header_json, const PipelineOptions& op
     }
   return true;
 }
-
-namespace {
-
-// A JSON value as an option's text form: strings as they are, numbers exactly, lists comma-joined, null empty.
-std::string ValueText(const std::string& name, const Json& v) {
-  if (v.is_string()) return v.get<std::string>();
-  if (v.is_boolean()) return v.get<bool>() ? "1" : "0";
-  if (v.is_number_integer()) return std::to_string(v.get<long long>());
-  if (v.is_number()) return NumberText(v.get<double>());
-  if (v.is_null()) return "";
-  if (v.is_array()) {  // a list of names (scenes): strings and numbers only, nothing nested
-    std::string s;
-    for (const auto& e : v) {
-      FREELOC_CHECK(!e.is_array() && !e.is_object(), name << ": a list holds names, not lists or objects");
-      s += (s.empty() ? "" : ",") + ValueText(name, e);
-    }
-    return s;
-  }
-  FREELOC_THROW(name << ": expected a string, a number or a list");
-}
-
-}  // namespace
 
 OptionsFile ReadOptionsFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

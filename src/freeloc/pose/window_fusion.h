@@ -20,16 +20,12 @@
 #include <string>
 #include <vector>
 
-#include "freeloc/core/enum_table.h"
 #include "freeloc/core/rigid3d.h"
 #include "freeloc/geometry/metric_scale.h"
+#include "freeloc/pose/device_pose_use.h"
 #include "freeloc/pose/pose_estimate.h"
 
 namespace freeloc::pose {
-
-// The phone's tracking poses (poses_device.txt). auto — used where they agree with the images, per window; use —
-// trusted in the documented convention; ignore — never read.
-enum class DevicePoseUse { kAuto, kUse, kIgnore };
 
 // What each frame of an evaluated frame's window contributed.
 struct WindowVote {
@@ -74,13 +70,3 @@ struct FusedWindow : PoseEstimate {
 FusedWindow FuseWindow(const std::vector<FrameEvidence>& frames, DevicePoseUse use);
 
 }  // namespace freeloc::pose
-
-namespace freeloc {
-template <>
-struct EnumTable<pose::DevicePoseUse> {
-  static constexpr const char* kField = "device_poses";
-  static constexpr EnumEntry<pose::DevicePoseUse> kEntries[] = {{pose::DevicePoseUse::kAuto, "auto"},
-                                                                {pose::DevicePoseUse::kUse, "use"},
-                                                                {pose::DevicePoseUse::kIgnore, "ignore"}};
-};
-}  // namespace freeloc
